@@ -1,0 +1,102 @@
+"""How oil enters the film, and setting up a film problem for a `Bearing`.
+
+Three feeds (SPEC §3, §7):
+- `Feed.flow(q)`: the supply flow q (m^3/s) is prescribed, a source q/Ng in each groove volume (Eq. 4).
+  Below the flooded threshold the film upstream of the load is incomplete (starved); above it the
+  groove pressurizes.
+- `Feed.flooded()`: the groove is held full at ambient pressure (p = 0, theta = 1); the supply is
+  whatever the film draws. Its side leakage is the flooded threshold Q_T.
+- `Feed.plain()`: no groove; a plain 360-degree bearing fed at ambient pressure along the line of
+  maximum film thickness, as Raimondi & Boyd (1958) assume.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from ..model.bearing import Bearing
+from .mesh import FilmMesh, groove_aligned_offset, groove_cells
+from .operator import FilmProblem, build_problem, max_film_angle
+
+
+@dataclass(frozen=True)
+class Feed:
+    kind: str  # "flow" | "flooded" | "plain"
+    q_supply: float = 0.0  # m^3/s, for "flow"
+
+    @staticmethod
+    def flow(q_supply: float) -> "Feed":
+        q = float(q_supply)
+        if not math.isfinite(q) or q <= 0.0:
+            raise InputError(f"supply flow {q_supply!r} m^3/s is not a positive finite number")
+        return Feed("flow", q)
+
+    @staticmethod
+    def flooded() -> "Feed":
+        return Feed("flooded")
+
+    @staticmethod
+    def plain() -> "Feed":
+        return Feed("plain")
+
+    def describe(self) -> str:
+        if self.kind == "flow":
+            return f"supply {self.q_supply * 6e7:.4g} ml/min"
+        return {"flooded": "flooded groove", "plain": "plain bearing (no groove)"}[self.kind]
+
+
+def check_operating(bearing: Bearing, omega: float, position, velocity=(0.0, 0.0)) -> None:
+    """Raise InputError for a speed, position or velocity the film model cannot take."""
+    if not (math.isfinite(omega) and omega > 0.0):
+        raise InputError(f"shaft speed {omega!r} rad/s is not positive; expected a running shaft (Omega > 0)")
+    e_x, e_y = (float(v) for v in position)
+    if not (math.isfinite(e_x) and math.isfinite(e_y)):
+        raise InputError(f"journal position {position!r} is not finite")
+    eps = math.hypot(e_x, e_y) / bearing.clearance
+    if eps >= 1.0:
+        raise InputError(f"eccentricity ratio {eps:.4g} >= 1: the journal would touch the bearing; expected < 1")
+    if not all(math.isfinite(float(v)) for v in velocity):
+        raise InputError(f"journal velocity {velocity!r} is not finite")
+
+
+def make_mesh(bearing: Bearing, *, half: bool = True, alpha_offset: float | None = None) -> FilmMesh:
+    """The bearing's mesh, placed so the groove is centred on it (see groove_aligned_offset)."""
+    if alpha_offset is None:
+        alpha_offset = (
+            groove_aligned_offset(bearing.n_circumferential, bearing.radius, bearing.groove_angle,
+                                  bearing.groove_length)
+            if bearing.has_groove else 0.0
+        )
+    return FilmMesh(bearing.n_circumferential, bearing.n_axial, bearing.radius, bearing.length,
+                    alpha_offset, half=half)
+
+
+def setup_problem(bearing: Bearing, omega: float, position, feed: Feed, *, velocity=(0.0, 0.0),
+                  mesh: FilmMesh | None = None) -> FilmProblem:
+    """Build the nondimensional film problem of `bearing` at journal `position` (m), `velocity` (m/s)."""
+    check_operating(bearing, omega, position, velocity)
+    if feed.kind == "plain":
+        if mesh is None:
+            # Put a cell centre on the line of maximum film thickness: the feed line.
+            d_alpha = 2.0 * math.pi / bearing.n_circumferential
+            mesh = make_mesh(bearing, alpha_offset=max_film_angle(*position) - 0.5 * d_alpha)
+        gap = np.abs(np.angle(np.exp(1j * (mesh.alpha - max_film_angle(*position)))))
+        line = gap == gap.min()  # the cell column on the line of maximum film thickness
+        fixed = np.broadcast_to(line, mesh.shape).copy()
+        return build_problem(mesh, clearance=bearing.clearance, viscosity=bearing.viscosity, omega=omega,
+                             position=position, velocity=velocity, groove=fixed, fixed=fixed)
+    if not bearing.has_groove:
+        raise InputError(f"{feed.describe()} needs a groove, but the bearing has none; use the plain feed")
+    mesh = make_mesh(bearing) if mesh is None else mesh
+    groove = groove_cells(mesh, bearing.groove_angle, bearing.groove_length, bearing.groove_width)
+    if feed.kind == "flooded":
+        return build_problem(mesh, clearance=bearing.clearance, viscosity=bearing.viscosity, omega=omega,
+                             position=position, velocity=velocity, groove=groove, fixed=groove)
+    if feed.kind == "flow":
+        return build_problem(mesh, clearance=bearing.clearance, viscosity=bearing.viscosity, omega=omega,
+                             position=position, velocity=velocity, groove=groove, q_supply=feed.q_supply)
+    raise InputError(f"unknown feed kind {feed.kind!r}; expected 'flow', 'flooded' or 'plain'")

@@ -1,0 +1,262 @@
+"""Steady p-theta solvers: the paper's projected Gauss-Seidel/SOR and a semismooth-Newton active set.
+
+Both converge to the same discrete solution of `operator.residual` = 0 with Eq. 6. The active-set
+solver (the default) treats the cavitation pattern -- which cells are full film and which are
+cavitated -- as the unknown of an outer loop: for a fixed pattern the balances are *linear* (p
+unknown where full, theta unknown where cavitated), solved exactly by one sparse LU; cells that
+violate Eq. 6 (full with p < 0, cavitated with theta > 1) switch, and the loop repeats until no cell
+switches. That is Newton's method on the piecewise-linear complementarity system, so it ends in a
+handful of solves and leaves the mass balance satisfied to round-off; its last factorization is
+reused for the dynamic coefficients (the linearization with the pattern held fixed).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ..errors import ConvergenceError
+from . import kernels
+from .operator import FilmProblem, film_force, residual, side_leakage
+
+
+@dataclass(frozen=True)
+class FilmSolution:
+    """One converged (or not) steady film.
+
+    Fields are on the solved domain (half the bearing length when the mesh is `half`); use
+    `pressure_field()` / `theta_field()` for the whole film. Forces in N, flows in m^3/s.
+    """
+
+    problem: FilmProblem = field(repr=False)
+    P: np.ndarray = field(repr=False)  # nondimensional pressure, p = P * problem.p_ref
+    theta: np.ndarray = field(repr=False)  # oil fraction
+    force: np.ndarray  # [Fx, Fy] on the journal
+    side_leakage: float
+    supply: float  # oil entering: Qs when prescribed, the groove's/feed line's net outflow when held
+    mass_residual: float  # |supply - side_leakage| / supply
+    iterations: int
+    converged: bool
+    message: str
+    method: str
+    seconds: float
+    linear: "PatternSystem | None" = field(default=None, repr=False, compare=False)
+
+    @property
+    def full(self) -> np.ndarray:
+        """Cells with a full film (p > 0 or theta = 1, not cavitated)."""
+        return (self.P > 0.0) | (self.theta >= 1.0)
+
+    def pressure_field(self) -> np.ndarray:
+        """Pressure (Pa) on the whole film, shape (n_axial, n_circ), rows from z = 0 to z = L."""
+        return _whole(self.problem, self.P) * self.problem.p_ref
+
+    def theta_field(self) -> np.ndarray:
+        """Oil fraction on the whole film, shape (n_axial, n_circ)."""
+        return _whole(self.problem, self.theta)
+
+    def raise_if_failed(self) -> "FilmSolution":
+        if not self.converged:
+            raise ConvergenceError(self.message)
+        return self
+
+
+def _whole(problem: FilmProblem, a: np.ndarray) -> np.ndarray:
+    return np.vstack([a, a[::-1]]) if problem.mesh.half else a
+
+
+class PatternSystem:
+    """The linear system of the balances for one fixed cavitation pattern, factorized.
+
+    Unknown of a free cell: P if it is full, theta if it is cavitated. Held (fixed) cells are
+    known (P = 0, theta = 1) and not unknowns.
+    """
+
+    def __init__(self, problem: FilmProblem, full: np.ndarray, triplets: "_Triplets"):
+        self.problem = problem
+        self.full = full.copy()
+        t = triplets
+        fullf = full.ravel()
+        p_keep = t.p_rowfree & fullf[t.p_cols] & t.p_colfree
+        th_keep = t.th_rowfree & ~fullf[t.th_cols] & t.th_colfree
+        rows = np.concatenate([t.cmap[t.p_rows[p_keep]], t.cmap[t.th_rows[th_keep]]])
+        cols = np.concatenate([t.cmap[t.p_cols[p_keep]], t.cmap[t.th_cols[th_keep]]])
+        vals = np.concatenate([t.p_vals[p_keep], t.th_vals[th_keep]])
+        n = t.n_free
+        self.matrix = sp.csc_matrix((vals, (rows, cols)), shape=(n, n))
+        # theta = 1 of full and held cells is known: move it to the right-hand side.
+        th_known = t.th_rowfree & (fullf[t.th_cols] | ~t.th_colfree)
+        rhs = problem.coef.S.ravel()[t.free_idx].copy()
+        np.subtract.at(rhs, t.cmap[t.th_rows[th_known]], t.th_vals[th_known])
+        self.rhs = rhs
+        self.triplets = t
+        self.lu = spla.splu(self.matrix, permc_spec="MMD_AT_PLUS_A")
+
+    def solve(self, rhs=None) -> np.ndarray:
+        return self.lu.solve(self.rhs if rhs is None else rhs)
+
+    def fields(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(P, theta) on the mesh from the vector of unknowns."""
+        t = self.triplets
+        shape = self.problem.mesh.shape
+        P = np.zeros(shape).ravel()
+        theta = np.ones(shape).ravel()
+        fullf = self.full.ravel()[t.free_idx]
+        P[t.free_idx[fullf]] = x[fullf]
+        theta[t.free_idx[~fullf]] = x[~fullf]
+        return P.reshape(shape), theta.reshape(shape)
+
+    def tangent(self, dR: np.ndarray) -> np.ndarray:
+        """dP for a change dR of the balances at fixed fields (pattern held): J dx = -dR.
+
+        `dR` has shape (k, nz, n_circ) for k parameters; returns dP of the same shape.
+        """
+        t = self.triplets
+        k = dR.shape[0]
+        b = -dR.reshape(k, -1)[:, t.free_idx].T
+        dx = self.lu.solve(np.ascontiguousarray(b))
+        fullf = self.full.ravel()[t.free_idx]
+        dP = np.zeros((k, dR[0].size))
+        dP[:, t.free_idx[fullf]] = dx[fullf].T
+        return dP.reshape(dR.shape)
+
+
+@dataclass(frozen=True)
+class _Triplets:
+    """COO entries of the pressure and theta parts of the balance operator, plus free-cell maps."""
+
+    p_rows: np.ndarray
+    p_cols: np.ndarray
+    p_vals: np.ndarray
+    th_rows: np.ndarray
+    th_cols: np.ndarray
+    th_vals: np.ndarray
+    p_rowfree: np.ndarray
+    p_colfree: np.ndarray
+    th_rowfree: np.ndarray
+    th_colfree: np.ndarray
+    free_idx: np.ndarray
+    cmap: np.ndarray
+    n_free: int
+
+
+def _triplets(problem: FilmProblem) -> _Triplets:
+    nz, nc = problem.mesh.shape
+    c = problem.coef
+    k = np.arange(nz * nc).reshape(nz, nc)
+    east, west = np.roll(k, -1, axis=1), np.roll(k, 1, axis=1)
+    p_rows = [k, k, k, k[:-1], k[1:]]
+    p_cols = [k, east, west, k[1:], k[:-1]]
+    p_vals = [c.aP, -c.aE, -c.aW, -c.aN[:-1], -c.aS[1:]]
+    th_rows, th_cols, th_vals = [k, k], [k, west], [c.C1, -c.C2]
+    cat = lambda parts: np.concatenate([np.ravel(a) for a in parts])  # noqa: E731
+    pr, pc, pv = cat(p_rows), cat(p_cols), cat(p_vals)
+    tr, tc, tv = cat(th_rows), cat(th_cols), cat(th_vals)
+    free = ~problem.fixed.ravel()
+    free_idx = np.flatnonzero(free)
+    cmap = np.full(nz * nc, -1)
+    cmap[free_idx] = np.arange(free_idx.size)
+    return _Triplets(pr, pc, pv, tr, tc, tv, free[pr], free[pc], free[tr], free[tc],
+                     free_idx, cmap, int(free_idx.size))
+
+
+def initial_pattern(problem: FilmProblem) -> np.ndarray:
+    """Cold-start guess: full film where the gap converges (where a flooded film builds pressure)."""
+    converging = problem.H_e < np.roll(problem.H_e, 1, axis=1)
+    return converging & ~problem.fixed
+
+
+def _finish(problem, P, theta, iterations, converged, message, method, t0, linear=None):
+    P = np.maximum(P, 0.0)
+    theta = np.minimum(theta, 1.0)
+    leak = side_leakage(problem, P)
+    if problem.fixed.any():
+        R_fixed = residual(problem.coef, P, theta)[problem.fixed]
+        supply = float(R_fixed.sum() * problem.flux_ref * problem.mesh.mirror_factor)
+    else:
+        supply = float(problem.coef.S.sum() * problem.flux_ref * problem.mesh.mirror_factor)
+    scale = max(abs(supply), abs(leak), 1e-300)
+    return FilmSolution(
+        problem=problem, P=P, theta=theta, force=film_force(problem, P), side_leakage=leak,
+        supply=supply, mass_residual=abs(supply - leak) / scale, iterations=iterations,
+        converged=converged, message=message, method=method,
+        seconds=time.perf_counter() - t0, linear=linear,
+    )
+
+
+def solve_active_set(problem: FilmProblem, full0: np.ndarray | None = None, max_iter: int = 60) -> FilmSolution:
+    """Semismooth-Newton (primal-dual active set) solve of the p-theta system; see module doc.
+
+    `full0` warm-starts the pattern (e.g. from a neighbouring flow or position). A pattern seen
+    before (a cycle) is broken by switching only the single most violating cell of each kind.
+    """
+    t0 = time.perf_counter()
+    trip = _triplets(problem)
+    full = (initial_pattern(problem) if full0 is None else full0.copy()) & ~problem.fixed
+    seen = set()
+    tol = 1e-12
+    for it in range(1, max_iter + 1):
+        system = PatternSystem(problem, full, trip)
+        P, theta = system.fields(system.solve())
+        p_scale = max(float(P.max()), 1e-30)
+        to_cav = full & (P < -tol * p_scale)
+        to_full = ~full & ~problem.fixed & (theta > 1.0 + tol)
+        if not to_cav.any() and not to_full.any():
+            return _finish(problem, P, theta, it, True, "converged", "active-set", t0, system)
+        key = hash(full.tobytes())
+        if key in seen:  # cycling: move one cell of each kind, the worst first
+            new_full = full.copy()
+            if to_cav.any():
+                worst = np.unravel_index(np.argmin(np.where(to_cav, P, np.inf)), P.shape)
+                new_full[worst] = False
+            if to_full.any():
+                worst = np.unravel_index(np.argmax(np.where(to_full, theta, -np.inf)), P.shape)
+                new_full[worst] = True
+            full = new_full
+        else:
+            seen.add(key)
+            full = (full & ~to_cav) | to_full
+    return _finish(problem, P, theta, max_iter, False,
+                   f"active-set solver: cavitation pattern still changing after {max_iter} linear solves",
+                   "active-set", t0)
+
+
+def solve_sor(problem: FilmProblem, *, relax: float = 1.85, tol: float = 1e-10, max_sweeps: int = 50000,
+              P0: np.ndarray | None = None, theta0: np.ndarray | None = None) -> FilmSolution:
+    """The paper's projected Gauss-Seidel with over-relaxation `relax` (1 = plain Gauss-Seidel)."""
+    t0 = time.perf_counter()
+    c = problem.coef
+    P = np.zeros(problem.mesh.shape) if P0 is None else np.array(P0, dtype=float)
+    theta = np.ones(problem.mesh.shape) if theta0 is None else np.array(theta0, dtype=float)
+    P[problem.fixed] = 0.0
+    theta[problem.fixed] = 1.0
+    sweeps, change = kernels.sor_sweeps(c.C1, c.C2, c.aE, c.aW, c.aN, c.aS, c.S, problem.fixed,
+                                        P, theta, relax, max_sweeps, tol)
+    ok = change < tol
+    msg = "converged" if ok else f"SOR: change {change:.3g} still above {tol:g} after {sweeps} sweeps"
+    return _finish(problem, P, theta, int(sweeps), bool(ok), msg, f"sor({relax:g})", t0)
+
+
+def solve(problem: FilmProblem, *, method: str = "active-set", warm: FilmSolution | None = None,
+          **options) -> FilmSolution:
+    """Solve with `method` ('active-set' or 'sor'), warm-started from a previous solution."""
+    if method == "active-set":
+        full0 = None
+        if warm is not None and warm.P.shape == problem.mesh.shape:
+            full0 = warm.full
+        return solve_active_set(problem, full0, **options)
+    if method == "sor":
+        if warm is not None and warm.P.shape == problem.mesh.shape:
+            options.setdefault("P0", warm.P)
+            options.setdefault("theta0", warm.theta)
+        return solve_sor(problem, **options)
+    raise ValueError(f"unknown film solver {method!r}; expected 'active-set' or 'sor'")
+
+
+def is_finite_solution(sol: FilmSolution) -> bool:
+    return bool(np.all(np.isfinite(sol.P)) and np.all(np.isfinite(sol.theta)) and math.isfinite(sol.side_leakage))

@@ -1,0 +1,76 @@
+"""The journal bearing as a model object: geometry, groove, oil and the finite-volume mesh.
+
+SI inside (m, Pa*s); display units for the app and the CLI come from each Quantity.
+The groove sits at angle `groove_angle` measured like alpha in Eq. 1 (from +Y towards -X, in the
+direction of rotation), centred axially.
+"""
+
+from __future__ import annotations
+
+import math
+
+import param
+
+from ..errors import InputError
+from .quantity import Quantity, positive
+
+
+class Bearing(param.Parameterized):
+    """A plain cylindrical journal bearing with one axial supply groove (paper Table 3)."""
+
+    radius = positive(0.045, "m", "Journal radius R", display_unit="mm", display_scale=1e3)
+    length = positive(0.070, "m", "Bearing axial length L", display_unit="mm", display_scale=1e3)
+    clearance = positive(120e-6, "m", "Radial clearance c", display_unit="um", display_scale=1e6)
+    viscosity = positive(0.094, "Pa*s", "Oil dynamic viscosity mu (isoviscous film)")
+    groove_angle = Quantity(
+        0.0, bounds=(-math.pi, math.pi), unit="rad", display_unit="deg",
+        display_scale=180.0 / math.pi,
+        doc="Angular position of the groove centre, from +Y in the direction of rotation (Eq. 1)",
+    )
+    groove_length = Quantity(
+        16.2e-3, bounds=(0.0, None), unit="m", display_unit="mm", display_scale=1e3,
+        doc="Circumferential length b of the axial groove (0: no groove)",
+    )
+    groove_width = Quantity(
+        35.0e-3, bounds=(0.0, None), unit="m", display_unit="mm", display_scale=1e3,
+        doc="Axial width a of the groove, centred in the bearing",
+    )
+    n_circumferential = param.Integer(100, bounds=(8, 4000), doc="Finite volumes around the circumference")
+    n_axial = param.Integer(100, bounds=(2, 4000), doc="Finite volumes along the bearing length")
+    node = param.Integer(None, allow_None=True, bounds=(1, None), doc="Rotor node (paper numbering) of the bearing centre")
+
+    def __init__(self, **params):
+        super().__init__(**params)
+        self.validate()
+
+    def validate(self) -> None:
+        """Cross-field checks that single-parameter bounds cannot express."""
+        if self.groove_width > self.length:
+            raise InputError(
+                f"groove width {self.groove_width * 1e3:g} mm exceeds bearing length "
+                f"{self.length * 1e3:g} mm; expected a groove inside the bearing"
+            )
+        if self.groove_length >= 2 * math.pi * self.radius:
+            raise InputError(
+                f"groove length {self.groove_length * 1e3:g} mm is not shorter than the "
+                f"circumference {2 * math.pi * self.radius * 1e3:.4g} mm"
+            )
+        if self.clearance >= self.radius:
+            raise InputError(
+                f"clearance {self.clearance * 1e6:g} um is not small against radius "
+                f"{self.radius * 1e3:g} mm; the thin-film (Reynolds) model needs c << R"
+            )
+
+    @property
+    def diameter(self) -> float:
+        return 2.0 * self.radius
+
+    @property
+    def has_groove(self) -> bool:
+        return self.groove_length > 0.0 and self.groove_width > 0.0
+
+    def copy(self, **changes) -> "Bearing":
+        """A new Bearing with some parameters changed (the original is left as it is)."""
+        values = {k: getattr(self, k) for k in self.param if k != "name"}
+        values.update(changes)
+        return Bearing(**values)
