@@ -138,3 +138,9 @@ def find_equilibrium(bearing: Bearing, omega: float, load, feed: Feed, *,
     return Equilibrium(bearing=bearing, omega=omega, load=load, feed=feed, position=e, film=sol,
                        coefficients=coef, iterations=it - 1 if converged else it, converged=converged,
                        message=message, seconds=time.perf_counter() - t0)
+
+
+def flooded_threshold(bearing: Bearing, omega: float, load, *, start=None) -> tuple[float, Equilibrium]:
+    """Q_T: side leakage of the flooded film at its equilibrium under `load` (SPEC §2). (m^3/s, eq.)"""
+    eq = find_equilibrium(bearing, omega, load, Feed.flooded(), start=start)
+    return eq.film.side_leakage, eq

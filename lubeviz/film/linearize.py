@@ -70,3 +70,33 @@ def fixed_pattern_coefficients(sol: FilmSolution) -> DynamicCoefficients:
     """K and C from the fixed-pattern linearization of a converged active-set solution."""
     dF = force_jacobian(sol)
     return DynamicCoefficients(K=-dF[:, :2], C=-dF[:, 2:], method="fixed-pattern")
+
+
+def finite_difference_coefficients(bearing, omega: float, position, feed, *, step: float | None = None,
+                                   velocity_step: float | None = None, warm: FilmSolution | None = None
+                                   ) -> DynamicCoefficients:
+    """K and C by central differences of fully re-solved films (the cavitation pattern may move).
+
+    Default steps: 1e-3 c in position and 1e-3 c Omega in velocity -- small enough that the
+    truncation error is O(1e-6) where the pattern is stable, so the result checks the fixed-pattern
+    derivative; near Q_T the cavitation boundary moves within such a step and the result depends
+    on it (see tests/film/test_coefficients.py).
+    """
+    from .feed import setup_problem
+    from .solver import solve
+
+    c = bearing.clearance
+    step = 1e-3 * c if step is None else step
+    velocity_step = 1e-3 * c * omega if velocity_step is None else velocity_step
+    pos = np.asarray(position, dtype=float)
+    dF = np.empty((2, 4))
+    for k in range(4):
+        d = np.zeros(4)
+        d[k] = step if k < 2 else velocity_step
+        forces = []
+        for sign in (1.0, -1.0):
+            prob = setup_problem(bearing, omega, pos + sign * d[:2], feed, velocity=sign * d[2:])
+            forces.append(solve(prob, warm=warm).raise_if_failed().force)
+        dF[:, k] = (forces[0] - forces[1]) / (2.0 * d[k])
+    return DynamicCoefficients(K=-dF[:, :2], C=-dF[:, 2:], method=f"central-fd(step={step:.3g} m)")
+
