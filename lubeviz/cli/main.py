@@ -1,0 +1,34 @@
+"""The `lubeviz` console script (SPEC §7). Exit status 2 and one line on stderr for bad input."""
+
+from __future__ import annotations
+
+import sys
+
+from ..errors import LubevizError
+from . import bench_cmd, film_cmd
+from .common import EXIT_BAD_INPUT, Parser, emit
+
+
+def build_parser() -> Parser:
+    parser = Parser(prog="lubeviz", description="Hydrodynamic-bearing lubrication from shaft vibration.")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
+    film_cmd.register(sub)
+    bench_cmd.register(sub)
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        result = args.run(args)
+    except (LubevizError, ValueError) as exc:
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        sys.stderr.write(f"lubeviz {args.command}: error: {msg}\n")
+        return EXIT_BAD_INPUT
+    emit(result, args.json)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
