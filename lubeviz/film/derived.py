@@ -22,7 +22,8 @@ class FilmSummary:
     min_film: float
     max_pressure: float
     cavitated_fraction: float  # film area with theta < 1 (ruptured or incomplete film)
-    starved_fraction: float  # the part of it where the gap converges: an incomplete inlet film
+    starved_fraction: float  # the part of it where the gap converges: incomplete film entering the load zone
+    # (non-zero even when flooded if the film ruptures between the groove and the thickest film)
     groove_pressure: float  # mean pressure over the groove cells (0 when held flooded)
     friction_torque: float  # viscous torque resisting the journal's rotation
     power_loss: float

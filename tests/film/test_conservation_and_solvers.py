@@ -1,0 +1,68 @@
+"""Mass conservation, and the two solvers / two domains reaching the same discrete solution."""
+
+import math
+
+import numpy as np
+import pytest
+
+from lubeviz.film.feed import Feed, make_mesh, setup_problem
+from lubeviz.film.operator import residual
+from lubeviz.film.solver import solve, solve_active_set, solve_sor
+from tests.conftest import OMEGA_75HZ, plain_bearing
+
+POSITION = (0.3 * 120e-6 * math.sin(1.0), -0.3 * 120e-6 * math.cos(1.0))
+
+
+@pytest.mark.parametrize("feed", [Feed.flow(300 / 6e7), Feed.flow(800 / 6e7), Feed.flooded()],
+                         ids=["starved", "over-supplied", "flooded"])
+def test_mass_is_conserved(paper_bearing, feed):
+    sol = solve(setup_problem(paper_bearing, OMEGA_75HZ, POSITION, feed)).raise_if_failed()
+    assert sol.mass_residual < 1e-8
+    if feed.kind == "flow":
+        assert sol.side_leakage == pytest.approx(feed.q_supply, rel=1e-8)
+    # every free cell balances, in units of one face's Couette flux
+    R = residual(sol.problem.coef, sol.P, sol.theta)
+    assert np.abs(R[~sol.problem.fixed]).max() < 1e-9
+
+
+def test_complementarity_holds(paper_bearing):
+    sol = solve(setup_problem(paper_bearing, OMEGA_75HZ, POSITION, Feed.flow(300 / 6e7)))
+    assert np.all(sol.P >= 0.0) and np.all(sol.theta <= 1.0) and np.all(sol.theta > 0.0)
+    assert np.all((sol.P == 0.0) | (sol.theta == 1.0))  # Eq. 6
+    assert (sol.theta < 0.999).any() and (sol.P > 0).any()  # both regimes present when starved
+
+
+def test_mass_is_conserved_plain_bearing():
+    b = plain_bearing(1.0)
+    sol = solve(setup_problem(b, OMEGA_75HZ, (0.0, -0.5 * b.clearance), Feed.plain()))
+    assert sol.converged and sol.mass_residual < 1e-8 and sol.side_leakage > 0
+
+
+@pytest.mark.parametrize("feed", [Feed.flow(350 / 6e7), Feed.flooded()], ids=["starved", "flooded"])
+def test_sor_and_active_set_reach_the_same_solution(paper_bearing, feed):
+    b = paper_bearing.copy(n_circumferential=60, n_axial=40)
+    problem = setup_problem(b, OMEGA_75HZ, POSITION, feed)
+    exact = solve_active_set(problem)
+    sor = solve_sor(problem, relax=1.9, tol=1e-12)
+    assert exact.converged and sor.converged
+    assert np.max(np.abs(sor.force - exact.force)) < 1e-7 * np.max(np.abs(exact.force))
+    assert np.max(np.abs(sor.theta - exact.theta)) < 1e-6
+
+
+def test_half_domain_equals_full_domain(paper_bearing):
+    feed = Feed.flow(400 / 6e7)
+    half = solve(setup_problem(paper_bearing, OMEGA_75HZ, POSITION, feed, mesh=make_mesh(paper_bearing, half=True)))
+    full = solve(setup_problem(paper_bearing, OMEGA_75HZ, POSITION, feed, mesh=make_mesh(paper_bearing, half=False)))
+    np.testing.assert_allclose(half.force, full.force, rtol=1e-10)
+    np.testing.assert_allclose(half.pressure_field(), full.pressure_field(), rtol=1e-9, atol=1e-6)
+    assert half.side_leakage == pytest.approx(full.side_leakage, rel=1e-10)
+
+
+def test_warm_start_gives_the_same_solution_in_fewer_solves(paper_bearing):
+    feed = Feed.flow(400 / 6e7)
+    cold = solve(setup_problem(paper_bearing, OMEGA_75HZ, POSITION, feed))
+    moved = setup_problem(paper_bearing, OMEGA_75HZ, (POSITION[0] * 1.01, POSITION[1] * 1.01), feed)
+    warm = solve(moved, warm=cold)
+    again = solve(moved)
+    assert warm.iterations < again.iterations
+    np.testing.assert_allclose(warm.force, again.force, rtol=1e-12)

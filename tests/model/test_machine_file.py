@@ -1,0 +1,64 @@
+"""The paper's machine file loads with the paper's numbers; broken files are named and explained."""
+
+import math
+from pathlib import Path
+
+import pytest
+
+from lubeviz.errors import InputError, ModelFileError
+from lubeviz.model.bearing import Bearing
+from lubeviz.model.machine import DEFAULT_MACHINE, load_machine
+
+
+def test_paper_machine_has_the_papers_geometry(machine):
+    assert machine.n_nodes == 21 and len(machine.elements) == 20
+    assert machine.rotor_length == pytest.approx(2.235)
+    assert machine.elements[10].length == pytest.approx(0.045) and machine.elements[10].diameter == pytest.approx(0.2625)
+    assert [d.node for d in machine.discs] == [10, 13, 15]
+    assert [b.node for b in machine.bearings] == [6, 20]
+    b = machine.bearings[0]
+    assert (b.radius, b.length, b.clearance, b.viscosity) == pytest.approx((0.045, 0.070, 120e-6, 0.094))
+    assert b.groove_length == pytest.approx(16.2e-3) and b.groove_width == pytest.approx(35e-3)
+    assert machine.unbalance_moment == pytest.approx(1.24e-2) and machine.unbalance_node == 13
+
+
+def _broken(tmp_path, old, new):
+    text = Path(DEFAULT_MACHINE).read_text()
+    assert old in text
+    path = tmp_path / "broken.toml"
+    path.write_text(text.replace(old, new, 1))
+    return path
+
+
+@pytest.mark.parametrize("old,new,expect", [
+    ("clearance_um = 120.0", "", "missing key 'clearance_um'"),
+    ("clearance_um = 120.0", 'clearance_um = "120"', "expected float, got str"),
+    ("clearance_um = 120.0", "clearence_um = 120.0", "unknown key(s) ['clearence_um']"),
+    ("viscosity_pa_s = 0.094", "viscosity_pa_s = -0.094", "viscosity"),
+    ("[unbalance]\nnode = 13", "[unbalance]\nnode = 42", "node 42 outside 1..21"),
+    ("young_modulus_pa = 210e9", "young_modulus_pa = nan", "not a finite number"),
+    ("[shaft]", "[shaft]\n[oops", "not a valid TOML file"),
+])
+def test_broken_model_file_is_refused_with_a_clear_message(tmp_path, old, new, expect):
+    path = _broken(tmp_path, old, new)
+    with pytest.raises(ModelFileError) as err:
+        load_machine(path)
+    assert expect in str(err.value)
+    assert str(path) in str(err.value)
+
+
+def test_missing_model_file_is_named(tmp_path):
+    with pytest.raises(ModelFileError, match="no such model file"):
+        load_machine(tmp_path / "nope.toml")
+
+
+@pytest.mark.parametrize("field,value", [("clearance", 0.0), ("clearance", -1e-6), ("viscosity", float("nan")),
+                                         ("radius", float("inf")), ("length", 0.0)])
+def test_bearing_rejects_impossible_values(field, value):
+    with pytest.raises(ValueError, match=field):
+        Bearing(**{field: value})
+
+
+def test_groove_wider_than_the_bearing_is_refused():
+    with pytest.raises(InputError, match="groove width"):
+        Bearing(groove_width=0.08)
