@@ -1,0 +1,1 @@
+"""Panel views of lubeviz (display only: every number comes from the headless package)."""
