@@ -174,10 +174,16 @@ def build_problem(
     )
 
 
+def edge_leakage(problem: FilmProblem, P) -> tuple[float, float]:
+    """Oil leaving through the z = 0 and z = L film edges (m^3/s), Poiseuille only (Eq. 5)."""
+    out_0 = float(problem.edge_s @ P[0] * problem.flux_ref)
+    out_l = out_0 if problem.mesh.half else float(problem.edge_n @ P[-1] * problem.flux_ref)
+    return out_0, out_l
+
+
 def side_leakage(problem: FilmProblem, P) -> float:
-    """Oil leaving through both film edges (m^3/s), Poiseuille only (Eq. 5: p = 0 at z = 0, L)."""
-    out = problem.edge_s @ P[0] + problem.edge_n @ P[-1]
-    return float(out * problem.flux_ref * problem.mesh.mirror_factor)
+    """Oil leaving through both film edges (m^3/s)."""
+    return sum(edge_leakage(problem, P))
 
 
 def film_force(problem: FilmProblem, P) -> np.ndarray:

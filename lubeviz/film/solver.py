@@ -22,7 +22,7 @@ import scipy.sparse.linalg as spla
 
 from ..errors import ConvergenceError
 from . import kernels
-from .operator import FilmProblem, film_force, residual, side_leakage
+from .operator import FilmProblem, edge_leakage, film_force, residual, side_leakage
 
 
 @dataclass(frozen=True)
@@ -51,6 +51,11 @@ class FilmSolution:
     def full(self) -> np.ndarray:
         """Cells with a full film (p > 0 or theta = 1, not cavitated)."""
         return (self.P > 0.0) | (self.theta >= 1.0)
+
+    @property
+    def edge_leakage(self) -> tuple[float, float]:
+        """Side leakage through the z = 0 and z = L edges (m^3/s); they sum to `side_leakage`."""
+        return edge_leakage(self.problem, self.P)
 
     def pressure_field(self) -> np.ndarray:
         """Pressure (Pa) on the whole film, shape (n_axial, n_circ), rows from z = 0 to z = L."""

@@ -56,6 +56,9 @@ def test_half_domain_equals_full_domain(paper_bearing):
     np.testing.assert_allclose(half.force, full.force, rtol=1e-10)
     np.testing.assert_allclose(half.pressure_field(), full.pressure_field(), rtol=1e-9, atol=1e-6)
     assert half.side_leakage == pytest.approx(full.side_leakage, rel=1e-10)
+    edges = full.edge_leakage
+    assert edges[0] == pytest.approx(edges[1], rel=1e-9)  # symmetric film: equal edge flows
+    assert sum(edges) == pytest.approx(full.side_leakage, rel=1e-12)
 
 
 def test_warm_start_gives_the_same_solution_in_fewer_solves(paper_bearing):
