@@ -1,0 +1,142 @@
+"""Global matrices of Eq. 8: M q'' + (C + Omega G) q' + K q = F.
+
+`Rotor` holds the shaft-and-disc matrices (M, K_shaft, G, C_shaft = beta K_shaft, stiffness-
+proportional as the paper says below Eq. 8) and the bearing nodes; the bearing K and C are added per
+operating point by `bearing_matrices`, because they change with speed and oil supply.
+
+Dense numpy arrays on purpose. Measured once for the paper's rotor (84 DOF; numpy 2.4, scipy 1.17,
+2 cores): assembling takes ~0.8 ms; one complex steady solve of (-Omega^2 M + i Omega (C + Omega G) + K) Q = F
+takes ~60 us with `numpy.linalg.solve` on the dense matrix against ~120 us with scipy.sparse `spsolve`
+(SuperLU) on a CSC copy, plus ~60 us to make that copy (944 non-zeros). Sparse would only pay off for
+meshes of many hundreds of nodes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import InputError
+from .elements import DOF_PER_NODE, LinearBearing, RigidDisc, TimoshenkoBeam, coefficient_matrix, node_dofs
+
+
+@dataclass(frozen=True)
+class Rotor:
+    """Assembled shaft + discs, without bearings. Nodes are numbered from 1 (paper numbering).
+
+    M, K (shaft only), G (multiplies Omega), C (shaft damping beta*K) are dense (n_dof, n_dof);
+    `node_z` are the axial node positions (m) from node 1; `bearing_nodes` the supports, in order.
+    """
+
+    n_nodes: int
+    node_z: np.ndarray
+    M: np.ndarray
+    K: np.ndarray
+    G: np.ndarray
+    C: np.ndarray
+    bearing_nodes: tuple[int, ...]
+    shaft_damping_beta: float
+    beams: tuple[TimoshenkoBeam, ...] = field(repr=False)
+    discs: tuple[RigidDisc, ...] = field(repr=False)
+
+    @property
+    def n_dof(self) -> int:
+        return DOF_PER_NODE * self.n_nodes
+
+    @property
+    def mass(self) -> float:
+        """Total mass (kg): the kinetic energy of a unit rigid translation (exact for consistent mass)."""
+        u = np.zeros(self.n_dof)
+        u[0::DOF_PER_NODE] = 1.0
+        return float(u @ self.M @ u)
+
+    def check_node(self, node: int, what: str = "node") -> int:
+        if not (isinstance(node, (int, np.integer)) and 1 <= node <= self.n_nodes):
+            raise InputError(f"{what} {node!r} is not a rotor node; expected an integer in 1..{self.n_nodes}")
+        return int(node)
+
+
+def assemble(beams: Sequence[TimoshenkoBeam], discs: Sequence[RigidDisc] = (), *,
+             bearing_nodes: Sequence[int] = (), shaft_damping_beta: float = 0.0) -> Rotor:
+    """Assemble the global M, K, G and C_shaft = beta K of Eq. 8 from consecutive shaft elements."""
+    beams, discs = tuple(beams), tuple(discs)
+    if not beams:
+        raise InputError("a rotor needs at least one shaft element")
+    for k, b in enumerate(beams, start=1):
+        if b.node != k:
+            raise InputError(f"shaft element #{k} starts at node {b.node}; expected node {k} "
+                             "(elements must run consecutively from node 1)")
+    if not (np.isfinite(shaft_damping_beta) and shaft_damping_beta >= 0.0):
+        raise InputError(f"shaft damping beta = {shaft_damping_beta!r} s; expected a non-negative number")
+    n_nodes = len(beams) + 1
+    n = DOF_PER_NODE * n_nodes
+    M, K, G = np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
+    for el in beams + discs:
+        if not 1 <= el.node <= n_nodes:
+            raise InputError(f"{type(el).__name__} at node {el.node}; expected a node in 1..{n_nodes}")
+        idx = np.ix_(el.dofs(), el.dofs())
+        M[idx] += el.M()
+        K[idx] += el.K()
+        G[idx] += el.G()
+    rotor = Rotor(n_nodes=n_nodes, node_z=np.concatenate([[0.0], np.cumsum([b.length for b in beams])]),
+                  M=M, K=K, G=G, C=shaft_damping_beta * K, bearing_nodes=tuple(int(b) for b in bearing_nodes),
+                  shaft_damping_beta=float(shaft_damping_beta), beams=beams, discs=discs)
+    for b in rotor.bearing_nodes:
+        rotor.check_node(b, "bearing node")
+    return rotor
+
+
+def rotor_from_machine(machine, *, shaft_damping_beta: float | None = None, shear: bool = True) -> Rotor:
+    """The rotor of a `lubeviz.model.machine.Machine` (Timoshenko shaft with Cowper's kappa, discs)."""
+    beams = [TimoshenkoBeam(k, e.length, e.diameter, machine.young_modulus, machine.poisson_ratio,
+                            machine.density, shear=shear)
+             for k, e in enumerate(machine.elements, start=1)]
+    discs = [RigidDisc.annular(d.node, d.width, d.outer_diameter, d.bore_diameter, machine.density)
+             for d in machine.discs]
+    beta = machine.shaft_damping_beta if shaft_damping_beta is None else shaft_damping_beta
+    return assemble(beams, discs, bearing_nodes=[b.node for b in machine.bearings], shaft_damping_beta=beta)
+
+
+def as_bearings(rotor: Rotor, bearings) -> tuple[LinearBearing, ...]:
+    """Normalize bearing input: LinearBearing objects, or one (K, C) pair per `rotor.bearing_nodes`."""
+    bearings = list(bearings)
+    if all(isinstance(b, LinearBearing) for b in bearings):
+        out = tuple(bearings)
+    else:
+        if len(bearings) != len(rotor.bearing_nodes):
+            raise InputError(f"got {len(bearings)} bearing (K, C) pairs; the rotor has "
+                             f"{len(rotor.bearing_nodes)} bearing nodes {list(rotor.bearing_nodes)}")
+        out = []
+        for node, pair in zip(rotor.bearing_nodes, bearings):
+            if isinstance(pair, LinearBearing) or len(pair) != 2:
+                raise InputError(f"bearing at node {node}: expected a (K, C) pair, got {pair!r}")
+            out.append(LinearBearing(node, pair[0], pair[1]))
+        out = tuple(out)
+    for b in out:
+        rotor.check_node(b.node, "bearing node")
+    return out
+
+
+def bearing_matrices(rotor: Rotor, bearings) -> tuple[np.ndarray, np.ndarray]:
+    """Global K_total = K_shaft + K_bearings and C_total = C_shaft + C_bearings (SPEC §1: + sign).
+
+    `bearings`: LinearBearing objects or one (K, C) pair per bearing node; coefficients may carry a
+    leading stack dimension (e.g. one 2x2 per speed), in which case the result is stacked likewise.
+    """
+    bearings = as_bearings(rotor, bearings)
+    stack = np.broadcast_shapes(*(b.stiffness.shape[:-2] for b in bearings),
+                                *(b.damping.shape[:-2] for b in bearings))
+    K = np.broadcast_to(rotor.K, stack + rotor.K.shape).copy()
+    C = np.broadcast_to(rotor.C, stack + rotor.C.shape).copy()
+    for b in bearings:
+        i = node_dofs(b.node)[:2]
+        K[..., i[:, None], i[None, :]] += coefficient_matrix(b.stiffness, "K")
+        C[..., i[:, None], i[None, :]] += coefficient_matrix(b.damping, "C")
+    return K, C
+
+
+def isotropic(k: float, c: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """(K, C) of an isotropic bearing without cross coupling: K = k I, C = c I."""
+    return k * np.eye(2), c * np.eye(2)
