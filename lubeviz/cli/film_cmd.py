@@ -13,11 +13,10 @@ from ..film.equilibrium import find_equilibrium, flooded_threshold
 from ..film.feed import Feed, setup_problem
 from ..film.solver import solve
 from ..model.machine import load_machine
+from ..rotor.statics import bearing_static_loads
 from ..units import m3s_to_mlmin, mlmin_to_m3s
 from .common import add_common, emit, finite_float, mesh_arg
 
-# Until a machine's rotor statics are wired in, the paper's figure (rotor weight / 2) is the default.
-PAPER_BEARING_LOAD_N = 3272.8
 
 
 def _feed_args(p, *, plain: bool):
@@ -85,8 +84,8 @@ def register(sub) -> None:
     _feed_args(p, plain=False)
     p.add_argument("--speed-hz", type=finite_float, default=None, help="shaft speed (default: the machine's)")
     p.add_argument("--load-n", type=finite_float, default=None,
-                   help=f"vertical load on the journal, downwards (default {PAPER_BEARING_LOAD_N} N, "
-                        "the paper's static share of the rotor weight)")
+                   help="vertical load on the journal, downwards (default: the bearing's static share "
+                        "of the rotor weight, from the rotor model)")
     p.add_argument("--mesh", type=mesh_arg, default=None, metavar="NxM", help="circumferential x axial cells")
     p.set_defaults(run=run_bearing)
 
@@ -124,10 +123,14 @@ def run_bearing(args) -> dict:
     t0 = time.perf_counter()
     machine, b, omega = _bearing(args, args.bearing - 1)
     feed = _feed(args)
-    w = PAPER_BEARING_LOAD_N if args.load_n is None else args.load_n
-    if w <= 0.0:
-        raise InputError(f"--load-n {w:g}: expected a positive load in N")
-    load = np.array([0.0, -w])
+    if args.load_n is None:
+        load = bearing_static_loads(machine)[args.bearing - 1]
+        w = float(-load[1])
+    else:
+        w = args.load_n
+        if w <= 0.0:
+            raise InputError(f"--load-n {w:g}: expected a positive load in N")
+        load = np.array([0.0, -w])
     q_t, eq_flooded = flooded_threshold(b, omega, load)
     eq = eq_flooded if feed.kind == "flooded" else find_equilibrium(
         b, omega, load, feed, start=eq_flooded.position, warm=eq_flooded.film)

@@ -91,3 +91,16 @@ def static_deflection(rotor: Rotor, bearings, gravity: float = 9.81) -> StaticDe
     forces = np.array([-b.stiffness @ q[b.dofs()] for b in bearings])
     return StaticDeflection(q=q, x=q[X::DOF_PER_NODE].copy(), y=q[Y::DOF_PER_NODE].copy(),
                             bearing_nodes=tuple(b.node for b in bearings), bearing_forces=forces)
+
+
+def bearing_static_loads(machine) -> np.ndarray:
+    """Static load on each bearing's journal, [[Wx, Wy], ...] (N): the rotor's weight share, downwards.
+
+    The journal presses on its film with the support reaction of the pinned rotor, so the film must
+    carry -load; this is the load the film model's equilibrium uses.
+    """
+    from .assembly import rotor_from_machine
+
+    rotor = rotor_from_machine(machine)
+    reactions = simple_support_reactions(rotor, machine.gravity, nodes=[b.node for b in machine.bearings])
+    return np.array([[0.0, -f] for f in reactions.forces])

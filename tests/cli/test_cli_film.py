@@ -41,6 +41,8 @@ def test_bearing_json_reports_equilibrium_and_coefficients(capsys):
     assert data["q_threshold_mlmin"] == pytest.approx(546.0, rel=0.03)
     assert len(data["K"]) == 2 and len(data["C"][1]) == 2
     assert data["min_film_um"] == pytest.approx(120.0 * (1 - data["eccentricity_ratio"]))
+    # default load: bearing 2's share of the rotor weight from the rotor statics (paper: 6545.6 N / 2)
+    assert data["load_n"] == pytest.approx(6545.6 / 2, rel=5e-4)
 
 
 @pytest.mark.parametrize("argv,needle", [
