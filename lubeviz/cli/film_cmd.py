@@ -15,7 +15,7 @@ from ..film.solver import solve
 from ..model.machine import load_machine
 from ..rotor.statics import bearing_static_loads
 from ..units import m3s_to_mlmin, mlmin_to_m3s
-from .common import add_common, emit, finite_float, mesh_arg
+from .common import add_common, finite_float, mesh_arg
 
 
 

@@ -7,9 +7,12 @@ over 31 samples (Savitzky-Golay), relative to the largest |entry| of the same ma
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 from scipy.signal import savgol_filter
 
+from .linearize import finite_difference_coefficients
 from .sweep import sweep_supply
 
 
@@ -19,11 +22,21 @@ def roughness(y: np.ndarray, scale: np.ndarray, window: int = 31) -> float:
     return float(np.max(np.abs(y - smooth)[h:-h] / scale[h:-h]))
 
 
-def supply_roughness(bearing, omega, load, q_min, q_max, step, progress=None) -> dict:
-    """Roughness (relative, see module doc) of eccentricity, attitude, K and C over q_min..q_max (m^3/s)."""
+def supply_roughness(bearing, omega, load, q_min, q_max, step, progress=None, secant_amplitude=None) -> dict:
+    """Roughness (relative, see module doc) of eccentricity, attitude, K and C over q_min..q_max (m^3/s).
+
+    With `secant_amplitude` (m) the coefficients are the secant ones over +-amplitude (central
+    differences of re-solved films, velocity step amplitude * Omega) instead of the fixed-pattern
+    tangent: coefficients averaged over a vibration of that size.
+    """
     flows = np.arange(q_min, q_max + 0.5 * step, step)
     kw = {} if progress is None else {"progress": progress}
-    s = sweep_supply(bearing, omega, load, flows, **kw)
+    keep: list = []
+    s = sweep_supply(bearing, omega, load, flows, keep=keep, **kw)
+    if secant_amplitude is not None:
+        fd = [finite_difference_coefficients(bearing, omega, e.position, e.feed, step=secant_amplitude,
+                                             velocity_step=secant_amplitude * omega, warm=e.film) for e in keep]
+        s = dataclasses.replace(s, K=np.array([c.K for c in fd]), C=np.array([c.C for c in fd]))
     eps = s.eccentricity_ratio
     att = np.arctan2(s.position[:, 0], -s.position[:, 1])
     k_scale = np.abs(s.K).reshape(-1, 4).max(axis=1)

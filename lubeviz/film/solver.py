@@ -12,7 +12,6 @@ reused for the dynamic coefficients (the linearization with the pattern held fix
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 
@@ -262,6 +261,3 @@ def solve(problem: FilmProblem, *, method: str = "active-set", warm: FilmSolutio
         return solve_sor(problem, **options)
     raise ValueError(f"unknown film solver {method!r}; expected 'active-set' or 'sor'")
 
-
-def is_finite_solution(sol: FilmSolution) -> bool:
-    return bool(np.all(np.isfinite(sol.P)) and np.all(np.isfinite(sol.theta)) and math.isfinite(sol.side_leakage))

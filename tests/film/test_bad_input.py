@@ -1,6 +1,5 @@
 """Bad input to the film model: a clear error naming the value, never a silent NaN."""
 
-import math
 
 import numpy as np
 import pytest
@@ -8,7 +7,7 @@ import pytest
 from lubeviz.errors import InputError
 from lubeviz.film.equilibrium import find_equilibrium
 from lubeviz.film.feed import Feed, setup_problem
-from tests.conftest import OMEGA_75HZ, PAPER_LOAD
+from tests.conftest import OMEGA_75HZ
 
 
 @pytest.mark.parametrize("q", [-1e-6, 0.0, float("nan"), float("inf")])

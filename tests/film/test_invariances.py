@@ -3,7 +3,6 @@
 import math
 
 import numpy as np
-import pytest
 
 from lubeviz.film.feed import Feed, make_mesh, setup_problem
 from lubeviz.film.solver import solve

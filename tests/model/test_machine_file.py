@@ -1,6 +1,5 @@
 """The paper's machine file loads with the paper's numbers; broken files are named and explained."""
 
-import math
 from pathlib import Path
 
 import pytest
