@@ -73,6 +73,26 @@ def bench_film(machine_file=None, repeat: int = 5, progress: ProgressFn = silent
     return results
 
 
+def bench_mesh(machine_file=None) -> dict:
+    """Mesh study 50x50 -> 100x100 -> 200x200 of bearing 1 (see film.mesh_study)."""
+    from .film.mesh_study import mesh_study
+
+    machine = load_machine(machine_file)
+    feeds = {"starved 400": Feed.flow(400 / 6e7), "546": Feed.flow(546 / 6e7),
+             "over 700": Feed.flow(700 / 6e7), "flooded": Feed.flooded()}
+    return {"rows": mesh_study(machine.bearings[0], 2.0 * math.pi * machine.operating_speed, PAPER_LOAD, feeds)}
+
+
+def bench_smoothness(machine_file=None, secant_amplitude: float | None = None,
+                     progress: ProgressFn = silent) -> dict:
+    """Roughness of equilibrium, K and C over 273..819 ml/min in 1 ml/min steps (see film.roughness)."""
+    from .film.roughness import supply_roughness
+
+    machine = load_machine(machine_file)
+    return supply_roughness(machine.bearings[0], 2.0 * math.pi * machine.operating_speed, PAPER_LOAD,
+                            273 / 6e7, 819 / 6e7, 1 / 6e7, progress=progress, secant_amplitude=secant_amplitude)
+
+
 def tuned_relaxation(problem, candidates=(1.5, 1.7, 1.8, 1.85, 1.9, 1.95, 1.97)) -> float:
     """The over-relaxation factor with the fewest SOR sweeps on `problem` (coarse search)."""
     best = None

@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
-from ..bench import bench_film
+from ..bench import bench_film, bench_mesh, bench_smoothness
 from ..progress import StderrBar
-from .common import add_common
+from .common import add_common, finite_float
 
 
 def register(sub) -> None:
     p = sub.add_parser("bench", help="performance figures of BENCHMARKS.md")
     add_common(p)
-    p.add_argument("what", choices=("film",), help="which benchmark")
+    p.add_argument("what", choices=("film", "mesh", "smoothness"),
+                   help="film: solver timings; mesh: mesh study; smoothness: roughness of K, C over Q")
+    p.add_argument("--secant-amplitude-um", type=finite_float, default=None,
+                   help="smoothness: use secant coefficients over +-this amplitude (um) instead of the tangent")
     p.add_argument("--repeat", type=int, default=5, help="repetitions (the median is reported)")
     p.set_defaults(run=run_bench)
 
@@ -18,4 +21,11 @@ def register(sub) -> None:
 def run_bench(args) -> dict:
     if args.repeat < 1:
         raise ValueError(f"--repeat {args.repeat}: expected at least 1")
+    if args.what == "mesh":
+        return bench_mesh(args.machine)
+    if args.what == "smoothness":
+        amp = args.secant_amplitude_um
+        if amp is not None and amp <= 0.0:
+            raise ValueError(f"--secant-amplitude-um {amp:g}: expected a positive amplitude")
+        return bench_smoothness(args.machine, None if amp is None else amp * 1e-6, progress=StderrBar())
     return bench_film(args.machine, repeat=args.repeat, progress=StderrBar())

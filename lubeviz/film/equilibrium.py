@@ -18,7 +18,7 @@ import numpy as np
 from ..errors import InputError
 from ..model.bearing import Bearing
 from .feed import Feed, setup_problem
-from .linearize import DynamicCoefficients, force_jacobian
+from .linearize import DynamicCoefficients, fixed_pattern_coefficients, force_jacobian
 from .solver import FilmSolution, solve
 
 MAX_ECCENTRICITY = 0.995
@@ -130,8 +130,7 @@ def find_equilibrium(bearing: Bearing, omega: float, load, feed: Feed, *,
     elif not message:
         message = f"equilibrium force error {np.hypot(*g) / w:.3g} (relative) after {max_iter} Newton steps"
     if sol.linear is not None:
-        dF = force_jacobian(sol)
-        coef = DynamicCoefficients(K=-dF[:, :2], C=-dF[:, 2:], method="fixed-pattern")
+        coef = fixed_pattern_coefficients(sol)
     else:
         nan = np.full((2, 2), np.nan)
         coef = DynamicCoefficients(K=nan, C=nan, method="unavailable")
