@@ -1,0 +1,87 @@
+"""The machine on its film bearings: each bearing's equilibrium and coefficients at its supply flow.
+
+This is where the film model (Sec. 2.1) meets the rotor (Sec. 2.2): the static load on each journal
+is its support reaction from the rotor's weight (`statics.bearing_static_loads`), the film finds the
+journal's equilibrium for the bearing's own supply flow, and its fixed-pattern K, C enter Eq. 8.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import ConvergenceError, InputError
+from ..film.equilibrium import Equilibrium, find_equilibrium, flooded_threshold
+from ..film.feed import Feed
+from .assembly import Rotor, rotor_from_machine
+from .response import UnbalanceResponse, machine_unbalance, unbalance_response
+from .statics import bearing_static_loads
+
+
+@dataclass(frozen=True)
+class FilmBearings:
+    """Both bearings of a machine at one speed: equilibria (with K, C) and their supply flows (m^3/s)."""
+
+    omega: float
+    flows: tuple[float, ...]
+    equilibria: tuple[Equilibrium, ...]
+
+    @property
+    def coefficients(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """One (K, C) pair per bearing, SPEC §1 sign, for `unbalance_response` and friends."""
+        return [(e.coefficients.K, e.coefficients.C) for e in self.equilibria]
+
+
+def _flows(machine, flows) -> tuple[float, ...]:
+    flows = tuple(float(q) for q in flows)
+    if len(flows) != len(machine.bearings):
+        raise InputError(f"{len(flows)} supply flows for {len(machine.bearings)} bearings")
+    for k, q in enumerate(flows, start=1):
+        if not (math.isfinite(q) and q > 0.0):
+            raise InputError(f"supply flow of bearing {k}: {q!r} m^3/s; expected a positive number")
+    return flows
+
+
+def film_bearings(machine, flows: Sequence[float], omega: float | None = None, *,
+                  previous: FilmBearings | None = None) -> FilmBearings:
+    """Equilibrium and coefficients of every bearing at its supply flow (m^3/s) and speed (rad/s).
+
+    `previous` (a nearby operating point) warm-starts each equilibrium from its position and film.
+    Raises ConvergenceError naming the bearing and flow when no equilibrium is found.
+    """
+    omega = 2.0 * math.pi * machine.operating_speed if omega is None else float(omega)
+    if not (math.isfinite(omega) and omega > 0.0):
+        raise InputError(f"shaft speed {omega!r} rad/s; expected a positive number")
+    flows = _flows(machine, flows)
+    loads = bearing_static_loads(machine)
+    eqs = []
+    for k, (b, q, load) in enumerate(zip(machine.bearings, flows, loads)):
+        prev = previous.equilibria[k] if previous is not None else None
+        eq = find_equilibrium(b, omega, load, Feed.flow(q), start=None if prev is None else prev.position,
+                              warm=None if prev is None else prev.film)
+        if not eq.converged:
+            raise ConvergenceError(f"bearing {k + 1} at {q * 6e7:.1f} ml/min, {omega / 2 / math.pi:g} Hz: "
+                                   f"{eq.message}")
+        eqs.append(eq)
+    return FilmBearings(omega=omega, flows=flows, equilibria=tuple(eqs))
+
+
+def flooded_thresholds(machine, omega: float | None = None) -> np.ndarray:
+    """Q_T of each bearing (m^3/s) under its static load at `omega` (rad/s; default the operating speed)."""
+    omega = 2.0 * math.pi * machine.operating_speed if omega is None else float(omega)
+    loads = bearing_static_loads(machine)
+    return np.array([flooded_threshold(b, omega, load)[0] for b, load in zip(machine.bearings, loads)])
+
+
+def machine_response(machine, flows: Sequence[float], omega: float | None = None, *,
+                     nodes: Sequence[int] | None = None, rotor: Rotor | None = None,
+                     bearings: FilmBearings | None = None) -> tuple[UnbalanceResponse, FilmBearings]:
+    """Steady unbalance response of the machine with both bearings at their supply flows (m^3/s)."""
+    omega = 2.0 * math.pi * machine.operating_speed if omega is None else float(omega)
+    rotor = rotor_from_machine(machine) if rotor is None else rotor
+    fb = film_bearings(machine, flows, omega) if bearings is None else bearings
+    nodes = tuple(machine.center_nodes) if nodes is None else tuple(nodes)
+    return unbalance_response(rotor, omega, machine_unbalance(machine), fb.coefficients, nodes=nodes), fb

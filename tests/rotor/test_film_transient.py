@@ -1,0 +1,46 @@
+"""Time integration on the p-theta films: tends to the linear response as the orbit shrinks."""
+
+import math
+
+import numpy as np
+import pytest
+
+from lubeviz.errors import ConvergenceError
+from lubeviz.rotor import Unbalance, rotor_from_machine, unbalance_response
+from lubeviz.rotor.film_bearings import film_bearings
+from lubeviz.rotor.film_transient import amplitude_ratio, film_time_response
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def coarse(machine):
+    """The paper's machine with 60 x 40 film meshes (the limit checked here does not need 100 x 100)."""
+    from lubeviz.model.machine import load_machine
+
+    m = load_machine()
+    m.bearings = [b.copy(n_circumferential=60, n_axial=40) for b in m.bearings]
+    return m, rotor_from_machine(m), film_bearings(m, (450 / 6e7, 450 / 6e7))
+
+
+def test_small_orbits_on_the_p_theta_film_match_the_linear_response(coarse):
+    machine, rotor, bearings = coarse
+    ub = (Unbalance(machine.unbalance_node, 0.01 * machine.unbalance_moment, 0.0),)
+    lin = unbalance_response(rotor, bearings.omega, ub, bearings.coefficients, nodes=(6, 20))
+    res = film_time_response(rotor, bearings, ub, duration=0.06, nodes=(6, 20))
+    late = res.t > 0.03
+    for k, node in enumerate((6, 20)):
+        x, y = res.node_xy(node)
+        for sig, ref in ((x, lin.x[k]), (y, lin.y[k])):
+            ratio = amplitude_ratio(res.t[late], sig[late], bearings.omega, ref)
+            assert abs(abs(ratio) - 1) < 5e-3 and abs(np.angle(ratio)) < math.radians(0.5)
+    # the film force is the equilibrium force plus a small oscillation, and the residual is tiny
+    f0 = bearings.equilibria[0].film.force
+    assert np.allclose(res.film_force[0].mean(axis=1), f0, rtol=0, atol=1e-3 * np.hypot(*f0))
+
+
+def test_large_orbits_stop_with_a_clear_message_instead_of_a_wrong_orbit(coarse):
+    machine, rotor, bearings = coarse
+    ub = (Unbalance(machine.unbalance_node, machine.unbalance_moment, 0.0),)
+    with pytest.raises(ConvergenceError, match="linearization"):
+        film_time_response(rotor, bearings, ub, duration=0.01, nodes=(6, 20))

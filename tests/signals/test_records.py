@@ -1,0 +1,433 @@
+"""Measured records (SPEC §6): exact round trips, units and probe geometry, and a clear
+DataFormatError naming the file and the field for every kind of bad input."""
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+import scipy.io
+
+from lubeviz.errors import DataFormatError, InputError
+from lubeviz.signals import records
+from lubeviz.signals.records import (
+    Record,
+    check_speed,
+    read_record,
+    record_from_arrays,
+    write_record,
+)
+
+SPEED = 75.0
+RATE = 2000.0
+N = 400  # 0.2 s = 15 revolutions at 75 Hz
+META = {"speed_hz": "75", "sample_rate_hz": "2000", "units": "um"}
+
+
+def channels(n=N, rate=RATE):
+    """Four elliptical 1X orbit channels in µm, as plain float lists (plus the time)."""
+    t = np.arange(n) / rate
+    w = 2 * math.pi * SPEED * t
+    return {"t": t.tolist(), "x1": (10 * np.cos(w)).tolist(), "y1": (8 * np.sin(w + 0.2)).tolist(),
+            "x2": (5 * np.cos(w + 0.3)).tolist(), "y2": (4 * np.sin(w - 0.1)).tolist()}
+
+
+def write_csv(path, meta=META, columns=None, *, sep=","):
+    columns = channels() if columns is None else columns
+    lines = [f"# {k}: {v}" for k, v in meta.items()]
+    lines.append(sep.join(columns))
+    lines += [sep.join(str(v) for v in row) for row in zip(*columns.values())]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def data_line(k, meta=META):
+    """File line number (1-based) of data row k."""
+    return len(meta) + 2 + k
+
+
+def rich_record(n=N):
+    rng = np.random.default_rng(7)
+    x1, y1, x2, y2 = rng.normal(scale=1e-5, size=(4, n))
+    return record_from_arrays(x1, y1, x2, y2, speed_hz=SPEED, sample_rate_hz=RATE, t0=0.125,
+                              nodes=(5, 21), probe_angles_deg=((45, 135), (30, 100)),
+                              machine="paper_machine.toml", keyphasor=rng.normal(size=n),
+                              metadata={"operator": "A. Lab", "note": "run 3, bearing 2 warm"})
+
+
+# --- round trips ------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("suffix", [".csv", ".npz", ".mat", ".CSV"])
+def test_round_trip_is_exact(tmp_path, suffix):
+    rec = rich_record()
+    back = read_record(write_record(rec, tmp_path / f"rec{suffix}"))
+    assert back == rec
+    assert np.array_equal(back.displacement, rec.displacement)
+    assert np.array_equal(back.keyphasor, rec.keyphasor)
+    assert (back.speed_hz, back.sample_rate_hz, back.t0) == (SPEED, RATE, 0.125)
+    assert back.nodes == (5, 21) and back.probe_angles_deg == ((45.0, 135.0), (30.0, 100.0))
+    assert back.machine == "paper_machine.toml"
+    assert dict(back.metadata) == {"operator": "A. Lab", "note": "run 3, bearing 2 warm"}
+    assert back.source == str(tmp_path / f"rec{suffix}")
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".npz", ".mat"])
+def test_round_trip_with_defaults_and_no_keyphasor(tmp_path, suffix):
+    c = channels()
+    rec = record_from_arrays(c["x1"], c["y1"], c["x2"], c["y2"], speed_hz=SPEED, sample_rate_hz=RATE)
+    back = read_record(write_record(rec, tmp_path / f"rec{suffix}"))
+    assert back == rec and back.keyphasor is None and back.nodes == (6, 20)
+    assert back.probe_angles_deg == ((0.0, 90.0), (0.0, 90.0)) and back.machine is None
+
+
+@pytest.mark.parametrize("units,factor", [("m", 1.0), ("mm", 1e-3), ("um", 1e-6), ("mils", 25.4e-6)])
+def test_units_convert_to_metres(tmp_path, units, factor):
+    c = channels()
+    c["x1"][0], c["y2"][3] = 1.5, -2.0
+    rec = read_record(write_csv(tmp_path / "r.csv", {**META, "units": units}, c))
+    assert rec.displacement[0, 0, 0] == pytest.approx(1.5 * factor, rel=1e-15)
+    assert rec.displacement[1, 1, 3] == pytest.approx(-2.0 * factor, rel=1e-15)
+    hand = {"m": 1.5, "mm": 0.0015, "um": 1.5e-6, "mils": 3.81e-5}[units]  # 1 mil = 25.4 µm
+    assert rec.displacement[0, 0, 0] == pytest.approx(hand, rel=1e-14)
+
+
+def test_writing_in_micrometres_reads_back_to_rounding(tmp_path):
+    rec = rich_record()
+    path = write_record(rec, tmp_path / "r.csv", units="um")
+    assert "# units: um" in path.read_text()
+    back = read_record(path)
+    np.testing.assert_allclose(back.displacement, rec.displacement, rtol=1e-14, atol=0)
+
+
+# --- probes, time axis, derived quantities ----------------------------------------------------
+
+@pytest.mark.parametrize("angles", [(45.0, 135.0), (30.0, 100.0), (100.0, 30.0), (-60.0, 200.0)])
+def test_probe_readings_resolve_to_x_and_y(angles):
+    rng = np.random.default_rng(3)
+    xy = rng.normal(scale=2e-5, size=(2, 2, 500))
+    a, b = np.radians(angles)
+    probes = np.stack([[x * np.cos(a) + y * np.sin(a), x * np.cos(b) + y * np.sin(b)] for x, y in xy])
+    rec = Record(SPEED, RATE, probes, probe_angles_deg=(angles, angles))
+    np.testing.assert_allclose(rec.xy(), xy, rtol=0, atol=1e-12 * np.abs(xy).max())
+    z = rec.complex_signal(1)
+    np.testing.assert_allclose(z, xy[1, 0] + 1j * xy[1, 1], rtol=0, atol=1e-12 * np.abs(xy).max())
+
+
+@pytest.mark.parametrize("text,expected", [
+    ("45, 135", ((45.0, 135.0), (45.0, 135.0))),
+    ("[30; 100; 45 135]", ((30.0, 100.0), (45.0, 135.0))),
+])
+def test_probe_angles_from_csv_one_or_both_planes(tmp_path, text, expected):
+    rec = read_record(write_csv(tmp_path / "r.csv", {**META, "probe_angles_deg": text}))
+    assert rec.probe_angles_deg == expected
+
+
+def test_default_probes_give_the_readings_exactly():
+    rec = rich_record()
+    plain = dataclasses.replace(rec, probe_angles_deg=((0, 90), (0, 90)))
+    assert np.array_equal(plain.xy(), plain.displacement)
+    assert np.array_equal(plain.complex_signal(0), rec.displacement[0, 0] + 1j * rec.displacement[0, 1])
+    with pytest.raises(InputError, match="plane"):
+        plain.complex_signal(2)
+
+
+def test_time_column_and_sample_rate_are_equivalent(tmp_path):
+    c = channels()
+    only_t = read_record(write_csv(tmp_path / "t.csv", {"speed_hz": 75, "units": "um"}, c))
+    del c["t"]
+    only_rate = read_record(write_csv(tmp_path / "rate.csv", META, c))
+    assert only_t.sample_rate_hz == pytest.approx(RATE, rel=1e-12)
+    assert only_rate.sample_rate_hz == RATE and only_t.t0 == only_rate.t0 == 0.0
+    assert np.array_equal(only_t.displacement, only_rate.displacement)
+    np.testing.assert_allclose(only_t.t, only_rate.t, rtol=0, atol=1e-15)
+
+
+def test_time_column_offset_sets_t0(tmp_path):
+    c = channels()
+    c["t"] = [3.5 + v for v in c["t"]]
+    rec = read_record(write_csv(tmp_path / "r.csv", columns=c))
+    assert rec.t0 == 3.5 and rec.t[0] == 3.5
+    assert rec.n_samples == N and rec.duration == pytest.approx(0.2) and rec.revolutions == pytest.approx(15)
+
+
+def test_record_is_immutable():
+    rec = rich_record()
+    with pytest.raises(ValueError):
+        rec.displacement[0, 0, 0] = 1.0
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        rec.speed_hz = 50.0
+    with pytest.raises(TypeError):
+        rec.metadata["operator"] = "x"
+
+
+# --- tolerant CSV reading ---------------------------------------------------------------------
+
+def test_csv_header_is_matched_by_name_in_any_order(tmp_path):
+    c = channels()
+    ref = read_record(write_csv(tmp_path / "ref.csv", META, c))
+    shuffled = {" Y2 ": c["y2"], "temperature": [20.0] * N, "X1": c["x1"], "t": c["t"],
+                "x2 ": c["x2"], "y1": c["y1"]}
+    path = write_csv(tmp_path / "messy.csv", {**META, "Operator": "me"}, shuffled, sep=";")
+    text = "\ufeff# a free comment without a colon\n" + path.read_text().replace("\n", "\r\n") + "\r\n\r\n"
+    path.write_bytes(text.encode("utf-8"))
+    rec = read_record(path)
+    assert np.array_equal(rec.displacement, ref.displacement)
+    assert dict(rec.metadata) == {"Operator": "me"}
+
+
+def test_whitespace_delimited_csv(tmp_path):
+    c = channels()
+    ref = read_record(write_csv(tmp_path / "ref.csv", META, c))
+    assert read_record(write_csv(tmp_path / "ws.csv", META, c, sep="  ")) == ref
+
+
+def test_plain_numpy_and_matlab_files_are_read(tmp_path):
+    c = channels()
+    arrays = {k: np.array(v) for k, v in c.items() if k != "t"}
+    np.savez(tmp_path / "r.npz", **arrays, speed_hz=75.0, sample_rate_hz="2000", units="um", node1=5)
+    rec = read_record(tmp_path / "r.npz")
+    assert rec.nodes == (5, 20) and rec.sample_rate_hz == RATE
+    # MATLAB style: row vectors, node numbers as doubles, 2x2 probe angles, a stray struct-free extra
+    scipy.io.savemat(tmp_path / "r.mat", {**{k: v[None, :] for k, v in arrays.items()},
+                                         "speed_hz": 75.0, "sample_rate_hz": 2000.0, "units": "um",
+                                         "node1": 6.0, "node2": 21.0, "gain": 2.5,
+                                         "probe_angles_deg": np.array([[45.0, 135.0], [0.0, 90.0]])})
+    rec = read_record(tmp_path / "r.mat")
+    assert rec.nodes == (6, 21) and rec.probe_angles_deg == ((45.0, 135.0), (0.0, 90.0))
+    assert dict(rec.metadata) == {"gain": "2.5"}
+
+
+def test_a_full_size_record_round_trips_through_csv(tmp_path):
+    n = 50_000
+    rng = np.random.default_rng(0)
+    rec = record_from_arrays(*rng.normal(scale=1e-5, size=(4, n)), speed_hz=SPEED, sample_rate_hz=10_000.0)
+    path = write_record(rec, tmp_path / "big.csv")
+    assert read_record(path) == rec  # reading speed is a benchmark (BENCHMARKS.md), not a test
+
+
+# --- bad input: DataFormatError naming the file and the field ----------------------------------
+
+def _bad_csv_cases():
+    def edit(k, col, value):
+        def f(c):
+            c[col][k] = value
+            return META, c
+        return f
+
+    def meta(**changes):
+        def f(c):
+            m = {**META, **changes}
+            return {k: v for k, v in m.items() if v is not None}, c
+        return f
+
+    def swap_t(c):
+        c["t"][10], c["t"][11] = c["t"][11], c["t"][10]
+        return META, c
+
+    def gap_t(c):
+        c["t"] = c["t"][:200] + [v + 0.5 / RATE for v in c["t"][200:]]
+        return META, c
+
+    def drop(col):
+        def f(c):
+            del c[col]
+            return META, c
+        return f
+
+    def no_rate_no_t(c):
+        del c["t"]
+        return {"speed_hz": "75", "units": "um"}, c
+
+    def low_rate(c):  # a consistent file whose rate is simply too low for 75 Hz
+        del c["t"]
+        return {**META, "sample_rate_hz": "100"}, c
+
+    def short(n):
+        return lambda c: (META, channels(n))
+
+    L = data_line
+    return [
+        ("speed_hz", meta(speed_hz=None), ["missing"]),
+        ("units", meta(units=None), ["missing"]),
+        ("units", meta(units="inch"), ["'inch'", "mils"]),
+        ("speed_hz", meta(speed_hz="0"), ["not positive"]),
+        ("speed_hz", meta(speed_hz="-75"), ["not positive"]),
+        ("speed_hz", meta(speed_hz="fast"), ["'fast' is not a number"]),
+        ("speed_hz", meta(speed_hz="nan"), ["not finite"]),
+        ("sample_rate_hz", meta(sample_rate_hz="0"), ["not positive"]),
+        ("sample_rate_hz", no_rate_no_t, ["missing", "'t' column"]),
+        ("sample_rate_hz", meta(sample_rate_hz="1000"), ["disagrees"]),
+        ("x2", drop("x2"), ["missing column"]),
+        ("'y1'", edit(7, "y1", "nan"), [f"line {L(7)}", "not finite"]),
+        ("'x2'", edit(9, "x2", "-inf"), [f"line {L(9)}", "not finite"]),
+        ("'x1'", edit(3, "x1", "abc"), [f"line {L(3)}", "'abc' is not a number"]),
+        ("'y2'", edit(4, "y2", ""), [f"line {L(4)}", "empty cell"]),
+        ("'t'", swap_t, ["non-monotonic time", f"line {L(11)}"]),
+        ("'t'", gap_t, ["non-uniform sampling", f"line {L(200)}"]),
+        ("duration", short(100), ["too few revolutions", "3.75"]),
+        ("samples", short(10), ["too few samples"]),
+        ("node1", meta(node1="6.5"), ["not a whole number"]),
+        ("node2", meta(node2="0"), ["not a positive integer"]),
+        ("node1", meta(node1="-1"), ["not a positive integer"]),
+        ("node2", meta(node2="six"), ["not a whole number"]),
+        ("probe_angles_deg", meta(probe_angles_deg="45, 135, 45"), ["wrong probe-angle count: 3"]),
+        ("probe_angles_deg", meta(probe_angles_deg="45, 50"), ["5° from parallel"]),
+        ("probe_angles_deg", meta(probe_angles_deg="0, 90, 0, 175"), ["plane 2", "from parallel"]),
+        ("probe_angles_deg", meta(probe_angles_deg="0, x"), ["'x' is not a number"]),
+        ("machine", meta(machine=""), ["empty"]),
+        ("sample_rate_hz", low_rate, ["alias"]),
+    ]
+
+
+@pytest.mark.parametrize("field,make,phrases", _bad_csv_cases(),
+                         ids=[f"{c[0]}-{c[2][0]}" for c in _bad_csv_cases()])
+def test_bad_csv_is_refused_with_file_and_field(tmp_path, field, make, phrases):
+    meta, cols = make(channels())
+    path = write_csv(tmp_path / "bad.csv", meta, cols)
+    with pytest.raises(DataFormatError) as err:
+        read_record(path)
+    message = str(err.value)
+    assert str(path) in message and field in message
+    for phrase in phrases:
+        assert phrase in message
+
+
+@pytest.mark.parametrize("text,field,phrase", [
+    ("", "file", "empty"),
+    ("# speed_hz: 75\n# units: m\n", "header", "no header"),
+    ("# speed_hz: 75\n# units: m\nt,x1,y1,x2,y2\n\n", "data", "no data rows"),
+    ("# speed_hz: 75\n# units: m\n0,1,2,3,4\n", "header", "holds numbers"),
+    ("# speed_hz: 75\n# Speed_Hz: 60\n", "Speed_Hz", "given twice"),
+    ("# speed_hz: 75\n# units: m\nt,x1,y1,x1,y2\n0,1,2,3,4\n", "'x1'", "appears twice"),
+    ("# speed_hz: 75\n# units: m\nt,x1,y1,x2,y2\n0,1,2,3,4\n0.1,1,2,3,4,5\n", "line 5", "ragged row"),
+    ("# speed_hz: 75\n# units: m\nt,x1,y1,x2,y2\n0,1,2,3,4\n# units: mm\n", "line 5", "comment after"),
+])
+def test_malformed_csv_text_is_refused(tmp_path, text, field, phrase):
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    with pytest.raises(DataFormatError) as err:
+        read_record(path)
+    assert str(path) in str(err.value) and field in str(err.value) and phrase in str(err.value)
+
+
+def test_not_utf8_is_refused(tmp_path):
+    path = tmp_path / "bad.csv"
+    path.write_bytes(b"# speed_hz: 75\n\xff\xfe\x00garbage")
+    with pytest.raises(DataFormatError, match="not UTF-8") as err:
+        read_record(path)
+    assert str(path) in str(err.value)
+
+
+def test_missing_file_and_unknown_suffix(tmp_path):
+    with pytest.raises(DataFormatError, match="no such file") as err:
+        read_record(tmp_path / "nothere.csv")
+    assert "nothere.csv" in str(err.value)
+    (tmp_path / "r.txt").write_text("x")
+    with pytest.raises(DataFormatError, match=r"'\.txt'.*\.csv, \.npz, \.mat"):
+        read_record(tmp_path / "r.txt")
+    with pytest.raises(DataFormatError, match=r"'\.h5'"):
+        write_record(rich_record(), tmp_path / "r.h5")
+    (tmp_path / "dir.csv").mkdir()
+    with pytest.raises(DataFormatError, match="not a regular file"):
+        read_record(tmp_path / "dir.csv")
+
+
+def test_file_larger_than_the_limit_is_refused_before_reading(tmp_path, monkeypatch):
+    path = write_csv(tmp_path / "r.csv")
+    monkeypatch.setattr(records, "MAX_RECORD_BYTES", 1000)
+    with pytest.raises(DataFormatError, match="larger than the limit") as err:
+        read_record(path)
+    assert str(path) in str(err.value) and "MAX_RECORD_BYTES" in str(err.value)
+
+
+def _npz(path, **arrays):
+    c = {k: np.array(v) for k, v in channels().items()}
+    full = {**c, "speed_hz": 75.0, "units": "um", **arrays}
+    np.savez(path, **{k: v for k, v in full.items() if v is not None})
+    return path
+
+
+@pytest.mark.parametrize("changes,field,phrase", [
+    ({"x2": None}, "x2", "missing column"),
+    ({"units": None}, "units", "missing"),
+    ({"x1": np.array(["a", "b"])}, "x1", "real numbers"),
+    ({"y1": np.zeros((3, N))}, "y1", "shape"),
+    ({"y2": np.zeros(N - 1)}, "columns", "different lengths"),
+    ({"speed_hz": np.array([75.0, 76.0])}, "speed_hz", "a single value"),
+    ({"node1": 2.5}, "node1", "not a positive integer"),
+    ({"probe_angles_deg": np.array([45.0, 135.0, 0.0])}, "probe_angles_deg", "count"),
+    ({"X1": np.zeros(N)}, "'X1'", "case-insensitive"),
+])
+def test_bad_npz_is_refused(tmp_path, changes, field, phrase):
+    path = _npz(tmp_path / "bad.npz", **changes)
+    with pytest.raises(DataFormatError) as err:
+        read_record(path)
+    assert str(path) in str(err.value) and field in str(err.value) and phrase in str(err.value)
+
+
+def test_npz_with_pickled_objects_is_refused_without_unpickling(tmp_path):
+    path = _npz(tmp_path / "bad.npz", machine=np.array([{"evil": 1}], dtype=object))
+    with pytest.raises(DataFormatError, match="'machine'.*pickled") as err:
+        read_record(path)
+    assert str(path) in str(err.value)
+
+
+@pytest.mark.parametrize("suffix,phrase", [(".npz", "npz"), (".mat", "MAT-file")])
+def test_corrupt_binary_files_are_refused(tmp_path, suffix, phrase):
+    path = tmp_path / f"bad{suffix}"
+    path.write_bytes(b"this is not a binary record at all" * 10)
+    with pytest.raises(DataFormatError, match=phrase) as err:
+        read_record(path)
+    assert str(path) in str(err.value)
+
+
+def test_mat_missing_variable_is_named(tmp_path):
+    path = tmp_path / "bad.mat"
+    scipy.io.savemat(path, {k: np.array(v) for k, v in channels().items() if k != "y1"}
+                     | {"speed_hz": 75.0, "units": "um"})
+    with pytest.raises(DataFormatError, match="y1: missing column") as err:
+        read_record(path)
+    assert str(path) in str(err.value)
+
+
+def test_mat_refuses_metadata_keys_matlab_cannot_name(tmp_path):
+    rec = dataclasses.replace(rich_record(), metadata={"test rig": "B"})
+    with pytest.raises(DataFormatError, match="'test rig'.*MATLAB"):
+        write_record(rec, tmp_path / "r.mat")
+    assert read_record(write_record(rec, tmp_path / "r.npz")) == rec  # fine elsewhere
+
+
+@pytest.mark.parametrize("metadata,phrase", [
+    ({"speed_hz": "80"}, "record field"),
+    ({"X1": "a"}, "record field"),
+    ({"a:b": "c"}, "without ':'"),
+    ({"note": "two\nlines"}, "several lines"),
+    ({"note": 3}, "not text"),
+])
+def test_record_refuses_metadata_that_would_not_round_trip(metadata, phrase):
+    with pytest.raises(DataFormatError, match=phrase):
+        dataclasses.replace(rich_record(), metadata=metadata)
+
+
+def test_arrays_are_validated_like_files():
+    c = {k: np.array(v) for k, v in channels().items()}
+    c["x2"][5] = np.nan
+    with pytest.raises(DataFormatError, match=r"sim\.npz: 'x2', index 5: nan is not finite"):
+        record_from_arrays(c["x1"], c["y1"], c["x2"], c["y2"], speed_hz=SPEED, sample_rate_hz=RATE,
+                           source="sim.npz")
+    with pytest.raises(DataFormatError, match="sample_rate_hz: missing"):
+        record_from_arrays(c["x1"], c["y1"], c["y1"], c["y2"], speed_hz=SPEED)
+    rec = record_from_arrays(c["x1"], c["y1"], c["y1"], c["y2"], speed_hz=SPEED, t=c["t"] + 1.0)
+    assert rec.t0 == 1.0 and rec.sample_rate_hz == pytest.approx(RATE)
+    with pytest.raises(DataFormatError, match="displacement: shape"):
+        Record(SPEED, RATE, np.zeros((3, 2, N)))
+
+
+def test_check_speed_refuses_a_record_far_from_the_model_speed():
+    rec = dataclasses.replace(rich_record(), speed_hz=95.0, source="run7.csv")
+    with pytest.raises(DataFormatError) as err:
+        check_speed(rec, 75.0)
+    message = str(err.value)
+    assert "run7.csv" in message and "speed_hz" in message and "95" in message and "75" in message
+    check_speed(dataclasses.replace(rec, speed_hz=80.0), 75.0)  # 6.7 % off: accepted
+    check_speed(rec, 75.0, tolerance=0.3)
