@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 
 from ..errors import LubevizError
-from . import bench_cmd, film_cmd
+from . import bench_cmd, film_cmd, rotor_cmd
 from .common import EXIT_BAD_INPUT, Parser, emit
 
 
@@ -13,6 +13,7 @@ def build_parser() -> Parser:
     parser = Parser(prog="lubeviz", description="Hydrodynamic-bearing lubrication from shaft vibration.")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     film_cmd.register(sub)
+    rotor_cmd.register(sub)
     bench_cmd.register(sub)
     return parser
 

@@ -1,0 +1,181 @@
+"""`lubeviz response` and `lubeviz simulate` (SPEC §7)."""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..model.machine import load_machine
+from ..rotor import machine_unbalance, modal_analysis, rotor_from_machine, unbalance_response
+from ..rotor.film_bearings import film_bearings
+from ..units import mlmin_to_m3s
+from .common import add_common, finite_float
+
+
+def nodes_arg(text: str) -> tuple[int, ...]:
+    try:
+        nodes = tuple(int(v) for v in text.split(","))
+    except ValueError:
+        raise InputError(f"--nodes {text!r}: expected comma-separated node numbers, e.g. 5,6,20,21") from None
+    return nodes
+
+
+def _speed(machine, speed_hz):
+    speed_hz = machine.operating_speed if speed_hz is None else speed_hz
+    if not machine.speed_min <= speed_hz <= machine.speed_max:
+        raise InputError(f"--speed-hz {speed_hz:g}: outside the model's range {machine.speed_min:g}-"
+                         f"{machine.speed_max:g} Hz")
+    return speed_hz
+
+
+def _flows(args):
+    flows = []
+    for k in (1, 2):
+        q = getattr(args, f"q{k}_mlmin")
+        if q is None:
+            raise InputError(f"--q{k}-mlmin is required (or --coefficients FILE)")
+        if q <= 0:
+            raise InputError(f"--q{k}-mlmin {q:g}: expected a positive supply flow in ml/min")
+        flows.append(mlmin_to_m3s(q))
+    return tuple(flows)
+
+
+def read_coefficients(path: str) -> list[tuple[np.ndarray, np.ndarray]]:
+    """`{"bearings": [{"K": [[..]], "C": [[..]]}, ...]}` (N/m, N*s/m, SPEC §1 sign)."""
+    try:
+        data = json.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise InputError(f"--coefficients {path}: no such file") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"--coefficients {path}: not valid JSON ({exc})") from None
+    if not isinstance(data, dict) or not isinstance(data.get("bearings"), list):
+        raise InputError(f"--coefficients {path}: expected an object with a 'bearings' list")
+    out = []
+    for k, b in enumerate(data["bearings"], start=1):
+        pair = []
+        for key in ("K", "C"):
+            try:
+                m = np.array(b[key], dtype=float)
+            except (KeyError, TypeError, ValueError):
+                raise InputError(f"--coefficients {path}: bearing {k}: missing or non-numeric {key!r}; "
+                                 "expected a 2x2 list of numbers") from None
+            if m.shape != (2, 2) or not np.all(np.isfinite(m)):
+                raise InputError(f"--coefficients {path}: bearing {k}: {key} must be a finite 2x2 matrix, "
+                                 f"got shape {m.shape}")
+            pair.append(m)
+        out.append(tuple(pair))
+    return out
+
+
+def register(sub) -> None:
+    p = sub.add_parser("response", help="steady unbalance response of the machine on its film bearings")
+    add_common(p)
+    p.add_argument("--q1-mlmin", type=finite_float, default=None, help="supply flow of bearing 1 (ml/min)")
+    p.add_argument("--q2-mlmin", type=finite_float, default=None, help="supply flow of bearing 2 (ml/min)")
+    p.add_argument("--coefficients", metavar="FILE", default=None,
+                   help="JSON bearing coefficients, bypassing the film model")
+    p.add_argument("--speed-hz", type=finite_float, default=None, help="shaft speed (default: the machine's)")
+    p.add_argument("--nodes", type=str, default=None, help="output nodes (default: 5,6,20,21)")
+    p.add_argument("--shaft-damping-beta", type=finite_float, default=None, metavar="B",
+                   help="stiffness-proportional shaft damping (s), default from the machine file")
+    p.set_defaults(run=run_response)
+
+    p = sub.add_parser("simulate", help="write a synthetic measured record (SPEC §6) as the paper makes it")
+    add_common(p)
+    p.add_argument("--q1-mlmin", type=finite_float, required=True, help="supply flow of bearing 1 (ml/min)")
+    p.add_argument("--q2-mlmin", type=finite_float, required=True, help="supply flow of bearing 2 (ml/min)")
+    p.add_argument("--nodes", type=str, default=None, help="the two measurement nodes (default: 6,20)")
+    p.add_argument("--snr-db", type=str, default="12", help="noise SNR in dB, or 'none' (default 12)")
+    p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
+    p.add_argument("--duration-s", type=finite_float, default=5.0, help="length of the record kept (s)")
+    p.add_argument("--total-s", type=finite_float, default=15.0,
+                   help="simulated time from rest; the last --duration-s are kept (default 15)")
+    p.add_argument("--sample-rate-hz", type=finite_float, default=1.0e4, help="samples per second")
+    p.add_argument("--speed-hz", type=finite_float, default=None, help="shaft speed (default: the machine's)")
+    p.add_argument("--method", choices=("time", "steady"), default="time",
+                   help="time integration from rest (the paper) or the steady state sampled")
+    p.add_argument("-o", "--output", required=True, metavar="FILE", help="record file: .csv, .npz or .mat")
+    p.set_defaults(run=run_simulate)
+
+
+def run_response(args) -> dict:
+    t0 = time.perf_counter()
+    machine = load_machine(args.machine)
+    speed_hz = _speed(machine, args.speed_hz)
+    omega = 2 * math.pi * speed_hz
+    nodes = nodes_arg(args.nodes) if args.nodes else tuple(machine.outside_nodes[:1]) + tuple(
+        machine.center_nodes) + tuple(machine.outside_nodes[1:])
+    beta = args.shaft_damping_beta
+    if beta is not None and beta < 0:
+        raise InputError(f"--shaft-damping-beta {beta:g}: expected a non-negative value (s)")
+    rotor = rotor_from_machine(machine, shaft_damping_beta=beta)
+    bearings_out = None
+    if args.coefficients is not None:
+        if args.q1_mlmin is not None or args.q2_mlmin is not None:
+            raise InputError("give either --q1-mlmin/--q2-mlmin or --coefficients, not both")
+        coeffs = read_coefficients(args.coefficients)
+    else:
+        fb = film_bearings(machine, _flows(args), omega)
+        coeffs = fb.coefficients
+        bearings_out = [{"q_mlmin": q * 6e7, "eccentricity_ratio": e.eccentricity_ratio,
+                         "attitude_deg": math.degrees(e.attitude_angle), "position_m": e.position,
+                         "K": e.coefficients.K, "C": e.coefficients.C}
+                        for q, e in zip(fb.flows, fb.equilibria)]
+    r = unbalance_response(rotor, omega, machine_unbalance(machine), coeffs, nodes=nodes)
+    modal = modal_analysis(rotor, omega, coeffs, n_modes=8)
+    out = {
+        "speed_hz": speed_hz,
+        "nodes": {str(n): {"x": [r.x[k].real, r.x[k].imag], "y": [r.y[k].real, r.y[k].imag],
+                           "zf": [r.zf[k].real, r.zf[k].imag], "zb": [r.zb[k].real, r.zb[k].imag],
+                           "fb": r.fb[k], "phi_deg": math.degrees(r.phi[k])} for k, n in enumerate(r.nodes)},
+        "natural_frequencies_hz": modal.damped_frequencies_hz,
+        "damping_ratios": modal.damping_ratios,
+        "whirl": list(modal.whirl),
+        "stable": modal.stable,
+    }
+    if bearings_out is not None:
+        out["bearings"] = bearings_out
+    out["seconds"] = time.perf_counter() - t0
+    return out
+
+
+def run_simulate(args) -> dict:
+    from ..signals.records import write_record
+    from ..signals.synthesize import synthesize_record
+
+    t0 = time.perf_counter()
+    machine = load_machine(args.machine)
+    speed_hz = _speed(machine, args.speed_hz)
+    nodes = nodes_arg(args.nodes) if args.nodes else tuple(machine.center_nodes)
+    if len(nodes) != 2:
+        raise InputError(f"--nodes {args.nodes!r}: a record has exactly two measurement planes")
+    snr = None if args.snr_db.strip().lower() == "none" else finite_float_or_error(args.snr_db, "--snr-db")
+    out = Path(args.output)
+    if out.suffix.lower() not in (".csv", ".npz", ".mat"):
+        raise InputError(f"-o {out}: expected a .csv, .npz or .mat file name")
+    if not out.parent.exists():
+        raise InputError(f"-o {out}: folder {out.parent} does not exist")
+    rec = synthesize_record(machine, _flows(args), nodes=nodes, snr_db=snr,
+                            rng=np.random.default_rng(args.seed), duration_s=args.duration_s,
+                            total_s=args.total_s, sample_rate_hz=args.sample_rate_hz, speed_hz=speed_hz,
+                            method=args.method)
+    write_record(rec, out)
+    return {"file": str(out), "q1_mlmin": args.q1_mlmin, "q2_mlmin": args.q2_mlmin, "nodes": list(nodes),
+            "snr_db": snr, "seed": args.seed, "n_samples": rec.n_samples, "duration_s": rec.duration,
+            "sample_rate_hz": rec.sample_rate_hz, "speed_hz": speed_hz, "method": args.method,
+            "seconds": time.perf_counter() - t0}
+
+
+def finite_float_or_error(text: str, flag: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise InputError(f"{flag} {text!r}: expected a number in dB or 'none'") from None
+    if not math.isfinite(v):
+        raise InputError(f"{flag} {text!r}: expected a finite number in dB or 'none'")
+    return v

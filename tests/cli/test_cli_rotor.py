@@ -1,0 +1,85 @@
+"""`lubeviz response` and `lubeviz simulate`: the SPEC §7 contract."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from lubeviz.cli.main import main
+from lubeviz.signals import read_record, record_features
+
+
+def run(capsys, *argv):
+    code = main(list(argv))
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_response_with_coefficients_file_matches_the_api(capsys, tmp_path, machine):
+    from lubeviz.rotor import isotropic, machine_unbalance, rotor_from_machine, unbalance_response
+
+    K, C = isotropic(1.5e8, 8e5)
+    path = tmp_path / "c.json"
+    path.write_text(json.dumps({"bearings": [{"K": K.tolist(), "C": C.tolist()}] * 2}))
+    code, out, _ = run(capsys, "response", "--coefficients", str(path), "--nodes", "6,20", "--json")
+    assert code == 0
+    data = json.loads(out)
+    assert set(data["nodes"]) == {"6", "20"}
+    ref = unbalance_response(rotor_from_machine(machine), 2 * math.pi * 75, machine_unbalance(machine),
+                             [(K, C)] * 2, nodes=(6, 20))
+    assert data["nodes"]["6"]["x"] == pytest.approx([ref.x[0].real, ref.x[0].imag], rel=1e-12)
+    assert data["nodes"]["20"]["fb"] == pytest.approx(ref.fb[1], rel=1e-12)
+    assert {"natural_frequencies_hz", "damping_ratios"} <= set(data)
+    # isotropic supports: circular orbits at the bearings (fb = inf is reported as null, never NaN)
+    assert data["nodes"]["6"]["fb"] is None or data["nodes"]["6"]["fb"] > 1e6
+
+
+def test_response_on_film_bearings_reports_each_node(capsys):
+    code, out, _ = run(capsys, "response", "--q1-mlmin", "450", "--q2-mlmin", "600", "--json")
+    assert code == 0
+    data = json.loads(out)
+    assert set(data["nodes"]) == {"5", "6", "20", "21"}
+    node = data["nodes"]["6"]
+    zf, zb = complex(*node["zf"]), complex(*node["zb"])
+    assert node["fb"] == pytest.approx(abs(zf) / abs(zb), rel=1e-12)
+    assert [b["q_mlmin"] for b in data["bearings"]] == pytest.approx([450.0, 600.0])
+    assert data["bearings"][0]["eccentricity_ratio"] > data["bearings"][1]["eccentricity_ratio"]  # starved
+
+
+def test_simulate_writes_a_record_with_the_models_features(capsys, tmp_path):
+    path = tmp_path / "rec.npz"
+    code, out, _ = run(capsys, "simulate", "--q1-mlmin", "450", "--q2-mlmin", "600", "--snr-db", "none",
+                       "--duration-s", "1", "--total-s", "6", "-o", str(path), "--json")
+    assert code == 0 and json.loads(out)["n_samples"] == 10_000
+    rec = read_record(path)
+    code, out, _ = run(capsys, "response", "--q1-mlmin", "450", "--q2-mlmin", "600", "--nodes", "6,20", "--json")
+    model = json.loads(out)["nodes"]
+    feats = record_features(rec)
+    assert [p.fb for p in feats.planes] == pytest.approx([model["6"]["fb"], model["20"]["fb"]], rel=1e-5)
+    assert np.degrees([p.phi for p in feats.planes]) == pytest.approx(
+        [model["6"]["phi_deg"], model["20"]["phi_deg"]], abs=1e-4)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["response", "--q1-mlmin", "450"], "--q2-mlmin"),
+    (["response", "--q1-mlmin", "0", "--q2-mlmin", "450"], "--q1-mlmin 0"),
+    (["response", "--coefficients", "/nonexistent.json"], "no such file"),
+    (["response", "--q1-mlmin", "450", "--q2-mlmin", "450", "--speed-hz", "900"], "range"),
+    (["response", "--q1-mlmin", "450", "--q2-mlmin", "450", "--nodes", "6,x"], "--nodes"),
+    (["response", "--q1-mlmin", "450", "--q2-mlmin", "450", "--nodes", "6,99"], "node 99"),
+    (["simulate", "--q1-mlmin", "450", "--q2-mlmin", "450", "-o", "rec.txt"], ".csv, .npz or .mat"),
+    (["simulate", "--q1-mlmin", "450", "--q2-mlmin", "450", "--snr-db", "loud", "-o", "r.csv"], "--snr-db"),
+    (["simulate", "--q1-mlmin", "450", "--q2-mlmin", "450", "--nodes", "6", "-o", "r.csv"], "two"),
+])
+def test_bad_rotor_cli_input_exits_2_with_one_line(capsys, argv, words):
+    code, out, err = run(capsys, *argv)
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and words in err
+
+
+def test_bad_coefficient_file_is_named(capsys, tmp_path):
+    path = tmp_path / "c.json"
+    path.write_text(json.dumps({"bearings": [{"K": [[1, 2], [3]], "C": [[0, 0], [0, 0]]}]}))
+    code, _, err = run(capsys, "response", "--coefficients", str(path))
+    assert code == 2 and "c.json" in err and "K" in err
