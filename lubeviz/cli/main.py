@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 
 from ..errors import LubevizError
-from . import bench_cmd, film_cmd, rotor_cmd
+from . import bench_cmd, film_cmd, identify_cmd, rotor_cmd
 from .common import EXIT_BAD_INPUT, Parser, emit
 
 
@@ -14,6 +14,7 @@ def build_parser() -> Parser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     film_cmd.register(sub)
     rotor_cmd.register(sub)
+    identify_cmd.register(sub)
     bench_cmd.register(sub)
     return parser
 
@@ -27,8 +28,9 @@ def main(argv=None) -> int:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         sys.stderr.write(f"lubeviz {args.command}: error: {msg}\n")
         return EXIT_BAD_INPUT
-    emit(result, args.json)
-    return 0
+    if not getattr(args, "json_text_done", False):
+        emit(result, args.json)
+    return EXIT_BAD_INPUT if isinstance(result, dict) and result.get("failed") else 0
 
 
 if __name__ == "__main__":

@@ -1,0 +1,75 @@
+"""Measured features of a record and their noise covariance, for the identification.
+
+Each of the four displacement channels (x1, y1, x2, y2, after resolving the probes) gets a
+least-squares 1X fit with its own noise from the record's spectrum (`lubeviz.signals.features`);
+the features are functions of the four complex amplitudes, so their covariance follows by the delta
+method (central differences on the eight real parameters). Non-orthogonal probes correlate the x
+and y noise of a plane; that correlation is neglected here (exact for X/Y probes).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ..signals.features import fit_channels
+from .forward import ALL_FEATURES, feature_vector, wrap_difference
+
+
+@dataclass(frozen=True)
+class MeasuredFeatures:
+    """Feature values (in `names` order), their covariance, and the fitted 1X amplitudes x, y (2 planes)."""
+
+    names: tuple[str, ...]
+    values: np.ndarray
+    cov: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    nodes: tuple[int, int]
+    speed_hz: float
+    line_snr: np.ndarray  # |Zf|, |Zb| of each plane over their noise std: (2 planes, 2)
+
+    @property
+    def std(self) -> np.ndarray:
+        return np.sqrt(np.diag(self.cov))
+
+    def subset(self, names: Sequence[str]) -> "MeasuredFeatures":
+        idx = [self.names.index(n) for n in names]
+        return MeasuredFeatures(names=tuple(names), values=self.values[idx], cov=self.cov[np.ix_(idx, idx)],
+                                x=self.x, y=self.y, nodes=self.nodes, speed_hz=self.speed_hz,
+                                line_snr=self.line_snr)
+
+
+def measure(record, names: Sequence[str] = ALL_FEATURES, *, harmonics: int = 3) -> MeasuredFeatures:
+    """Features of a `Record` for the identification, with the noise covariance."""
+    names = tuple(names)
+    xy = record.xy()
+    fits = fit_channels(xy.reshape(4, -1), record.t, record.speed_hz, harmonics=harmonics,
+                        sample_rate=record.sample_rate_hz)
+    amp = np.array([f.amplitude for f in fits])  # x1, y1, x2, y2
+    x, y = amp[0::2], amp[1::2]
+    p0 = np.concatenate([[a.real, a.imag] for a in amp])
+    cov_p = np.zeros((8, 8))
+    for k, f in enumerate(fits):
+        cov_p[2 * k:2 * k + 2, 2 * k:2 * k + 2] = f.cov
+
+    def g(p):
+        a = p[0::2] + 1j * p[1::2]
+        return feature_vector(a[0::2], a[1::2], names)
+
+    values = g(p0)
+    scale = np.abs(amp).max()
+    J = np.empty((len(names), 8))
+    for k in range(8):
+        h = 1e-6 * scale
+        dp = np.zeros(8)
+        dp[k] = h
+        J[:, k] = wrap_difference(g(p0 + dp) - g(p0 - dp), names) / (2 * h)
+    cov = J @ cov_p @ J.T
+    zf, zb = 0.5 * (x + 1j * y), np.conj(0.5 * (x - 1j * y))
+    z_std = 0.5 * np.sqrt(np.array([np.trace(fits[2 * k].cov) + np.trace(fits[2 * k + 1].cov) for k in range(2)]))
+    snr = np.stack([np.abs(zf) / z_std, np.abs(zb) / z_std], axis=1)
+    return MeasuredFeatures(names=names, values=values, cov=cov, x=x, y=y, nodes=tuple(int(n) for n in record.nodes),
+                            speed_hz=float(record.speed_hz), line_snr=snr)

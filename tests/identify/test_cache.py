@@ -1,0 +1,278 @@
+"""The on-disk table cache: hits without recomputation, a key that tracks every relevant input,
+untrustworthy files rebuilt, never inside the repository, parallel builds identical to serial ones."""
+
+import dataclasses
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import lubeviz
+from lubeviz.errors import InputError
+from lubeviz.identify import cache, tables
+from lubeviz.identify.cache import StaleCacheWarning, cache_dir, cached_table, machine_tables, table_key
+from lubeviz.model.machine import ShaftElement, load_machine
+from lubeviz.progress import Cancelled
+
+POINTS = 9  # few flows (the fewest with a node at Q_T and a spline each side) on a coarse mesh: each table takes well under a second
+REPO = Path(lubeviz.__file__).resolve().parents[1]
+
+
+def coarse_machine():
+    """The paper's machine with a 40 x 20 film mesh (fast; the cache does not care about accuracy)."""
+    m = load_machine()
+    m.bearings = [b.copy(n_circumferential=40, n_axial=20) for b in m.bearings]
+    return m
+
+
+@pytest.fixture
+def builds(monkeypatch):
+    """Counts calls of tables.build_table (the in-process builder the cache uses)."""
+    calls = []
+    original = tables.build_table
+
+    def counting(*args, **kwargs):
+        calls.append(args[1])
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(tables, "build_table", counting)
+    return calls
+
+
+def assert_same_table(a, b):
+    assert a.bearing == b.bearing
+    assert a.omega == b.omega and a.q_threshold == b.q_threshold
+    for name in ("q", "K", "C", "position"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+
+
+def test_cache_hit_returns_the_same_table_without_rebuilding(tmp_path, builds):
+    m = coarse_machine()
+    first = cached_table(m, 0, points=POINTS, directory=tmp_path)
+    assert builds == [0]
+    files = list((tmp_path / "tables").glob("*.npz"))
+    assert [f.stem for f in files] == [first.key] == [table_key(m, 0, points=POINTS)]
+    second = cached_table(m, 0, points=POINTS, directory=tmp_path)
+    assert builds == [0]
+    assert_same_table(first, second)
+    assert second.key == first.key
+    # machine_tables finds bearing 1 in the cache and builds only bearing 2
+    both = machine_tables(m, points=POINTS, directory=tmp_path, workers=1)
+    assert builds == [0, 1]
+    assert_same_table(both[0], first)
+
+
+def _variant(change):
+    m = coarse_machine()
+    change(m)
+    return m
+
+
+def _bearing_change(**values):
+    def change(m):
+        m.bearings = [m.bearings[0].copy(**values), m.bearings[1]]
+    return change
+
+
+def _element_change(m):
+    elements = list(m.elements)
+    elements[11] = ShaftElement(elements[11].length, elements[11].diameter * 1.01)
+    m.elements = elements
+
+
+def test_key_tracks_every_input_that_affects_the_table(monkeypatch):
+    base = table_key(coarse_machine(), 0, points=POINTS)
+    changed = {
+        "viscosity": table_key(_variant(_bearing_change(viscosity=0.1)), 0, points=POINTS),
+        "clearance": table_key(_variant(_bearing_change(clearance=121e-6)), 0, points=POINTS),
+        "mesh": table_key(_variant(_bearing_change(n_circumferential=41)), 0, points=POINTS),
+        "axial mesh": table_key(_variant(_bearing_change(n_axial=22)), 0, points=POINTS),
+        "groove": table_key(_variant(_bearing_change(groove_width=30e-3)), 0, points=POINTS),
+        "speed": table_key(coarse_machine(), 0, 2 * math.pi * 70.0, points=POINTS),
+        "operating speed": table_key(_variant(lambda m: setattr(m, "operating_speed", 80.0)), 0, points=POINTS),
+        "shaft element": table_key(_variant(_element_change), 0, points=POINTS),
+        "disc": table_key(_variant(lambda m: setattr(m, "discs", m.discs[:2])), 0, points=POINTS),
+        "gravity": table_key(_variant(lambda m: setattr(m, "gravity", 9.80)), 0, points=POINTS),
+        "span": table_key(coarse_machine(), 0, span=(0.3, 2.0), points=POINTS),
+        "points": table_key(coarse_machine(), 0, points=POINTS + 1),
+        "bearing": table_key(coarse_machine(), 1, points=POINTS),
+    }
+    with monkeypatch.context() as mp:
+        mp.setattr(lubeviz, "__version__", "0.0.0-test")
+        changed["package version"] = table_key(coarse_machine(), 0, points=POINTS)
+    with monkeypatch.context() as mp:
+        mp.setattr(cache, "TABLE_FORMAT_VERSION", cache.TABLE_FORMAT_VERSION + 1)
+        changed["format version"] = table_key(coarse_machine(), 0, points=POINTS)
+    with monkeypatch.context() as mp:
+        mp.setattr(cache, "solver_version", lambda: "edited solver")
+        changed["solver source"] = table_key(coarse_machine(), 0, points=POINTS)
+    same = [k for k, v in changed.items() if v == base]
+    assert not same, f"key unchanged when these changed: {same}"
+    assert len(set(changed.values())) == len(changed)
+
+
+def test_key_ignores_what_does_not_affect_the_table():
+    base = table_key(coarse_machine(), 0, points=POINTS)
+
+    def unbalance(m):
+        m.unbalance_moment = 2.0e-2
+        m.unbalance_phase = 1.0
+        m.unbalance_node = 10
+
+    for change in (unbalance, lambda m: setattr(m, "shaft_damping_beta", 1e-4),
+                   lambda m: setattr(m, "center_nodes", [5, 21]), lambda m: setattr(m, "source", "")):
+        assert table_key(_variant(change), 0, points=POINTS) == base
+
+
+def test_solver_version_hashes_the_film_sources():
+    digest = cache.solver_version()
+    assert len(digest) == 64 and int(digest, 16) >= 0
+
+
+# --- untrustworthy files ----------------------------------------------------------------------------
+
+def _rewrite(path, **changes):
+    with np.load(path, allow_pickle=False) as z:
+        data = {k: z[k] for k in z.files}
+    data.update(changes)
+    with open(path, "wb") as fh:
+        np.savez(fh, **data)
+
+
+def _stored(path):
+    with np.load(path, allow_pickle=False) as z:
+        return {k: z[k] for k in z.files}
+
+
+def _truncate(path):
+    raw = path.read_bytes()
+    path.write_bytes(raw[: len(raw) // 2])
+
+
+def _garbage(path):
+    path.write_bytes(b"not a zip file at all")
+
+
+def _wrong_key(path):
+    _rewrite(path, key=np.array("0" * 64))
+
+
+def _nan_with_valid_checksum(path):
+    d = _stored(path)
+    K = d["K"].copy()
+    K[2, 0, 1] = np.nan
+    arrays = {k: (K if k == "K" else d[k]) for k in cache._ARRAYS}
+    _rewrite(path, K=K, checksum=np.array(cache._checksum(str(d["key"]), arrays)))
+
+
+def _tampered_value(path):
+    d = _stored(path)
+    C = d["C"].copy()
+    C[1, 1, 1] *= 1.0001
+    _rewrite(path, C=C)
+
+
+def _pickled_object(path):
+    d = _stored(path)
+    d["key"] = np.array([str(d["key"])], dtype=object)
+    with open(path, "wb") as fh:
+        np.savez(fh, **d)
+
+
+def _wrong_shape(path):
+    d = _stored(path)
+    position = d["position"][:-1]
+    arrays = {k: (position if k == "position" else d[k]) for k in cache._ARRAYS}
+    _rewrite(path, position=position, checksum=np.array(cache._checksum(str(d["key"]), arrays)))
+
+
+@pytest.mark.parametrize("damage", [_truncate, _garbage, _wrong_key, _nan_with_valid_checksum, _tampered_value,
+                                    _pickled_object, _wrong_shape])
+def test_untrustworthy_file_is_rebuilt(tmp_path, builds, damage):
+    m = coarse_machine()
+    good = cached_table(m, 0, points=POINTS, directory=tmp_path)
+    path = tmp_path / "tables" / f"{good.key}.npz"
+    damage(path)
+    with pytest.warns(StaleCacheWarning, match=str(path.name)):
+        rebuilt = cached_table(m, 0, points=POINTS, directory=tmp_path)
+    assert builds == [0, 0]
+    assert_same_table(rebuilt, good)
+    again = cached_table(m, 0, points=POINTS, directory=tmp_path)  # the rebuilt file is trusted
+    assert builds == [0, 0]
+    assert_same_table(again, good)
+
+
+def test_file_of_other_inputs_under_this_key_is_rebuilt(tmp_path, builds):
+    """A file renamed to another key's name (or a key collision) is not trusted."""
+    m = coarse_machine()
+    t1 = cached_table(m, 1, points=POINTS, directory=tmp_path)
+    key0 = table_key(m, 0, points=POINTS)
+    (tmp_path / "tables" / f"{t1.key}.npz").rename(tmp_path / "tables" / f"{key0}.npz")
+    with pytest.warns(StaleCacheWarning, match="stored key"):
+        t0 = cached_table(m, 0, points=POINTS, directory=tmp_path)
+    assert builds == [1, 0]
+    assert t0.key == key0
+
+
+# --- where -----------------------------------------------------------------------------------------
+
+def test_cache_dir_is_in_the_user_cache_never_in_the_repository(monkeypatch, tmp_path):
+    monkeypatch.delenv("LUBEVIZ_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert cache_dir() == (tmp_path / "xdg" / "lubeviz").resolve()
+    monkeypatch.setenv("LUBEVIZ_CACHE_DIR", str(tmp_path / "mine"))
+    assert cache_dir() == (tmp_path / "mine").resolve()
+    for inside in (REPO, REPO / ".cache", REPO / "lubeviz" / "identify"):
+        monkeypatch.setenv("LUBEVIZ_CACHE_DIR", str(inside))
+        with pytest.raises(InputError, match="inside the lubeviz source tree"):
+            cache_dir()
+    with pytest.raises(InputError, match="inside the lubeviz source tree"):
+        cached_table(coarse_machine(), 0, points=POINTS, directory=REPO / "tmp-cache")
+    assert not (REPO / "tmp-cache").exists()
+
+
+def test_default_directory_comes_from_the_environment(monkeypatch, tmp_path, builds):
+    monkeypatch.setenv("LUBEVIZ_CACHE_DIR", str(tmp_path))
+    t = cached_table(coarse_machine(), 0, points=POINTS)
+    assert (tmp_path / "tables" / f"{t.key}.npz").is_file()
+
+
+# --- parallel build, progress, cancellation -----------------------------------------------------------
+
+def test_parallel_build_equals_serial_build_and_reports_progress(tmp_path):
+    m = coarse_machine()
+    serial = machine_tables(m, points=POINTS, directory=tmp_path / "serial", workers=1)
+    seen = []
+    parallel = machine_tables(m, points=POINTS, directory=tmp_path / "parallel", workers=2,
+                              progress=lambda done, total, label="": seen.append((done, total)))
+    for a, b in zip(serial, parallel):
+        assert_same_table(a, b)
+        assert a.key == b.key
+    assert seen[-1] == (2 * POINTS, 2 * POINTS)
+    assert all(t == 2 * POINTS for _, t in seen)
+    assert [d for d, _ in seen] == sorted(d for d, _ in seen)
+    # a second call builds nothing: both come from the cache
+    assert_same_table(machine_tables(m, points=POINTS, directory=tmp_path / "parallel")[1], serial[1])
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_cancel_from_progress_stops_the_build(tmp_path, workers):
+    def cancel_soon(done, total, label=""):
+        if done >= 2:
+            raise Cancelled("user pressed stop")
+
+    with pytest.raises(Cancelled):
+        machine_tables(coarse_machine(), points=POINTS, directory=tmp_path, workers=workers, progress=cancel_soon)
+    # no temporary file is left behind, and whatever was stored is a complete, trusted table
+    assert not list(tmp_path.rglob("*.tmp"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", StaleCacheWarning)
+        machine_tables(coarse_machine(), points=POINTS, directory=tmp_path, workers=1)
+
+
+def test_table_key_is_stored_on_the_returned_table(tmp_path):
+    t = cached_table(coarse_machine(), 1, points=POINTS, directory=tmp_path)
+    assert dataclasses.replace(t).key == t.key == table_key(coarse_machine(), 1, points=POINTS)
+    assert t.bearing == 1
