@@ -10,8 +10,11 @@ from .common import add_common, finite_float
 def register(sub) -> None:
     p = sub.add_parser("bench", help="performance figures of BENCHMARKS.md")
     add_common(p)
-    p.add_argument("what", choices=("film", "mesh", "smoothness"),
-                   help="film: solver timings; mesh: mesh study; smoothness: roughness of K, C over Q")
+    p.add_argument("what", choices=("film", "mesh", "smoothness", "identify"),
+                   help="film: solver timings; mesh: mesh study; smoothness: roughness of K, C over Q; "
+                        "identify: tables, one identification (and --reproduce: the 128 cases)")
+    p.add_argument("--reproduce", action="store_true",
+                   help="identify: also time the paper's whole protocol, both locations, both modes (cold tables)")
     p.add_argument("--secant-amplitude-um", type=finite_float, default=None,
                    help="smoothness: use secant coefficients over +-this amplitude (um) instead of the tangent")
     p.add_argument("--repeat", type=int, default=5, help="repetitions (the median is reported)")
@@ -28,4 +31,8 @@ def run_bench(args) -> dict:
         if amp is not None and amp <= 0.0:
             raise ValueError(f"--secant-amplitude-um {amp:g}: expected a positive amplitude")
         return bench_smoothness(args.machine, None if amp is None else amp * 1e-6, progress=StderrBar())
+    if args.what == "identify":
+        from ..identify.bench import bench_identify
+
+        return bench_identify(args.machine, repeat=args.repeat, reproduce_all=args.reproduce, progress=StderrBar())
     return bench_film(args.machine, repeat=args.repeat, progress=StderrBar())

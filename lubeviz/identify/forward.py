@@ -113,6 +113,7 @@ class ForwardModel:
         self._x0_out, self._x0_U = sol[out, 0], sol[self._U, 0]
         self._Z_out, self._W = sol[out, 1:], sol[self._U, 1:]
         self.evaluations = 0
+        self._model_error: dict = {}
 
     def response(self, q1, q2) -> Response:
         """x, y complex amplitudes at the two nodes; q1, q2 broadcast (m^3/s)."""
@@ -183,6 +184,9 @@ class ForwardModel:
         starts to pressurize), which a leave-one-out spline cannot follow, although the full table does.
         """
         names = tuple(names)
+        cache_key = (names, tuple(span), kink)
+        if cache_key in self._model_error:
+            return self._model_error[cache_key]
         cov = np.zeros((len(names), len(names)))
         for k, t in enumerate(self.tables):
             r = t.q / t.q_threshold
@@ -208,6 +212,7 @@ class ForwardModel:
             s = 1.4826 * np.median(np.abs(d), axis=0)
             corr = np.corrcoef(d.T) if len(devs) > 2 else np.eye(len(names))
             cov += np.nan_to_num(corr) * np.outer(s, s)
+        self._model_error[cache_key] = cov
         return cov
 
     def _with_coefficients(self, k: int, K: np.ndarray, C: np.ndarray, q) -> Response:

@@ -1,0 +1,66 @@
+"""`lubeviz bench identify`: tables cold and warm, one identification, the whole 128-case reproduction."""
+
+from __future__ import annotations
+
+import statistics
+import tempfile
+import time
+
+import numpy as np
+
+from ..model.machine import load_machine
+from ..progress import ProgressFn, silent
+from .cache import machine_tables
+from .forward import ALL_FEATURES, ForwardModel
+from .measured import measure
+from .newton import identify
+from .settings import IdentificationSettings
+
+
+def bench_identify(machine_path=None, *, repeat: int = 5, reproduce_all: bool = False,
+                   progress: ProgressFn = silent) -> dict:
+    from ..signals.synthesize import synthesize_record
+    from .reproduce import reproduce
+
+    machine = load_machine(machine_path)
+    out: dict = {"machine": machine.source}
+    with tempfile.TemporaryDirectory(prefix="lubeviz-bench-") as tmp:
+        t0 = time.perf_counter()
+        tables = machine_tables(machine, directory=tmp, progress=progress)
+        out["tables_cold_s"] = time.perf_counter() - t0
+        warm = []
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            machine_tables(machine, directory=tmp)
+            warm.append(time.perf_counter() - t0)
+        out["tables_warm_s"] = statistics.median(warm)
+        out["table_points"] = int(tables[0].q.size)
+        t0 = time.perf_counter()
+        model = ForwardModel(machine, tables, tuple(machine.center_nodes))
+        out["forward_model_setup_s"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        for _ in range(1000):
+            model.features(450 / 6e7, 600 / 6e7, ALL_FEATURES)
+        out["one_model_evaluation_s"] = (time.perf_counter() - t0) / 1000
+        g = np.linspace(0.25, 2.0, 100)
+        t0 = time.perf_counter()
+        model.features(g[:, None] * model.q_threshold[0], g[None, :] * model.q_threshold[1], ALL_FEATURES)
+        out["map_100x100_s"] = time.perf_counter() - t0
+        rec = synthesize_record(machine, (448.5 / 6e7, 604.5 / 6e7), rng=np.random.default_rng(0))
+        for mode in ("paper", "best"):
+            times = []
+            for _ in range(repeat):
+                t0 = time.perf_counter()
+                identify(model, measure(rec, ALL_FEATURES), IdentificationSettings(mode=mode))
+                times.append(time.perf_counter() - t0)
+            out[f"identification_{mode}_s"] = statistics.median(times)
+        if reproduce_all:
+            for loc in ("center", "outside"):
+                t0 = time.perf_counter()
+                r = reproduce(machine, loc, tables=tables, progress=progress)
+                out[f"reproduce_{loc}"] = {mode: {k: v for k, v in summ.items() if k != "cases"}
+                                           for mode, (_, summ) in r["results"].items()}
+                out[f"reproduce_{loc}_s"] = time.perf_counter() - t0
+            out["reproduce_all_with_cold_tables_s"] = (out["tables_cold_s"] + out["reproduce_center_s"]
+                                                       + out["reproduce_outside_s"])
+    return out
