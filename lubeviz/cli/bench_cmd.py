@@ -10,9 +10,12 @@ from .common import add_common, finite_float
 def register(sub) -> None:
     p = sub.add_parser("bench", help="performance figures of BENCHMARKS.md")
     add_common(p)
-    p.add_argument("what", choices=("film", "mesh", "smoothness", "identify"),
+    p.add_argument("what", choices=("film", "mesh", "smoothness", "rotor", "stability", "identify"),
                    help="film: solver timings; mesh: mesh study; smoothness: roughness of K, C over Q; "
+                        "rotor: assembly, response, modes, 15 s record (ROSS alongside); stability: critical speed and "
+                        "instability threshold across 50-150 %% Q_T; "
                         "identify: tables, one identification (and --reproduce: the 128 cases)")
+    p.add_argument("--no-ross", action="store_true", help="rotor: skip the side-by-side ROSS timings")
     p.add_argument("--reproduce", action="store_true",
                    help="identify: also time the paper's whole protocol, both locations, both modes (cold tables)")
     p.add_argument("--secant-amplitude-um", type=finite_float, default=None,
@@ -31,6 +34,14 @@ def run_bench(args) -> dict:
         if amp is not None and amp <= 0.0:
             raise ValueError(f"--secant-amplitude-um {amp:g}: expected a positive amplitude")
         return bench_smoothness(args.machine, None if amp is None else amp * 1e-6, progress=StderrBar())
+    if args.what == "rotor":
+        from ..bench_rotor import bench_rotor
+
+        return bench_rotor(args.machine, repeat=args.repeat, include_ross=not args.no_ross, progress=StderrBar())
+    if args.what == "stability":
+        from ..bench_rotor import bench_stability
+
+        return bench_stability(args.machine, progress=StderrBar())
     if args.what == "identify":
         from ..identify.bench import bench_identify
 
