@@ -85,7 +85,12 @@ def bench_mesh(machine_file=None) -> dict:
 
 def bench_smoothness(machine_file=None, secant_amplitude: float | None = None,
                      progress: ProgressFn = silent) -> dict:
-    """Roughness of equilibrium, K and C over 273..819 ml/min in 1 ml/min steps (see film.roughness)."""
+    """Roughness of equilibrium, K and C over 273..819 ml/min in 1 ml/min steps (see film.roughness).
+
+    Reports the fixed-pattern tangent (the old figure, key "fixed-pattern") and the smoothed-
+    complementarity tangent (key "smoothed", film.smoothed) at the same equilibria; with
+    `secant_amplitude` (m) also the secant coefficients (key "secant").
+    """
     from .film.roughness import supply_roughness
 
     machine = load_machine(machine_file)

@@ -19,6 +19,7 @@ from ..errors import InputError
 from ..model.bearing import Bearing
 from .feed import Feed, setup_problem
 from .linearize import DynamicCoefficients, fixed_pattern_coefficients, force_jacobian
+from .smoothed import DEFAULT_SMOOTHING, smoothed_coefficients
 from .solver import FilmSolution, solve
 
 MAX_ECCENTRICITY = 0.995
@@ -74,14 +75,26 @@ def initial_position(bearing: Bearing, omega: float, load: np.ndarray) -> np.nda
     return np.array([e * math.cos(ang), e * math.sin(ang)])
 
 
+COEFFICIENT_METHODS = ("fixed-pattern", "smoothed")
+
+
 def find_equilibrium(bearing: Bearing, omega: float, load, feed: Feed, *,
                      start=None, warm: FilmSolution | None = None, tol: float = 1e-9,
-                     max_iter: int = 40) -> Equilibrium:
+                     max_iter: int = 40, coefficients: str = "fixed-pattern",
+                     smoothing: float | None = None) -> Equilibrium:
     """Journal position where the film force balances `load` (N, external, on the journal).
 
     `start` (position) and `warm` (a film solution, for its cavitation pattern) speed up sweeps.
+    `coefficients` chooses how K and C are computed at the equilibrium:
+    - "fixed-pattern" (default): derivative of the exact discrete film with the cavitation pattern
+      held (linearize.py); exact, ~1 ms, but it jumps by up to ~1-2 % whenever one cell changes state.
+    - "smoothed": derivative of the film with Eq. 6 smoothed to P (1 - theta) = `smoothing`
+      (smoothed.py; default smoothing.DEFAULT_SMOOTHING); smoother along a supply sweep, ~50 ms.
+    The equilibrium position itself is always that of the exact film.
     Does not raise on non-convergence: the result says so (`converged`, `message`).
     """
+    if coefficients not in COEFFICIENT_METHODS:
+        raise InputError(f"coefficient method {coefficients!r}; expected one of {COEFFICIENT_METHODS}")
     t0 = time.perf_counter()
     load = np.asarray(load, dtype=float)
     if load.shape != (2,) or not np.all(np.isfinite(load)):
@@ -129,7 +142,9 @@ def find_equilibrium(bearing: Bearing, omega: float, load, feed: Feed, *,
         message = f"converged in {it - 1} Newton steps"
     elif not message:
         message = f"equilibrium force error {np.hypot(*g) / w:.3g} (relative) after {max_iter} Newton steps"
-    if sol.linear is not None:
+    if sol.linear is not None and coefficients == "smoothed" and sol.converged:
+        coef = smoothed_coefficients(sol, DEFAULT_SMOOTHING if smoothing is None else smoothing)
+    elif sol.linear is not None:
         coef = fixed_pattern_coefficients(sol)
     else:
         nan = np.full((2, 2), np.nan)

@@ -29,8 +29,11 @@ class SupplySweep:
 
 
 def sweep_supply(bearing: Bearing, omega: float, load, flows, *, progress: ProgressFn = silent,
-                 keep: list | None = None) -> SupplySweep:
+                 keep: list | None = None, coefficients: str = "fixed-pattern",
+                 smoothing: float | None = None) -> SupplySweep:
     """Equilibria at every flow in `flows` (m^3/s), each warm-started from its neighbour.
+
+    `coefficients` ("fixed-pattern" or "smoothed") and `smoothing`: see find_equilibrium.
 
     Raises ConvergenceError naming the flow if one equilibrium fails. `keep`, if a list, receives
     the Equilibrium objects (for views that need the fields).
@@ -42,7 +45,8 @@ def sweep_supply(bearing: Bearing, omega: float, load, flows, *, progress: Progr
     for n, k in enumerate(order):
         eq = find_equilibrium(bearing, omega, load, Feed.flow(flows[k]),
                               start=None if prev is None else prev.position,
-                              warm=None if prev is None else prev.film)
+                              warm=None if prev is None else prev.film,
+                              coefficients=coefficients, smoothing=smoothing)
         if not eq.converged:
             raise ConvergenceError(f"equilibrium at supply {flows[k] * 6e7:.4g} ml/min: {eq.message}")
         out[k] = prev = eq
