@@ -54,8 +54,7 @@ def run_identify(args) -> dict:
     from ..identify.batch import identify_files
 
     t0 = time.perf_counter()
-    bar = StderrBar() if len(args.files) > 1 or not args.json else StderrBar()
-    results = identify_files(args.files, args.machine, args.mode, workers=args.workers, progress=bar)
+    results = identify_files(args.files, args.machine, args.mode, workers=args.workers, progress=StderrBar())
     if len(results) == 1:
         path, item, err = results[0]
         if err is not None:

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import InputError
 from ..progress import ProgressFn, silent
 from ..rotor.assembly import rotor_from_machine
 from ..rotor.film_bearings import FilmBearings, film_bearings
@@ -53,8 +54,6 @@ def location_nodes(machine, location: str) -> tuple[int, int]:
         return tuple(machine.center_nodes)
     if location == "outside":
         return tuple(machine.outside_nodes)
-    from ..errors import InputError
-
     raise InputError(f"--location {location!r}: expected 'center' or 'outside'")
 
 
