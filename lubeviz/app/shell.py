@@ -1,32 +1,54 @@
-"""The dashboard shell. The bearing, rotor, maps and identification pages land with their issues;
-until then the page says what the headless package and the CLI already do."""
+"""The dashboard shell: one template, one tab per page, one set of model objects per browser session.
+
+Each session gets its own `OperatingPoint` and `IdentificationSettings` (so two sessions never share
+state by accident) and shares only deterministic results through `resources`. A page's expensive work
+starts when the page is first shown (tabs render lazily), so the start page appears at once.
+"""
 
 from __future__ import annotations
 
+import asyncio
+
 import panel as pn
 
-from ..model.machine import load_machine
-from ..model.quantity import describe
+from ..model.operating import OperatingPoint
+from ..units import M3S_PER_MLMIN
+from . import resources
+from .bearing_page import BearingPage
 
-INTRO = """
-# lubeviz
+ABOUT = """
+## lubeviz
+How well is each hydrodynamic bearing of a machine lubricated? lubeviz answers from the shaft's
+vibration alone: a mass-conserving film model whose oil **supply flow** is an input, a finite-element
+rotor, the **full spectrum** of the shaft's orbit (forward and backward whirl), and a search for the two
+supply flows Q1, Q2 that make the model's orbit features match the measured ones (Oliveira, Cunha &
+Daniel; see the README).
 
-Identify how well each hydrodynamic bearing of a machine is lubricated from the shaft's vibration.
+* **Bearing**: the oil film of one bearing as its supply goes from starved to flooded.
+* **Rotor**: the machine, its orbits, signals and full spectra, modes and Campbell diagram.
+* **Maps**: how the orbit features depend on Q1 and Q2, and the identification's search on them.
+* **Identify**: upload a measured record and get the flows, their uncertainty and a verdict.
 
-**Available now** (headless API and command line): the mass-conserving p-θ film model of the paper's
-bearing with a prescribed oil supply, flooded or plain feed; static equilibrium; the eight dynamic
-coefficients; the flooded threshold Q_T. Try `lubeviz bearing --q-mlmin 400 --json`.
-
-**Coming next**: the bearing page (pressure and oil-fraction fields under a supply slider), the rotor
-page (orbits, full spectra, Campbell diagram), the Q1 × Q2 maps and the identification of uploaded records.
+Everything shown here is also a Python API and a command (`lubeviz --help`).
 """
 
 
 def build() -> pn.template.FastListTemplate:
-    machine = load_machine()
-    bearing = machine.bearings[0]
-    details = pn.pane.Markdown(
-        "### The paper's bearing\n```\n" + describe(bearing) + "\n```\n"
-        f"Machine file: `{machine.source}`", sizing_mode="stretch_width")
+    machine = resources.machine()
+    q_t = machine.reference.get("flooded_threshold_mlmin", 546.0) * M3S_PER_MLMIN
+    op = OperatingPoint(speed=machine.operating_speed, q1=q_t, q2=q_t, name="operating point")
+    pages = {"Bearing": BearingPage(machine, op)}
+    tabs = pn.Tabs(*[(name, page) for name, page in pages.items()],
+                   ("About", pn.pane.Markdown(ABOUT, sizing_mode="stretch_width")),
+                   dynamic=True, sizing_mode="stretch_width", css_classes=["lubeviz-pages"])
+    names = list(pages)
+
+    def start(index: int):
+        if index < len(names) and hasattr(pages[names[index]], "start"):
+            asyncio.ensure_future(pages[names[index]].start())
+
+    tabs.param.watch(lambda e: start(e.new), "active")
+    pn.state.onload(lambda: start(tabs.active))
     return pn.template.FastListTemplate(
-        title="lubeviz", main=[pn.pane.Markdown(INTRO, sizing_mode="stretch_width"), details])
+        title="lubeviz — bearing lubrication from shaft vibration", main=[tabs],
+        accent_base_color="#2c5f8a", header_background="#2c5f8a")

@@ -1,0 +1,132 @@
+"""Results shared by every browser session of one server: the machine, its coefficient tables, the
+bearing frames of the Bearing page, forward models. All deterministic, so sharing them is safe: a
+second session, or a revisit, gets them instantly. Each is computed once (a per-key lock stops two
+sessions computing the same thing at once); the coefficient tables are also cached on disk by
+`identify.cache`. Nothing here is numeric: it calls the headless package and keeps what it returns.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections import OrderedDict
+
+import numpy as np
+
+from ..film.equilibrium import flooded_threshold
+from ..film.explore import SupplyFrame, supply_frame
+from ..identify.cache import machine_tables
+from ..identify.forward import ForwardModel
+from ..model.machine import Machine, load_machine
+from ..progress import ProgressFn, silent
+from ..rotor.assembly import Rotor, rotor_from_machine
+from ..rotor.statics import bearing_static_loads
+from ..units import M3S_PER_MLMIN
+
+_LOCK = threading.Lock()
+_KEY_LOCKS: dict = {}
+_MACHINES: dict = {}
+_TABLES: dict = {}
+_MODELS: OrderedDict = OrderedDict()
+_ROTORS: dict = {}
+_THRESHOLDS: dict = {}
+_FRAMES: dict = {}  # (machine source, bearing index, speed) -> {q: SupplyFrame}
+
+FRAME_STEP_MLMIN = 10.0  # the Bearing page's supply slider moves on this grid, so frames can be reused
+
+
+def _key_lock(key) -> threading.Lock:
+    with _LOCK:
+        return _KEY_LOCKS.setdefault(key, threading.Lock())
+
+
+def machine(path=None) -> Machine:
+    """The machine of `path` (default: the paper's), loaded once per server."""
+    key = str(path)
+    with _key_lock(("machine", key)):
+        if key not in _MACHINES:
+            _MACHINES[key] = load_machine(path)
+        return _MACHINES[key]
+
+
+def rotor(m: Machine) -> Rotor:
+    with _key_lock(("rotor", m.source)):
+        if m.source not in _ROTORS:
+            _ROTORS[m.source] = rotor_from_machine(m)
+        return _ROTORS[m.source]
+
+
+def tables(m: Machine, speed_hz: float, progress: ProgressFn = silent):
+    """Both bearings' coefficient tables at `speed_hz` (disk cache; built in parallel when missing)."""
+    key = (m.source, round(float(speed_hz), 9))
+    with _key_lock(("tables",) + key):
+        if key not in _TABLES:
+            _TABLES[key] = machine_tables(m, 2.0 * math.pi * speed_hz, progress=progress)
+        return _TABLES[key]
+
+
+def tables_ready(m: Machine, speed_hz: float) -> bool:
+    return (m.source, round(float(speed_hz), 9)) in _TABLES
+
+
+def forward_model(m: Machine, speed_hz: float, nodes, progress: ProgressFn = silent) -> ForwardModel:
+    key = (m.source, round(float(speed_hz), 9), tuple(int(n) for n in nodes))
+    t = tables(m, speed_hz, progress)
+    with _key_lock(("model",) + key):
+        if key not in _MODELS:
+            _MODELS[key] = ForwardModel(m, t, key[2], rotor=rotor(m))
+            while len(_MODELS) > 16:
+                _MODELS.popitem(last=False)
+        return _MODELS[key]
+
+
+def bearing_load(m: Machine, index: int) -> np.ndarray:
+    return bearing_static_loads(m)[index]
+
+
+def flooded_flow(m: Machine, index: int, speed_hz: float, progress: ProgressFn = silent) -> float:
+    """Q_T (m^3/s) of bearing `index` at `speed_hz` under its static load."""
+    key = (m.source, index, round(float(speed_hz), 9))
+    with _key_lock(("qt",) + key):
+        if key not in _THRESHOLDS:
+            progress(0, 1, "flooded threshold Q_T")
+            q, _ = flooded_threshold(m.bearings[index], 2.0 * math.pi * speed_hz, bearing_load(m, index))
+            _THRESHOLDS[key] = q
+            progress(1, 1, "flooded threshold Q_T")
+        return _THRESHOLDS[key]
+
+
+def frame_grid(q_threshold: float, span=(0.25, 2.0)) -> np.ndarray:
+    """The supply flows (m^3/s) the Bearing page offers: multiples of FRAME_STEP_MLMIN over the span of Q_T."""
+    lo, hi = (f * q_threshold / M3S_PER_MLMIN for f in span)
+    step = FRAME_STEP_MLMIN
+    return np.arange(math.ceil(lo / step) * step, hi + 0.5 * step, step) * M3S_PER_MLMIN
+
+
+def snap(q: float) -> float:
+    """A flow (m^3/s) rounded to the frame grid (so two sessions share one frame)."""
+    step = FRAME_STEP_MLMIN * M3S_PER_MLMIN
+    return round(q / step) * step
+
+
+def cached_frames(m: Machine, index: int, speed_hz: float) -> dict[float, SupplyFrame]:
+    """The frames computed so far for this bearing and speed (a live dict: do not modify)."""
+    with _LOCK:
+        return _FRAMES.setdefault((m.source, index, round(float(speed_hz), 9)), {})
+
+
+def frames(m: Machine, index: int, speed_hz: float, flows, progress: ProgressFn = silent) -> dict[float, SupplyFrame]:
+    """Frames at `flows` (m^3/s, snapped to the grid), computing the missing ones warm-started in ascending order."""
+    store = cached_frames(m, index, speed_hz)
+    wanted = sorted({snap(q) for q in flows})
+    missing = [q for q in wanted if q not in store]
+    bearing, load = m.bearings[index], bearing_load(m, index)
+    omega = 2.0 * math.pi * speed_hz
+    warm = None
+    for n, q in enumerate(missing):
+        with _key_lock(("frame", m.source, index, round(float(speed_hz), 9), q)):
+            if q not in store:
+                frame, warm = supply_frame(bearing, omega, load, q, warm=warm)
+                store[q] = frame
+        progress(n + 1, len(missing), f"bearing {index + 1} at {q / M3S_PER_MLMIN:.0f} ml/min")
+    return {q: store[q] for q in wanted}
