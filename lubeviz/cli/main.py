@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 
 from ..errors import LubevizError
-from . import bench_cmd, film_cmd, identify_cmd, rotor_cmd
+from . import bench_cmd, figures_cmd, film_cmd, identify_cmd, rotor_cmd
 from .common import EXIT_BAD_INPUT, Parser, emit
 
 
@@ -16,6 +16,7 @@ def build_parser() -> Parser:
     rotor_cmd.register(sub)
     identify_cmd.register(sub)
     bench_cmd.register(sub)
+    figures_cmd.register(sub)
     return parser
 
 
