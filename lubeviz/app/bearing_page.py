@@ -284,8 +284,8 @@ class BearingPage(pn.viewable.Viewer):
         return (theta * film).opts(**opts)
 
     def _locus(self, data):
-        opts = dict(width=360, height=340, title="Shaft-centre locus (Y up, gravity down)",
-                    data_aspect=1, legend_position="bottom_left", framewise=True)
+        opts = dict(frame_width=300, frame_height=300, title="Shaft-centre locus (Y up, gravity down)",
+                    legend_position="bottom_left", framewise=True)
         kd = ["e_X / c", "e_Y / c"]
         t = np.linspace(0, 2 * math.pi, 181)
         circle = hv.Curve((np.cos(t), np.sin(t)), kd[0], kd[1], label="clearance").opts(color="black", line_width=1)
@@ -303,8 +303,7 @@ class BearingPage(pn.viewable.Viewer):
             color="Q (ml/min)", cmap="viridis", size=4, tools=["hover"])
         threshold = hv.Points(qt_pt, kd, label="Q_T").opts(color="black", size=12, marker="star")
         lim = max(0.3, float(np.abs(pos).max()) * 1.3) if len(pos) else 1.05
-        return (circle * locus * pts * threshold).opts(
-            xlim=(-lim, lim), ylim=(-lim, lim / 3 if len(pos) else lim), **opts)
+        return (circle * locus * pts * threshold).opts(xlim=(-lim, lim), ylim=(-lim, lim), **opts)
 
     def _locus_marker(self, data):
         cur = [] if data is None else [tuple(data.position / data.clearance)]

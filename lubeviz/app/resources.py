@@ -30,7 +30,8 @@ _TABLES: dict = {}
 _MODELS: OrderedDict = OrderedDict()
 _ROTORS: dict = {}
 _THRESHOLDS: dict = {}
-_FRAMES: dict = {}  # (machine source, bearing index, speed) -> {q: SupplyFrame}
+_FRAMES: dict = {}
+_MEMO: OrderedDict = OrderedDict()  # other deterministic results (Campbell diagrams, maps), least recent dropped  # (machine source, bearing index, speed) -> {q: SupplyFrame}
 
 FRAME_STEP_MLMIN = 10.0  # the Bearing page's supply slider moves on this grid, so frames can be reused
 
@@ -130,3 +131,19 @@ def frames(m: Machine, index: int, speed_hz: float, flows, progress: ProgressFn 
                 store[q] = frame
         progress(n + 1, len(missing), f"bearing {index + 1} at {q / M3S_PER_MLMIN:.0f} ml/min")
     return {q: store[q] for q in wanted}
+
+
+def memo_get(key):
+    """A result stored by `memo_put` under `key` (a tuple of every input that affects it), or None."""
+    with _LOCK:
+        if key in _MEMO:
+            _MEMO.move_to_end(key)
+            return _MEMO[key]
+    return None
+
+
+def memo_put(key, value, *, keep: int = 64) -> None:
+    with _LOCK:
+        _MEMO[key] = value
+        while len(_MEMO) > keep:
+            _MEMO.popitem(last=False)

@@ -229,3 +229,13 @@ class ForwardModel:
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Flows the tables cover (m^3/s): (lower per bearing, upper per bearing)."""
         return (np.array([t.q_min for t in self.tables]), np.array([t.q_max for t in self.tables]))
+
+
+def tabled_response(machine, tables: Sequence[CoefficientTable], flows, *, rotor=None, nodes=None):
+    """Steady unbalance response (rotor.response.UnbalanceResponse, all nodes by default) with each
+    bearing's K, C read from its table at its supply flow (m^3/s): the direct solve, for any nodes."""
+    from ..rotor.response import unbalance_response
+
+    rotor = rotor_from_machine(machine) if rotor is None else rotor
+    coefficients = [t.coefficients(float(q)) for t, q in zip(tables, flows)]
+    return unbalance_response(rotor, tables[0].omega, machine_unbalance(machine), coefficients, nodes=nodes)

@@ -59,8 +59,7 @@ def synthesize_record(machine, flows: Sequence[float], *, nodes: Sequence[int] |
         r = unbalance_response(rotor, omega, machine_unbalance(machine), fb.coefficients, nodes=nodes)
         n_keep = int(round(duration_s * sample_rate_hz))
         t = total_s - duration_s + dt * np.arange(1, n_keep + 1)  # the same samples as "time" keeps
-        e = np.exp(1j * omega * t)
-        xy = np.stack([np.stack([(r.x[k] * e).real, (r.y[k] * e).real]) for k in range(len(nodes))])
+        xy = steady_signals(r.x, r.y, omega, t)
     else:
         raise InputError(f"method {method!r}; expected 'time' or 'steady'")
     if snr_db is not None:
@@ -70,3 +69,13 @@ def synthesize_record(machine, flows: Sequence[float], *, nodes: Sequence[int] |
                   machine=Path(machine.source).name if machine.source else None,
                   metadata={"q1_mlmin": f"{flows[0] * 6e7:.6g}", "q2_mlmin": f"{flows[1] * 6e7:.6g}",
                             "snr_db": "none" if snr_db is None else f"{snr_db:g}", "synthetic": "lubeviz simulate"})
+
+
+def steady_signals(x_amp, y_amp, omega: float, t) -> np.ndarray:
+    """Probe signals x(t) = Re(X e^{i Omega t}), y(t) likewise, of steady 1X amplitudes X, Y (one per node).
+
+    Returns shape (n_nodes, 2, n_t): for each node its x and y displacement (units of X, Y).
+    """
+    x_amp, y_amp = np.atleast_1d(x_amp), np.atleast_1d(y_amp)
+    e = np.exp(1j * omega * np.asarray(t, dtype=float))
+    return np.stack([(x_amp[:, None] * e).real, (y_amp[:, None] * e).real], axis=1)
