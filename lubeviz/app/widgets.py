@@ -73,5 +73,4 @@ def link(obj: param.Parameterized, name: str, widget: pn.widgets.Widget, scale: 
 
 def selector(obj: param.Parameterized, name: str, **kwargs) -> pn.widgets.Widget:
     """A widget for a non-Quantity parameter (Selector, Integer, Boolean), linked to it."""
-    p = obj.param[name]
-    return pn.widgets.Widget.from_param(p, name=p.label, description=p.doc, **kwargs)
+    return pn.Param(obj.param, parameters=[name], show_name=False, **kwargs)

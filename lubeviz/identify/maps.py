@@ -338,22 +338,41 @@ def _case_features(machine, model: ForwardModel, q_mlmin, snr_db: float, rng: np
     return measure(rec, ALL_FEATURES)
 
 
-def _identification_map(machine, model, q_mlmin, axes, settings, snr_db, rng, title) -> dict:
+def identification_map(model: ForwardModel, measured: MeasuredFeatures, settings: IdentificationSettings,
+                       axes, *, identification=None, title: str = "") -> dict:
+    """Error maps, root curves and the search paths of one identification from `measured` (Figs. 9-11).
+
+    `identification`: a result already computed from `measured` (else `identify` is run with `settings`).
+    """
     from .newton import identify
 
-    meas = _case_features(machine, model, q_mlmin, snr_db, rng)
-    ident = identify(model, meas, settings)
-    eg = error_grid(model, meas, settings, q1_axis=axes[0], q2_axis=axes[1])
+    ident = identify(model, measured, settings) if identification is None else identification
+    eg = error_grid(model, measured, settings, q1_axis=axes[0], q2_axis=axes[1])
     path_total = [np.abs(_paper_errors(model.features(p[:, 0], p[:, 1], PAPER_FEATURES),
-                                       meas.subset(PAPER_FEATURES).values, PAPER_FEATURES, settings)).sum(axis=-1)
+                                       measured.subset(PAPER_FEATURES).values, PAPER_FEATURES, settings)).sum(axis=-1)
                   for p in ident.paths]
-    return {"title": title, "nodes": tuple(model.nodes), "q_ref": np.array(q_mlmin) / 6e7,
+    return {"title": title, "nodes": tuple(model.nodes),
             "q1": eg.q1, "q2": eg.q2, "q_threshold": eg.q_threshold, "eps": eg.eps, "eps_total": eg.total,
             "cost": eg.cost, "roots": eg.roots(), "reference_features": eg.reference, "phi_scale": eg.phi_scale,
             "paths": list(ident.paths), "paths_total_error": path_total,
             "starts": np.array([p[0] for p in ident.paths]), "q_identified": ident.q,
             "converged": ident.converged, "iterations": ident.iterations, "starts_tried": ident.starts_tried,
-            "message": ident.message}
+            "message": ident.message, "identification": ident}
+
+
+def _identification_map(machine, model, q_mlmin, axes, settings, snr_db, rng, title) -> dict:
+    meas = _case_features(machine, model, q_mlmin, snr_db, rng)
+    out = identification_map(model, meas, settings, axes, title=title)
+    out["q_ref"] = np.array(q_mlmin) / 6e7
+    del out["identification"]
+    return out
+
+
+def simulated_measurement(machine, model: ForwardModel, flows, *, snr_db: float = 12.0,
+                          rng: np.random.Generator) -> MeasuredFeatures:
+    """Features of a record simulated as the paper does (direct film solves, 5 s at 10 kHz, noise) at
+    supply flows `flows` (m^3/s), at the model's nodes."""
+    return _case_features(machine, model, tuple(q * 6e7 for q in flows), snr_db, rng)
 
 
 def paper_figures(machine, *, grid: int = 101, sweep_points: int | None = None, tables=None, seed: int = 2024,
