@@ -15,6 +15,10 @@ from ..model.operating import OperatingPoint
 from ..units import M3S_PER_MLMIN
 from . import resources
 from .bearing_page import BearingPage
+from .identify_page import IdentifyPage
+from .maps_page import MapsPage
+from .rotor_page import RotorPage
+from .session import SessionState
 
 ABOUT = """
 ## lubeviz
@@ -37,7 +41,9 @@ def build() -> pn.template.FastListTemplate:
     machine = resources.machine()
     q_t = machine.reference.get("flooded_threshold_mlmin", 546.0) * M3S_PER_MLMIN
     op = OperatingPoint(speed=machine.operating_speed, q1=q_t, q2=q_t, name="operating point")
-    pages = {"Bearing": BearingPage(machine, op)}
+    state = SessionState(name="session")
+    pages = {"Bearing": BearingPage(machine, op), "Rotor": RotorPage(machine, op),
+             "Maps": MapsPage(machine, op, state), "Identify": IdentifyPage(machine, state)}
     tabs = pn.Tabs(*[(name, page) for name, page in pages.items()],
                    ("About", pn.pane.Markdown(ABOUT, sizing_mode="stretch_width")),
                    dynamic=True, sizing_mode="stretch_width", css_classes=["lubeviz-pages"])

@@ -28,30 +28,8 @@ def register(sub) -> None:
     p.set_defaults(run=run_reproduce)
 
 
-def result_dict(item) -> dict:
-    r = item.result
-    names = list(r.features_names)
-    out = {
-        "file": item.file, "q1_mlmin": r.q[0] * 6e7, "q2_mlmin": r.q[1] * 6e7,
-        "q1_std_mlmin": None if r.q_std is None else r.q_std[0] * 6e7,
-        "q2_std_mlmin": None if r.q_std is None else r.q_std[1] * 6e7,
-        "q_threshold_mlmin": (r.q_threshold * 6e7).tolist(),
-        "verdict": [r.verdict(0), r.verdict(1)],
-        "converged": r.converged, "iterations": r.iterations, "starts_tried": r.starts_tried,
-        "path": (r.path * 6e7).tolist(), "paths": [(p * 6e7).tolist() for p in r.paths],
-        "features_measured": dict(zip(names, r.features_measured.tolist())),
-        "features_model": dict(zip(names, r.features_model.tolist())),
-        "residual": r.residual.tolist(), "total_error": r.total_error, "mode": r.mode,
-        "model_evaluations": r.evaluations, "nodes": list(item.nodes), "speed_hz": item.speed_hz,
-        "unique": r.unique, "alternatives_mlmin": [(a * 6e7).tolist() for a in r.alternatives],
-        "chi2": r.chi2, "dof": r.dof, "p_value": r.p_value, "model_explains_data": r.model_explains_data,
-        "message": r.message, "seconds": r.seconds,
-    }
-    return out
-
-
 def run_identify(args) -> dict:
-    from ..identify.batch import identify_files
+    from ..identify.batch import identify_files, result_dict
 
     t0 = time.perf_counter()
     results = identify_files(args.files, args.machine, args.mode, workers=args.workers, progress=StderrBar())

@@ -37,17 +37,73 @@ def model_for(machine, speed_hz: float, nodes, *, progress: ProgressFn = silent)
     return ForwardModel(machine, tables, nodes)
 
 
+def model_speed(machine, record) -> float:
+    """The speed (Hz) the model is built at for `record`: the machine's operating speed when the record
+    runs at it (to 0.1 %, so its cached tables serve), else the record's own speed."""
+    if abs(record.speed_hz / machine.operating_speed - 1) < 1e-3:
+        return machine.operating_speed
+    return record.speed_hz
+
+
+def identify_record(record, machine=None, settings: IdentificationSettings | None = None, *,
+                    progress: ProgressFn = silent, model: ForwardModel | None = None,
+                    measured=None) -> RecordIdentification:
+    """Identify Q1, Q2 from a `Record` (already read); the model is built at `model_speed` unless given."""
+    machine = load_machine() if machine is None else machine
+    settings = settings or IdentificationSettings()
+    speed = model_speed(machine, record)
+    if model is None or model.nodes != tuple(record.nodes) or abs(model.omega / (2 * math.pi) - speed) > 1e-9:
+        model = model_for(machine, speed, record.nodes, progress=progress)
+    measured = measure(record, ALL_FEATURES) if measured is None else measured
+    result = identify(model, measured, settings)
+    return RecordIdentification(file=str(record.source or "record"), result=result, nodes=tuple(record.nodes),
+                                speed_hz=record.speed_hz)
+
+
 def identify_file(path, machine=None, settings: IdentificationSettings | None = None, *,
                   progress: ProgressFn = silent, model: ForwardModel | None = None) -> RecordIdentification:
     """Read a record (SPEC §6) and identify Q1, Q2. The model is built at the record's speed."""
     machine = load_machine() if machine is None else machine
-    settings = settings or IdentificationSettings()
     rec = read_record(path, default_nodes=tuple(machine.center_nodes))
-    speed = machine.operating_speed if abs(rec.speed_hz / machine.operating_speed - 1) < 1e-3 else rec.speed_hz
-    if model is None or model.nodes != tuple(rec.nodes) or abs(model.omega / (2 * math.pi) - speed) > 1e-9:
-        model = model_for(machine, speed, rec.nodes, progress=progress)
-    result = identify(model, measure(rec, ALL_FEATURES), settings)
-    return RecordIdentification(file=str(path), result=result, nodes=tuple(rec.nodes), speed_hz=rec.speed_hz)
+    out = identify_record(rec, machine, settings, progress=progress, model=model)
+    return RecordIdentification(file=str(path), result=out.result, nodes=out.nodes, speed_hz=out.speed_hz)
+
+
+def result_dict(item: RecordIdentification) -> dict:
+    """The JSON form of an identification (the CLI's `identify --json` record, the app's export)."""
+    r = item.result
+    names = list(r.features_names)
+    return {
+        "file": item.file, "q1_mlmin": r.q[0] * 6e7, "q2_mlmin": r.q[1] * 6e7,
+        "q1_std_mlmin": None if r.q_std is None else r.q_std[0] * 6e7,
+        "q2_std_mlmin": None if r.q_std is None else r.q_std[1] * 6e7,
+        "q_threshold_mlmin": (r.q_threshold * 6e7).tolist(),
+        "verdict": [r.verdict(0), r.verdict(1)],
+        "converged": r.converged, "iterations": r.iterations, "starts_tried": r.starts_tried,
+        "path": (r.path * 6e7).tolist(), "paths": [(p * 6e7).tolist() for p in r.paths],
+        "features_measured": dict(zip(names, r.features_measured.tolist())),
+        "features_model": dict(zip(names, r.features_model.tolist())),
+        "residual": r.residual.tolist(), "total_error": r.total_error, "mode": r.mode,
+        "model_evaluations": r.evaluations, "nodes": list(item.nodes), "speed_hz": item.speed_hz,
+        "unique": r.unique, "alternatives_mlmin": [(a * 6e7).tolist() for a in r.alternatives],
+        "chi2": r.chi2, "dof": r.dof, "p_value": r.p_value, "model_explains_data": r.model_explains_data,
+        "message": r.message, "seconds": r.seconds,
+    }
+
+
+def result_csv(item: RecordIdentification) -> str:
+    """A small CSV of an identification: one row per bearing, then one row per feature."""
+    d = result_dict(item)
+    rows = ["quantity,bearing_or_feature,value,std_or_model"]
+    for k in (1, 2):
+        rows.append(f"supply_flow_mlmin,{k},{d[f'q{k}_mlmin']:.6g},"
+                    f"{'' if d[f'q{k}_std_mlmin'] is None else format(d[f'q{k}_std_mlmin'], '.6g')}")
+        rows.append(f"verdict,{k},{d['verdict'][k - 1]},{d['q_threshold_mlmin'][k - 1]:.6g}")
+    for name, value in d["features_measured"].items():
+        rows.append(f"feature,{name},{value:.9g},{d['features_model'][name]:.9g}")
+    for key in ("mode", "converged", "iterations", "chi2", "p_value", "unique", "speed_hz"):
+        rows.append(f"{key},,{d[key]},")
+    return "\n".join(rows) + "\n"
 
 
 def _worker(path, machine_path, mode):

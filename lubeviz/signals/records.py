@@ -38,6 +38,8 @@ was expected; no numpy or csv traceback reaches the user.
 
 from __future__ import annotations
 
+import dataclasses
+
 import math
 import numbers
 import re
@@ -275,6 +277,30 @@ def read_record(path, *, default_nodes=DEFAULT_NODES) -> Record:
     reader = {".csv": _read_csv, ".npz": _read_npz, ".mat": _read_mat}[suffix]
     columns, meta, extra, origin = reader(path, where)
     return _assemble(columns, meta, extra, origin, default_nodes)
+
+
+def read_record_bytes(content, filename: str, *, default_nodes=DEFAULT_NODES) -> Record:
+    """Read a record uploaded as bytes (or text) under its original `filename` (its suffix gives the format).
+
+    Messages name `filename`, not the temporary file the bytes pass through. The size limit is checked
+    before anything is written.
+    """
+    import tempfile
+
+    name = Path(str(filename)).name or "upload"
+    data = content.encode("utf-8") if isinstance(content, str) else bytes(content or b"")
+    if len(data) > MAX_RECORD_BYTES:
+        raise _fail(name, "file", f"{len(data) / 1e6:.1f} MB is larger than the limit",
+                    f"at most {MAX_RECORD_BYTES / 1e6:g} MB (lubeviz.signals.records.MAX_RECORD_BYTES)")
+    _suffix(Path(name))
+    with tempfile.TemporaryDirectory(prefix="lubeviz-upload-") as tmp:
+        path = Path(tmp) / name
+        path.write_bytes(data)
+        try:
+            rec = read_record(path, default_nodes=default_nodes)
+        except DataFormatError as exc:
+            raise DataFormatError(str(exc).replace(str(path), name)) from None
+    return dataclasses.replace(rec, source=name)
 
 
 def write_record(record: Record, path, *, units: str = "m") -> Path:

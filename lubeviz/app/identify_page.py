@@ -1,0 +1,288 @@
+"""Identify page: upload a measured record, see its signals, orbits and full spectra, identify Q1 and Q2
+with their uncertainty and a verdict, compare model and measured features, export the result.
+
+Display only: reading (`signals.records.read_record_bytes`), features (`identify.measured.measure`),
+the search (`identify.batch.identify_record`) and the export (`identify.batch.result_dict`/`result_csv`)
+are the headless package's.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+from pathlib import Path
+
+import holoviews as hv
+import numpy as np
+import pandas as pd
+import panel as pn
+
+from ..errors import InputError, LubevizError
+from ..identify.batch import identify_record, model_speed, result_csv, result_dict
+from ..identify.measured import measure
+from ..identify.settings import IdentificationSettings
+from ..model.machine import Machine
+from ..progress import Cancelled
+from ..signals.records import MAX_RECORD_BYTES, read_record_bytes
+from ..signals.spectrum import full_spectrum
+from ..units import M3S_PER_MLMIN
+from . import resources
+from .jobs import JobPanel
+from .session import SessionState
+
+hv.extension("bokeh", logo=False)
+
+SAMPLE = Path(__file__).resolve().parents[2] / "assets" / "sample_record.csv"
+UPLOAD_LIMIT_MB = 50  # the browser refuses larger files before sending them (the reader allows more from disk)
+
+EXPLAIN = f"""
+### Identify the supply flows from a record
+Upload a record of shaft vibration at one steady speed: two measurement planes, each with an X and a Y
+proximity probe (CSV, NumPy `.npz` or MATLAB `.mat`; SPEC §6 of the README: `# speed_hz: 75`,
+`# sample_rate_hz: 10000`, `# units: um`, then columns `x1, y1, x2, y2`). Files up to {UPLOAD_LIMIT_MB} MB.
+Or load the sample record (machine of the paper, bearings fed 420 and 600 ml/min, 12 dB noise).
+
+**Best mode** (default) fits all the orbit's invariants, weighted by the noise measured in the record,
+and gives each flow a 1σ uncertainty; its χ² test says whether the model explains the record at all.
+**Paper mode** is the method of the paper (Eq. 11 errors, Newton from 3 × 3 starts). The search paths are
+drawn on the Maps page (choose "the record of the Identify page" there).
+"""
+
+
+def _verdict_text(v: str) -> str:
+    return {"starved": "🟠 starved", "normal": "🟢 normal", "over-supplied": "🔵 over-supplied"}.get(v, v)
+
+
+class IdentifyPage(pn.viewable.Viewer):
+    """The Identify page of one session."""
+
+    def __init__(self, machine: Machine, state: SessionState, **params):
+        super().__init__(**params)
+        self.machine = machine
+        self.state = state
+        self.settings = IdentificationSettings(name="identification")
+        self.jobs = JobPanel()
+        self._item = None
+        self._upload = pn.widgets.FileDropper(
+            accepted_filetypes=[".csv", ".npz", ".mat", "text/csv", "application/octet-stream"],
+            max_file_size=f"{UPLOAD_LIMIT_MB}MB", multiple=False, sizing_mode="stretch_width",
+            css_classes=["lubeviz-upload"])
+        self._upload.param.watch(self._on_upload, "value")
+        self._sample = pn.widgets.Button(name="Load the sample record", button_type="default",
+                                         css_classes=["lubeviz-sample"])
+        self._sample.on_click(self._on_sample)
+        self._run = pn.widgets.Button(name="Identify Q1 and Q2", button_type="primary", disabled=True,
+                                      css_classes=["lubeviz-identify"])
+        self._run.on_click(self._on_run)
+        self._record_info = pn.pane.Markdown("No record yet.", sizing_mode="stretch_width",
+                                             css_classes=["lubeviz-record-info"])
+        self._message = pn.pane.Alert("", alert_type="danger", visible=False, sizing_mode="stretch_width",
+                                      css_classes=["lubeviz-upload-error"])
+        self._result = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["lubeviz-result"])
+        self._warning = pn.pane.Alert("", alert_type="warning", visible=False, sizing_mode="stretch_width",
+                                      css_classes=["lubeviz-model-warning"])
+        self._features = pn.widgets.Tabulator(None, disabled=True, show_index=False, sizing_mode="stretch_width",
+                                              visible=False, css_classes=["lubeviz-features"])
+        self._download_json = pn.widgets.FileDownload(callback=self._export_json, filename="identification.json",
+                                                      label="Export JSON", button_type="success", disabled=True,
+                                                      css_classes=["lubeviz-export-json"])
+        self._download_csv = pn.widgets.FileDownload(callback=self._export_csv, filename="identification.csv",
+                                                     label="Export CSV", button_type="success", disabled=True)
+        self._signals = pn.pane.HoloViews(None, sizing_mode="stretch_width", linked_axes=False)
+        self._orbits = pn.pane.HoloViews(None, sizing_mode="stretch_width", linked_axes=False,
+                                         css_classes=["lubeviz-record-orbits"])
+        self._spectra = pn.pane.HoloViews(None, sizing_mode="stretch_width", linked_axes=False,
+                                          css_classes=["lubeviz-record-spectra"])
+        settings = pn.Param(self.settings.param, parameters=["mode", "include_model_error", "max_iterations"],
+                            show_name=False)
+        controls = pn.Column("### Record", self._upload, self._sample, self._record_info, "### Identification",
+                             settings, self._run, self.jobs, pn.Row(self._download_json, self._download_csv),
+                             width=340)
+        results = pn.Column(self._message, self._result, self._warning, self._features,
+                            sizing_mode="stretch_width")
+        self._layout = pn.Column(
+            pn.Row(controls, pn.Column(results, self._orbits, sizing_mode="stretch_width"),
+                   sizing_mode="stretch_width"),
+            self._spectra, self._signals, pn.pane.Markdown(EXPLAIN, sizing_mode="stretch_width"),
+            sizing_mode="stretch_width")
+
+    def __panel__(self):
+        return self._layout
+
+    # --- loading ----------------------------------------------------------------------------------------
+    def _show_error(self, text: str):
+        self._message.object = text
+        self._message.visible = True
+
+    async def _load(self, content, filename: str):
+        self._message.visible = False
+        try:
+            record, measured = await self.jobs.run(self._read, content, filename, label=f"reading {filename}",
+                                                   quiet=True)
+        except Cancelled:
+            return
+        except LubevizError as exc:
+            self._show_error(f"**The record was not loaded.** {exc}")
+            return
+        except Exception as exc:  # noqa: BLE001 - never let a bad upload stop the app
+            self._show_error(f"**The record was not loaded.** {filename}: unexpected problem: {exc}")
+            return
+        self.state.record, self.state.measured = record, measured
+        self.state.identification = None
+        self._item = None
+        self._result.object = ""
+        self._warning.visible = self._features.visible = False
+        self._download_json.disabled = self._download_csv.disabled = True
+        self._run.disabled = False
+        self._record_info.object = self._info(record, measured)
+        self._draw_record(record, measured)
+
+    def _read(self, content, filename, progress):
+        record = read_record_bytes(content, filename, default_nodes=tuple(self.machine.center_nodes))
+        return record, measure(record)
+
+    async def _on_upload(self, event):
+        files = event.new or {}
+        if not files:
+            return
+        filename, content = next(iter(files.items()))
+        size = len(content) if content is not None else 0
+        if size > MAX_RECORD_BYTES:
+            self._show_error(f"**The record was not loaded.** {filename}: {size / 1e6:.1f} MB is too large")
+            return
+        await self._load(content, filename)
+
+    async def _on_sample(self, event):
+        await self._load(SAMPLE.read_bytes(), SAMPLE.name)
+
+    def _info(self, record, measured) -> str:
+        n = record.displacement.shape[-1]
+        dur = n / record.sample_rate_hz
+        snr = measured.line_snr
+        return "\n".join([
+            f"**{record.source}**", "",
+            f"speed {record.speed_hz:g} Hz; {record.sample_rate_hz:g} samples/s; {dur:.2f} s "
+            f"({dur * record.speed_hz:.0f} revolutions)", "",
+            f"planes at nodes {record.nodes[0]} and {record.nodes[1]}; probes at "
+            f"{record.probe_angles_deg[0][0]:g}°/{record.probe_angles_deg[0][1]:g}°", "",
+            f"1X lines over noise: forward {snr[0, 0]:.0f}/{snr[1, 0]:.0f}, backward {snr[0, 1]:.0f}/{snr[1, 1]:.0f} σ",
+        ])
+
+    # --- identification ---------------------------------------------------------------------------------
+    async def _on_run(self, event):
+        if self.state.record is None:
+            return
+        record, measured = self.state.record, self.state.measured
+        settings = IdentificationSettings(**{k: getattr(self.settings, k) for k in self.settings.param
+                                             if k != "name"})
+        self._message.visible = False
+        self._run.disabled = True
+        try:
+            item = await self.jobs.run(self._identify, record, measured, settings, label="identification")
+        except Cancelled:
+            return
+        except LubevizError as exc:
+            self._show_error(f"**No identification.** {exc}")
+            return
+        except Exception as exc:  # noqa: BLE001
+            self._show_error(f"**No identification**: unexpected problem: {exc}")
+            return
+        finally:
+            self._run.disabled = False
+        self._item = item
+        self.state.settings = settings
+        self.state.identification = item.result
+        self._download_json.disabled = self._download_csv.disabled = False
+        self._show_result(item)
+
+    def _identify(self, record, measured, settings, progress):
+        speed = model_speed(self.machine, record)
+        if not self.machine.speed_min <= speed <= self.machine.speed_max:
+            raise InputError(f"record speed {speed:g} Hz is outside the model's range "
+                             f"{self.machine.speed_min:g}-{self.machine.speed_max:g} Hz")
+        model = resources.forward_model(self.machine, speed, record.nodes, progress=progress)
+        return identify_record(record, self.machine, settings, model=model, measured=measured, progress=progress)
+
+    def _show_result(self, item):
+        r = item.result
+        q = r.q / M3S_PER_MLMIN
+        qt = r.q_threshold / M3S_PER_MLMIN
+        std = None if r.q_std is None else r.q_std / M3S_PER_MLMIN
+        lines = ["### Identified supply flows", "| bearing | flow | Q_T | Q / Q_T | verdict |", "|---|---|---|---|---|"]
+        for k in range(2):
+            s = "" if std is None else f" ± {std[k]:.1f}"
+            lines.append(f"| {k + 1} (node {self.machine.bearings[k].node}) | **Q{k + 1} = {q[k]:.1f}{s} ml/min** | "
+                         f"{qt[k]:.0f} ml/min | {q[k] / qt[k]:.2f} | {_verdict_text(r.verdict(k))} |")
+        lines.append("")
+        extra = f"{r.mode} mode; {'converged' if r.converged else '**not converged**'} in {r.iterations} iterations, " \
+                f"{r.starts_tried} start(s), {r.evaluations} model evaluations, {r.seconds * 1e3:.0f} ms."
+        if r.chi2 is not None:
+            extra += f" χ² = {r.chi2:.1f} for {r.dof} degrees of freedom (p = {r.p_value:.3g})."
+        lines.append(extra)
+        self._result.object = "\n".join(lines)
+        warn = []
+        if r.model_explains_data is False:
+            warn.append("**The model does not explain this record** (p < 0.001): the flows above are the "
+                        "best fit of a model that misses something (viscosity, load, misalignment, "
+                        "nonlinearity …). Treat them with care.")
+        if not r.unique:
+            alt = "; ".join(f"{a[0] / M3S_PER_MLMIN:.0f} / {a[1] / M3S_PER_MLMIN:.0f} ml/min" for a in r.alternatives)
+            warn.append(f"**Not unique**: other flows fit as well ({alt}).")
+        if not r.converged:
+            warn.append(f"The search did not converge: {r.message}")
+        self._warning.object = "\n\n".join(warn)
+        self._warning.visible = bool(warn)
+        names = list(r.features_names)
+        meas = r.features_measured
+        model = r.features_model
+        std_m = self.state.measured.subset(names).std if self.state.measured is not None else np.full(len(names), np.nan)
+        deg = [n.startswith("phi") or n.startswith("arg") for n in names]
+        conv = np.where(deg, 180 / math.pi, 1.0)
+        self._features.value = pd.DataFrame({
+            "feature": names, "unit": ["deg" if d else "–" for d in deg],
+            "measured": np.round(meas * conv, 5), "± (1σ noise)": np.round(std_m * conv, 5),
+            "model": np.round(model * conv, 5), "difference / σ": np.round((model - meas) / std_m, 2)})
+        self._features.visible = True
+
+    def _export_json(self):
+        return io.StringIO(json.dumps(result_dict(self._item), indent=2)) if self._item else io.StringIO("{}")
+
+    def _export_csv(self):
+        return io.StringIO(result_csv(self._item)) if self._item else io.StringIO("")
+
+    # --- plots ------------------------------------------------------------------------------------------
+    def _draw_record(self, record, measured):
+        xy = record.xy() * 1e6  # (2 planes, 2, n) µm in X, Y
+        t = record.t
+        n_show = min(xy.shape[-1], int(round(5 * record.sample_rate_hz / record.speed_hz)))
+        kd = "t (s)"
+        curves = []
+        for k in range(2):
+            for j, axis in enumerate("xy"):
+                curves.append(hv.Curve((t[:n_show], xy[k, j, :n_show]), kd, "displacement (µm)",
+                                       label=f"{axis}{k + 1} (node {record.nodes[k]})"))
+        self._signals.object = hv.Overlay(curves).opts(title="Probe signals (first 5 revolutions)", responsive=True,
+                                                       min_height=280, legend_position="right")
+        orbits, spectra = [], []
+        th = np.linspace(0, 2 * math.pi, 181)
+        for k in range(2):
+            m = min(xy.shape[-1], 2000)
+            raw = hv.Scatter((xy[k, 0, :m], xy[k, 1, :m]), "x (µm)", "y (µm)", label="samples").opts(
+                size=2, color="#9ecae1")
+            fx = (measured.x[k] * np.exp(1j * th)).real * 1e6
+            fy = (measured.y[k] * np.exp(1j * th)).real * 1e6
+            fit = hv.Curve((fx, fy), "x (µm)", "y (µm)", label="1X fit").opts(color="#08519c", line_width=2)
+            lim = 1.2 * max(float(np.abs(xy[k, :, :m]).max()), 1e-9)
+            orbits.append((raw * fit).opts(title=f"Orbit, plane {k + 1} (node {record.nodes[k]})", frame_width=260,
+                                           frame_height=260, xlim=(-lim, lim), ylim=(-lim, lim),
+                                           legend_position="bottom_right"))
+            spec = full_spectrum(record.complex_signal(k), record.sample_rate_hz, record.speed_hz)
+            f = spec.freq_hz
+            amp = np.abs(spec.amplitude) * 1e6
+            keep = np.abs(f) <= 4.5 * record.speed_hz
+            spectra.append(hv.Spikes((f[keep], amp[keep]), "frequency (Hz)", "amplitude (µm)").opts(
+                title=f"Full spectrum, plane {k + 1} (+ forward, − backward)", responsive=True, min_height=260,
+                line_width=2, color="#2c5f8a"))
+        self._orbits.object = hv.Layout(orbits).cols(2).opts(shared_axes=False)
+        self._spectra.object = hv.Layout(spectra).cols(2).opts(shared_axes=False)
