@@ -19,7 +19,7 @@ from ..model.machine import Machine
 from ..model.operating import OperatingPoint
 from ..progress import Cancelled
 from ..units import M3S_PER_MLMIN
-from . import resources
+from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .widgets import quantity_slider
 
@@ -205,8 +205,12 @@ class BearingPage(pn.viewable.Viewer):
         for i in range(0, len(missing), chunk):
             if (k, speed) != (self.bearing, self.speed):
                 return
-            await self.sweep_jobs.run(resources.frames, self.machine, k, speed, missing[i:i + chunk],
-                                      label=f"sweep {min(i + chunk, len(missing))}/{len(missing)} flows")
+            todo = [q for q in missing[i:i + chunk] if resources.snap(q) not in store]
+            if todo:  # in a worker process: the sweep is pure Python and would slow the event loop
+                new = await self.sweep_jobs.run(
+                    resources.compute_frames, self.machine.source, k, speed, todo, process=True,
+                    label=f"film over Q: {min(i + chunk, len(missing))}/{len(missing)} flows")
+                resources.store_frames(self.machine, k, speed, new)
             self._send_sweep()
         self.sweep_jobs.status = f"{len(grid)} supply flows ready (cached for every session)"
 
@@ -258,8 +262,8 @@ class BearingPage(pn.viewable.Viewer):
 
     def _theta_image(self, data):
         f = data
-        return self._field(f, None if f is None else f.theta, "Oil fraction θ(α, z)", "θ (–)", "Blues_r",
-                           clim=(0.0, 1.0))
+        return self._field(f, None if f is None else f.theta, "Oil fraction θ(α, z) (1: full film)", "θ (–)",
+                           "Blues_r")
 
     def _profile_pressure(self, data):
         opts = dict(responsive=True, min_height=220, title="Mid-plane pressure", framewise=True,

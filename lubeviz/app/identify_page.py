@@ -27,7 +27,7 @@ from ..progress import Cancelled
 from ..signals.records import MAX_RECORD_BYTES, read_record_bytes
 from ..signals.spectrum import full_spectrum
 from ..units import M3S_PER_MLMIN
-from . import resources
+from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .session import SessionState
 

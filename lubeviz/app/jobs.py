@@ -17,7 +17,8 @@ import functools
 import os
 import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
 import panel as pn
 import param
@@ -26,6 +27,20 @@ from ..progress import Cancelled
 
 _WORKERS = max(2, min(8, (os.cpu_count() or 2) * 2))
 EXECUTOR = ThreadPoolExecutor(max_workers=_WORKERS, thread_name_prefix="lubeviz-job")
+_PROCESSES: ProcessPoolExecutor | None = None
+_PROCESS_LOCK = threading.Lock()
+
+
+def process_pool() -> ProcessPoolExecutor:
+    """Worker processes for long pure-Python work (film sweeps, Campbell diagrams): they hold the GIL, so
+    in a thread they would slow the server's event loop and every other session; in a process they cannot.
+    Spawned (forking the threaded server can deadlock), one per core, created on first use."""
+    global _PROCESSES
+    with _PROCESS_LOCK:
+        if _PROCESSES is None:
+            _PROCESSES = ProcessPoolExecutor(max_workers=max(1, min(4, os.cpu_count() or 1)),
+                                             mp_context=multiprocessing.get_context("spawn"))
+        return _PROCESSES
 
 
 class Ticket:
@@ -77,18 +92,24 @@ class JobPanel(pn.viewable.Viewer):
             self._bar.active = True
         self._text.object = f"{label} …"
 
-    async def run(self, fn, *args, label: str = "working", quiet: bool = False, **kwargs):
-        """`fn(*args, progress=..., **kwargs)` in the pool; returns its result.
+    async def run(self, fn, *args, label: str = "working", quiet: bool = False, process: bool = False,
+                  **kwargs):
+        """`fn(*args, progress=..., **kwargs)` in the thread pool; returns its result.
 
         Raises progress.Cancelled if this request was cancelled or superseded. `quiet`: do not show the
         progress bar (for jobs expected to finish in well under a second), only the status text at the end.
+        `process`: run `fn(*args, **kwargs)` (a picklable module-level function, no progress argument) in
+        the process pool instead; its progress shows as indeterminate and Cancel discards its result.
         """
         if self._ticket is not None:
             self._ticket.cancelled.set()  # latest wins
         ticket = self._ticket = Ticket(label)
         loop = asyncio.get_running_loop()
-        call = functools.partial(fn, *args, progress=ticket.progress, **kwargs)
-        future = loop.run_in_executor(EXECUTOR, call)
+        if process:
+            future = asyncio.wrap_future(process_pool().submit(fn, *args, **kwargs))
+        else:
+            call = functools.partial(fn, *args, progress=ticket.progress, **kwargs)
+            future = loop.run_in_executor(EXECUTOR, call)
         self.busy = True
         shown = False
         try:

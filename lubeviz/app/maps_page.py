@@ -17,7 +17,7 @@ from ..model.machine import Machine
 from ..model.operating import OperatingPoint
 from ..progress import Cancelled
 from ..units import M3S_PER_MLMIN
-from . import resources
+from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .session import SessionState
 from .widgets import selector
@@ -167,8 +167,9 @@ class MapsPage(pn.viewable.Viewer):
         layers = [img]
         for name, curves in r["roots"].items():
             paths = [c / M3S_PER_MLMIN for c in curves]
-            layers.append(hv.Path(paths, kd, label=f"ε_{name} = 0").opts(color=ROOT_COLORS.get(name, "cyan"),
-                                                                        line_width=2))
+            # hv.Path has no legend entry in bokeh; the root curves are drawn as Contours, which do.
+            layers.append(hv.Contours(paths, kd, label=f"ε_{name} = 0").opts(
+                color=ROOT_COLORS.get(name, "cyan"), line_width=2, show_legend=True))
         for k, p in enumerate(r["paths"][: self.starts_shown]):
             p = np.asarray(p) / M3S_PER_MLMIN
             c = PATH_COLORS[k % len(PATH_COLORS)]
@@ -203,8 +204,8 @@ class MapsPage(pn.viewable.Viewer):
             pt = r.get("q_ref")
             marks = hv.Points([] if pt is None else [tuple(pt / M3S_PER_MLMIN)], kd).opts(
                 color="red", marker="x", size=12, line_width=3)
-            plots.append((img * marks).opts(title=f"{name} over Q1 × Q2 (Fig. 7)", responsive=True,
-                                            min_height=300))
+            plots.append((img * marks).opts(title=f"{name} over Q1 × Q2 (Fig. 7)", frame_width=260,
+                                            frame_height=220))
         return hv.Layout(plots).cols(4).opts(shared_axes=False)
 
     def _summary_text(self, r) -> str:

@@ -147,3 +147,29 @@ def memo_put(key, value, *, keep: int = 64) -> None:
         _MEMO[key] = value
         while len(_MEMO) > keep:
             _MEMO.popitem(last=False)
+
+
+# --- work for the process pool (module-level, picklable; each worker loads the machine once) -----------
+
+def compute_frames(machine_path: str, index: int, speed_hz: float, flows) -> dict[float, SupplyFrame]:
+    """Frames at `flows` computed in a worker process (warm-started in ascending order); the caller stores
+    them with `store_frames`."""
+    m = machine(machine_path or None)
+    bearing, load = m.bearings[index], bearing_load(m, index)
+    omega = 2.0 * math.pi * speed_hz
+    out, warm = {}, None
+    for q in sorted({snap(q) for q in flows}):
+        out[q], warm = supply_frame(bearing, omega, load, q, warm=warm)
+    return out
+
+
+def store_frames(m: Machine, index: int, speed_hz: float, new: dict) -> None:
+    cached_frames(m, index, speed_hz).update(new)
+
+
+def compute_stability(machine_path: str, speeds, ratios):
+    """The Campbell diagram (rotor.stability.machine_stability) at supply fractions `ratios` of Q_T."""
+    from ..rotor.stability import Supply, machine_stability
+
+    m = machine(machine_path or None)
+    return machine_stability(m, speeds, Supply.threshold_fraction(tuple(ratios)), rotor=rotor(m))

@@ -25,7 +25,7 @@ from ..signals.noise import add_noise
 from ..signals.spectrum import full_spectrum
 from ..signals.synthesize import steady_signals
 from ..units import M3S_PER_MLMIN
-from . import resources
+from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .widgets import quantity_slider
 
@@ -168,17 +168,14 @@ class RotorPage(pn.viewable.Viewer):
     async def _on_campbell(self, event):
         if self._tables is None:
             return
-        from ..rotor.stability import Supply, machine_stability
-
         ratios = tuple(q / t.q_threshold for q, t in zip((self.op.q1, self.op.q2), self._tables))
         speeds = 2 * math.pi * np.linspace(max(self.machine.speed_min, 5.0), self.machine.speed_max, 30)
         key = ("campbell", self.machine.source, tuple(round(r, 3) for r in ratios))
         cached = resources.memo_get(key)
         if cached is None:
             try:
-                cached = await self.campbell_jobs.run(
-                    machine_stability, self.machine, speeds, Supply.threshold_fraction(ratios),
-                    rotor=resources.rotor(self.machine), label="Campbell diagram")
+                cached = await self.campbell_jobs.run(resources.compute_stability, self.machine.source, speeds,
+                                                      ratios, process=True, label="Campbell diagram")
             except Cancelled:
                 return
             except Exception as exc:  # noqa: BLE001
@@ -218,10 +215,11 @@ class RotorPage(pn.viewable.Viewer):
             marker="inverted_triangle", size=14, color="red")
         unb = hv.Points([(xs[m.unbalance_node - 1], 0.0)], ["x (mm)", "radius (mm)"], label="unbalance").opts(
             marker="star", size=14, color="#d62728")
+        x_span, y_span = xs[-1] + 100.0, 2 * top + 130
         return (el * labels * probes * sel * unb).opts(
             title="The machine to scale: shaft, discs, bearings (orange), measurement planes (▼)",
-            responsive=True, data_aspect=1, ylim=(-top - 70, top + 60),
-            legend_position="right", xlabel="axial position x (mm)", ylabel="radius (mm)", framewise=True)
+            responsive=True, aspect=x_span / y_span, xlim=(-50.0, xs[-1] + 50.0), ylim=(-top - 70, top + 60),
+            show_legend=False, xlabel="axial position x (mm)", ylabel="radius (mm)", framewise=True)
 
     def _orbit(self, data):
         opts = dict(frame_width=300, frame_height=300, legend_position="bottom_right", framewise=True)

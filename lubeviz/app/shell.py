@@ -37,24 +37,40 @@ Everything shown here is also a Python API and a command (`lubeviz --help`).
 """
 
 
+PAGES = {"Bearing": lambda m, op, state: BearingPage(m, op),
+         "Rotor": lambda m, op, state: RotorPage(m, op),
+         "Maps": lambda m, op, state: MapsPage(m, op, state),
+         "Identify": lambda m, state_op, state: IdentifyPage(m, state)}
+
+
 def build() -> pn.template.FastListTemplate:
+    """The dashboard of one session. Pages are built when first opened, so the start page comes up at once."""
+    pn.extension("tabulator", "filedropper", notifications=True)  # JS of lazily built pages, loaded up front
     machine = resources.machine()
     q_t = machine.reference.get("flooded_threshold_mlmin", 546.0) * M3S_PER_MLMIN
     op = OperatingPoint(speed=machine.operating_speed, q1=q_t, q2=q_t, name="operating point")
     state = SessionState(name="session")
-    pages = {"Bearing": BearingPage(machine, op), "Rotor": RotorPage(machine, op),
-             "Maps": MapsPage(machine, op, state), "Identify": IdentifyPage(machine, state)}
-    tabs = pn.Tabs(*[(name, page) for name, page in pages.items()],
+    names = list(PAGES)
+    pages: dict[str, object] = {}
+    tabs = pn.Tabs(*[(name, pn.Column(pn.indicators.LoadingSpinner(value=True, size=40), sizing_mode="stretch_width"))
+                     for name in names],
                    ("About", pn.pane.Markdown(ABOUT, sizing_mode="stretch_width")),
                    dynamic=True, sizing_mode="stretch_width", css_classes=["lubeviz-pages"])
-    names = list(pages)
 
-    def start(index: int):
-        if index < len(names) and hasattr(pages[names[index]], "start"):
-            asyncio.ensure_future(pages[names[index]].start())
+    def show(index: int):
+        if index >= len(names):
+            return
+        name = names[index]
+        if name not in pages:
+            pages[name] = PAGES[name](machine, op, state)
+            tabs[index] = (name, pages[name])
+        if hasattr(pages[name], "start"):
+            asyncio.ensure_future(pages[name].start())
 
-    tabs.param.watch(lambda e: start(e.new), "active")
-    pn.state.onload(lambda: start(tabs.active))
-    return pn.template.FastListTemplate(
+    tabs.param.watch(lambda e: show(e.new), "active")
+    pn.state.onload(lambda: show(tabs.active))
+    template = pn.template.FastListTemplate(
         title="lubeviz — bearing lubrication from shaft vibration", main=[tabs],
         accent_base_color="#2c5f8a", header_background="#2c5f8a")
+    template.lubeviz_pages = pages  # for tests and scripts: the pages built so far, by name
+    return template
