@@ -307,7 +307,8 @@ class BearingPage(pn.viewable.Viewer):
             color="Q (ml/min)", cmap="viridis", size=4, tools=["hover"])
         threshold = hv.Points(qt_pt, kd, label="Q_T").opts(color="black", size=12, marker="star")
         lim = max(0.3, float(np.abs(pos).max()) * 1.3) if len(pos) else 1.05
-        return (circle * locus * pts * threshold).opts(xlim=(-lim, lim), ylim=(-lim, lim), **opts)
+        box = dict(xlim=(-lim, lim), ylim=(-lim, lim))  # on every layer: framewise would zoom out to the circle
+        return (circle * locus * pts * threshold).opts(hv.opts.Curve(**box), hv.opts.Points(**box), **opts)
 
     def _locus_marker(self, data):
         cur = [] if data is None else [tuple(data.position / data.clearance)]
@@ -321,7 +322,7 @@ class BearingPage(pn.viewable.Viewer):
         unit, scale = ("MN/m", 1e-6) if which == "K" else ("kN·s/m", 1e-3)
         opts = dict(responsive=True, min_height=340,
                     title=f"{'Stiffness' if which == 'K' else 'Damping'} coefficients (Lund's sign)",
-                    legend_position="top_right", framewise=True)
+                    legend_position="right", framewise=True)
         frames = (data or {}).get("frames") or []
         q = np.array([f.q for f in frames]) / M3S_PER_MLMIN
         m = np.array([getattr(f, which) for f in frames]).reshape(-1, 2, 2) * scale
