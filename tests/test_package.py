@@ -7,7 +7,9 @@ import pytest
 
 
 def test_numerics_import_without_the_ui_stack():
-    code = ("import sys, lubeviz, lubeviz.film.equilibrium, lubeviz.film.sweep, lubeviz.cli.main, lubeviz.bench; "
+    code = ("import sys, lubeviz, lubeviz.film.equilibrium, lubeviz.film.sweep, lubeviz.film.explore, "
+            "lubeviz.cli.main, lubeviz.bench, lubeviz.identify.maps, lubeviz.identify.batch, "
+            "lubeviz.signals.records, lubeviz.signals.synthesize, lubeviz.rotor.stability; "
             "bad = [m for m in ('panel', 'bokeh', 'holoviews') if m in sys.modules]; "
             "assert not bad, bad")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
@@ -19,4 +21,6 @@ def test_app_page_builds():
     from lubeviz.app.shell import build
 
     page = build()
-    assert page.title == "lubeviz"
+    assert page.title.startswith("lubeviz")
+    tabs = page.main[0]
+    assert [name for name in tabs._names] == ["Bearing", "Rotor", "Maps", "Identify", "About"]

@@ -1,0 +1,87 @@
+"""Time to first render of the dashboard's start page in a real browser; prints one JSON object.
+
+    .venv/bin/python tests/app/measure_render.py [--loads 5] [--plots 0] [--script app.py]
+
+Starts `panel serve app.py` (timed from launch to /liveness: `server_start_s`), launches the system Chromium,
+then loads the start page `--loads` times, each in a new browser context (a new Panel session, no cache).
+A load is timed from `page.goto` to Panel's first render (every Bokeh document idle), and with `--plots N`
+also to the N-th plot drawn. The first load after server start also pays the server's imports and caches,
+so it is reported on its own (`first_load_s`) besides the median of all loads.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+
+if __package__ in (None, ""):  # run as a script: make `tests.app.harness` importable from the repo root
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from playwright.sync_api import sync_playwright
+
+from tests.app.harness import (
+    APP_SCRIPT,
+    chromium_launch_args,
+    serve_app,
+    wait_for_panel,
+    wait_for_plots,
+)
+
+
+def measure(script: Path = APP_SCRIPT, loads: int = 5, plots: int = 0) -> dict:
+    """Server start and first-render times (seconds) of `script`'s page over `loads` fresh page loads."""
+    started = time.perf_counter()
+    with serve_app(script) as base_url:
+        server_start_s = time.perf_counter() - started
+        url = f"{base_url}/{Path(script).stem}"
+        render_s, plots_s = [], []
+        with sync_playwright() as pw:
+            browser = pw.chromium.launch(**chromium_launch_args())
+            try:
+                for _ in range(loads):
+                    context = browser.new_context(viewport={"width": 1280, "height": 900})
+                    page = context.new_page()
+                    t0 = time.perf_counter()
+                    page.goto(url)
+                    wait_for_panel(page)
+                    render_s.append(time.perf_counter() - t0)
+                    if plots:
+                        wait_for_plots(page, plots)
+                        plots_s.append(time.perf_counter() - t0)
+                    context.close()
+                chromium_version = browser.version
+            finally:
+                browser.close()
+    result = {
+        "script": Path(script).name,
+        "loads": loads,
+        "server_start_s": round(server_start_s, 3),
+        "first_load_s": round(render_s[0], 3),
+        "first_render_median_s": round(statistics.median(render_s), 3),
+        "first_render_s": [round(t, 3) for t in render_s],
+        "chromium": chromium_version,
+    }
+    if plots:
+        result.update({"plots": plots, "plots_drawn_median_s": round(statistics.median(plots_s), 3),
+                       "plots_drawn_s": [round(t, 3) for t in plots_s]})
+    return result
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--loads", type=int, default=5, help="page loads, each in a new browser context")
+    parser.add_argument("--plots", type=int, default=0, help="also time until this many plots are drawn")
+    parser.add_argument("--script", type=Path, default=APP_SCRIPT, help="the Panel script to serve")
+    args = parser.parse_args(argv)
+    if args.loads < 1:
+        parser.error(f"--loads must be at least 1, got {args.loads}")
+    print(json.dumps(measure(args.script, args.loads, args.plots)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
