@@ -87,9 +87,11 @@ def bench_smoothness(machine_file=None, secant_amplitude: float | None = None,
                      progress: ProgressFn = silent) -> dict:
     """Roughness of equilibrium, K and C over 273..819 ml/min in 1 ml/min steps (see film.roughness).
 
-    Reports the fixed-pattern tangent (the old figure, key "fixed-pattern") and the smoothed-
-    complementarity tangent (key "smoothed", film.smoothed) at the same equilibria; with
-    `secant_amplitude` (m) also the secant coefficients (key "secant").
+    Reports the fixed-pattern tangent (the old figure, key "fixed-pattern"), the smoothed-
+    complementarity tangent (key "smoothed", film.smoothed) and the sub-cell tangent (key "subcell",
+    film.subcell, the default of find_equilibrium / sweep_supply) at the same equilibria, each also
+    with the fits split at Q_T and outside the Q_T band (see film.roughness); with `secant_amplitude`
+    (m) also the secant coefficients (key "secant").
     """
     from .film.roughness import supply_roughness
 

@@ -9,7 +9,7 @@ import numpy as np
 from ..errors import ConvergenceError
 from ..model.bearing import Bearing
 from ..progress import ProgressFn, silent
-from .equilibrium import Equilibrium, find_equilibrium
+from .equilibrium import DEFAULT_COEFFICIENTS, Equilibrium, find_equilibrium
 from .feed import Feed
 
 
@@ -29,11 +29,12 @@ class SupplySweep:
 
 
 def sweep_supply(bearing: Bearing, omega: float, load, flows, *, progress: ProgressFn = silent,
-                 keep: list | None = None, coefficients: str = "fixed-pattern",
+                 keep: list | None = None, coefficients: str = DEFAULT_COEFFICIENTS,
                  smoothing: float | None = None) -> SupplySweep:
     """Equilibria at every flow in `flows` (m^3/s), each warm-started from its neighbour.
 
-    `coefficients` ("fixed-pattern" or "smoothed") and `smoothing`: see find_equilibrium.
+    `coefficients` ("subcell", the default, "fixed-pattern" or "smoothed") and `smoothing`: see
+    find_equilibrium.
 
     Raises ConvergenceError naming the flow if one equilibrium fails. `keep`, if a list, receives
     the Equilibrium objects (for views that need the fields).

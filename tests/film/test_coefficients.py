@@ -1,4 +1,8 @@
-"""Dynamic coefficients: the fixed-pattern linearization against re-solved films."""
+"""Dynamic coefficients: the fixed-pattern linearization against re-solved films.
+
+The fixed-pattern tangent is the exact small-step derivative of this mesh's discrete film, so these
+tests ask for it explicitly (the default of find_equilibrium is the sub-cell tangent, test_subcell.py).
+"""
 
 import numpy as np
 import pytest
@@ -14,7 +18,7 @@ FEEDS = {"starved": Feed.flow(300 / 6e7), "over-supplied": Feed.flow(800 / 6e7),
 
 @pytest.fixture(scope="module", params=sorted(FEEDS))
 def equilibrium(request, paper_bearing):
-    return find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, FEEDS[request.param])
+    return find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, FEEDS[request.param], coefficients="fixed-pattern")
 
 
 def test_linearized_and_small_step_fd_agree(equilibrium, paper_bearing):
@@ -52,7 +56,7 @@ def test_stiffness_restores_and_damping_dissipates(equilibrium):
 
 def test_large_fd_steps_drift_near_the_threshold(paper_bearing):
     """Near Q_T the cavitation boundary moves within an FD step: FD depends on the step (SPEC §3)."""
-    eq = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, Feed.flow(546 / 6e7))
+    eq = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, Feed.flow(546 / 6e7), coefficients="fixed-pattern")
     c = paper_bearing.clearance
     small = finite_difference_coefficients(paper_bearing, OMEGA_75HZ, eq.position, eq.feed, step=1e-6 * c, warm=eq.film)
     big = finite_difference_coefficients(paper_bearing, OMEGA_75HZ, eq.position, eq.feed, step=3e-2 * c, warm=eq.film)

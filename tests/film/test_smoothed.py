@@ -29,7 +29,7 @@ FINE_MESH = {400: ([138.7, 63.1, -67.1, 67.7], [216, -418, -204, 623]),
 
 @pytest.fixture(scope="module", params=sorted(FEEDS))
 def equilibrium(request, paper_bearing):
-    return find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, FEEDS[request.param])
+    return find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, FEEDS[request.param], coefficients="fixed-pattern")
 
 
 def test_vanishing_smoothing_recovers_the_fixed_pattern_tangent(equilibrium):
@@ -77,7 +77,7 @@ def test_smoothed_coefficients_are_the_derivative_of_the_smoothed_force(equilibr
 @pytest.mark.parametrize("q_mlmin", sorted(FINE_MESH))
 def test_smoothed_coefficients_do_not_move_the_mesh_converged_values(paper_bearing, q_mlmin):
     """At 100 x 100 the smoothed K, C are no farther from the 200 x 200 values than the tangent is."""
-    eq = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, Feed.flow(q_mlmin / 6e7))
+    eq = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, Feed.flow(q_mlmin / 6e7), coefficients="fixed-pattern")
     sm = smoothed_coefficients(eq.film)
     K_ref = np.reshape(FINE_MESH[q_mlmin][0], (2, 2)) * 1e6
     C_ref = np.reshape(FINE_MESH[q_mlmin][1], (2, 2)) * 1e3
@@ -92,7 +92,7 @@ def test_smoothed_coefficients_do_not_move_the_mesh_converged_values(paper_beari
 
 def test_equilibrium_offers_the_smoothed_coefficients(paper_bearing):
     feed = Feed.flow(450 / 6e7)
-    exact = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, feed)
+    exact = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, feed, coefficients="fixed-pattern")
     smooth = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, feed, coefficients="smoothed")
     np.testing.assert_array_equal(smooth.position, exact.position)  # the equilibrium is the exact film's
     assert smooth.coefficients.method.startswith("smoothed")
@@ -106,7 +106,7 @@ def test_smoothed_coefficients_are_smoother_along_the_supply(paper_bearing):
     """1 ml/min sweep across Q_T (473-573 ml/min): the staircase is at least 1.6x lower (measured ~2x)."""
     flows = np.arange(473.0, 574.0, 1.0) / 6e7
     keep = []
-    s = sweep_supply(paper_bearing, OMEGA_75HZ, PAPER_LOAD, flows, keep=keep)
+    s = sweep_supply(paper_bearing, OMEGA_75HZ, PAPER_LOAD, flows, keep=keep, coefficients="fixed-pattern")
     coefs = [smoothed_coefficients(e.film) for e in keep]
     old = coefficient_roughness(s.K, s.C)
     new = coefficient_roughness(np.array([c.K for c in coefs]), np.array([c.C for c in coefs]))
