@@ -308,7 +308,8 @@ class BearingPage(pn.viewable.Viewer):
         threshold = hv.Points(qt_pt, kd, label="Q_T").opts(color="black", size=12, marker="star")
         lim = max(0.3, float(np.abs(pos).max()) * 1.3) if len(pos) else 1.05
         box = dict(xlim=(-lim, lim), ylim=(-lim, lim))  # on every layer: framewise would zoom out to the circle
-        return (circle * locus * pts * threshold).opts(hv.opts.Curve(**box), hv.opts.Points(**box), **opts)
+        return (circle * locus * pts * threshold).opts(
+            hv.opts.Curve(**box), hv.opts.Points(**box), hv.opts.Overlay(**opts))
 
     def _locus_marker(self, data):
         cur = [] if data is None else [tuple(data.position / data.clearance)]
