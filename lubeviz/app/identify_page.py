@@ -64,9 +64,10 @@ class IdentifyPage(pn.viewable.Viewer):
         self.settings = IdentificationSettings(name="identification")
         self.jobs = JobPanel()
         self._item = None
+        self._seen_uploads: set = set()
         self._upload = pn.widgets.FileDropper(
             accepted_filetypes=[".csv", ".npz", ".mat", "text/csv", "application/octet-stream"],
-            max_file_size=f"{UPLOAD_LIMIT_MB}MB", multiple=False, sizing_mode="stretch_width",
+            max_file_size=f"{UPLOAD_LIMIT_MB}MB", multiple=True, sizing_mode="stretch_width",
             css_classes=["lubeviz-upload"])
         self._upload.param.watch(self._on_upload, "value")
         self._sample = pn.widgets.Button(name="Load the sample record", button_type="default",
@@ -143,10 +144,18 @@ class IdentifyPage(pn.viewable.Viewer):
         return record, measure(record)
 
     async def _on_upload(self, event):
+        # The dropper keeps every file dropped in this session (a single-file dropper does not report a
+        # second drop, and the dict may be updated in place): load the one not seen before.
         files = event.new or {}
-        if not files:
+        new = []
+        for name, content in files.items():
+            tag = (name, len(content or b""), hash(content[:4096]) if content else 0)
+            if tag not in self._seen_uploads:
+                self._seen_uploads.add(tag)
+                new.append((name, content))
+        if not new:
             return
-        filename, content = next(iter(files.items()))
+        filename, content = new[-1]
         size = len(content) if content is not None else 0
         if size > MAX_RECORD_BYTES:
             self._show_error(f"**The record was not loaded.** {filename}: {size / 1e6:.1f} MB is too large")

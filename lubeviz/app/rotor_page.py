@@ -68,7 +68,6 @@ class RotorPage(pn.viewable.Viewer):
         self._tables = None
         self._rng_seed = 12345
         self._pipe = hv.streams.Pipe(data=None)
-        self._campbell_pipe = hv.streams.Pipe(data=None)
         self._summary = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["lubeviz-rotor-summary"])
         self._error = pn.pane.Alert("", alert_type="danger", visible=False, sizing_mode="stretch_width")
         self._sliders = pn.Column(sizing_mode="stretch_width")
@@ -96,7 +95,9 @@ class RotorPage(pn.viewable.Viewer):
         spectrum = pn.pane.HoloViews(hv.DynamicMap(self._spectrum, streams=[self._pipe]),
                                      css_classes=["lubeviz-spectrum"], **pane)
         modes = pn.pane.HoloViews(hv.DynamicMap(self._modes, streams=[self._pipe]), **pane)
-        campbell = pn.pane.HoloViews(hv.DynamicMap(self._campbell, streams=[self._campbell_pipe]), **pane)
+        # Replaced whole when computed (the number of tracked modes varies): no DynamicMap here.
+        self._campbell_pane = campbell = pn.pane.HoloViews(self._campbell(None), css_classes=["lubeviz-campbell-plot"],
+                                                           **pane)
         return pn.Column(
             self._error,
             pn.Row(controls, pn.Column(drawing, pn.Row(orbit, signals, sizing_mode="stretch_width"),
@@ -182,7 +183,7 @@ class RotorPage(pn.viewable.Viewer):
                 self._fail(exc)
                 return
             resources.memo_put(key, cached)
-        self._campbell_pipe.send(dict(result=cached, ratios=ratios, speed=self.op.speed))
+        self._campbell_pane.object = self._campbell(dict(result=cached, ratios=ratios, speed=self.op.speed))
 
     def _fail(self, exc: Exception):
         self._error.object = f"**Could not compute the response**: {exc}"
@@ -296,8 +297,7 @@ class RotorPage(pn.viewable.Viewer):
         opts = dict(responsive=True, min_height=380, legend_position="right", framewise=True,
                     title="Campbell diagram (press the button above; film recomputed at every speed)")
         if not data:
-            return (hv.Overlay([hv.Curve([], kd, vd)]) * hv.Curve([], kd, vd) * hv.Points([], [kd, vd])
-                    * hv.VLine(math.nan)).opts(**opts)
+            return hv.Overlay([hv.Curve([], kd, vd)]).opts(**opts)
         res = data["result"].modes
         speeds = res.speeds / (2 * math.pi)
         fr = res.damped_frequencies_hz

@@ -16,6 +16,7 @@ from ..units import M3S_PER_MLMIN
 from . import resources
 from .bearing_page import BearingPage
 from .identify_page import IdentifyPage
+from .jobs import JobPanel
 from .maps_page import MapsPage
 from .rotor_page import RotorPage
 from .session import SessionState
@@ -67,8 +68,17 @@ def build() -> pn.template.FastListTemplate:
         if hasattr(pages[name], "start"):
             asyncio.ensure_future(pages[name].start())
 
+    def closed(session_context):
+        # A closed browser tab stops its page's jobs at their next step (work already in a worker process
+        # finishes, and its result, shared with other sessions, is kept).
+        for page in pages.values():
+            for jobs in vars(page).values():
+                if isinstance(jobs, JobPanel):
+                    jobs.cancel()
+
     tabs.param.watch(lambda e: show(e.new), "active")
     pn.state.onload(lambda: show(tabs.active))
+    pn.state.on_session_destroyed(closed)
     template = pn.template.FastListTemplate(
         title="lubeviz — bearing lubrication from shaft vibration", main=[tabs],
         accent_base_color="#2c5f8a", header_background="#2c5f8a")
