@@ -88,7 +88,7 @@ class RotorPage(pn.viewable.Viewer):
         controls = pn.Column("### Operating point", self._sliders, widgets, self._summary, self.jobs, width=330)
         pane = dict(sizing_mode="stretch_width", linked_axes=False)
         drawing = pn.pane.HoloViews(hv.DynamicMap(self._drawing, streams=[self._pipe]),
-                                    css_classes=["lubeviz-machine"], **pane)
+                                    css_classes=["lubeviz-machine"], linked_axes=False)
         orbit = pn.pane.HoloViews(hv.DynamicMap(self._orbit, streams=[self._pipe]), width=380,
                                   css_classes=["lubeviz-orbit"], linked_axes=False)
         signals = pn.pane.HoloViews(hv.DynamicMap(self._signals, streams=[self._pipe]), **pane)
@@ -216,10 +216,9 @@ class RotorPage(pn.viewable.Viewer):
             marker="inverted_triangle", size=14, color="red")
         unb = hv.Points([(xs[m.unbalance_node - 1], 0.0)], ["x (mm)", "radius (mm)"], label="unbalance").opts(
             marker="star", size=14, color="#d62728")
-        x_span, y_span = xs[-1] + 100.0, 2 * top + 130
         return (el * labels * probes * sel * unb).opts(
             title="The machine to scale: shaft, discs, bearings (orange), measurement planes (▼)",
-            responsive=True, aspect=x_span / y_span, xlim=(-50.0, xs[-1] + 50.0), ylim=(-top - 70, top + 60),
+            frame_width=860, data_aspect=1, xlim=(-50.0, xs[-1] + 50.0), ylim=(-top - 70, top + 60),
             show_legend=False, xlabel="axial position x (mm)", ylabel="radius (mm)", framewise=True)
 
     def _orbit(self, data):
@@ -314,7 +313,8 @@ class RotorPage(pn.viewable.Viewer):
         text = "; ".join(f"{name} {a:.1f} Hz" for a, _, name in marks) or "no crossing in range"
         r = "/".join(f"{x:.2f}" for x in data["ratios"])
         return (hv.Overlay(tracks) * one_x * pts * hv.VLine(data["speed"], label="operating speed").opts(
-            color="green")).opts(**dict(opts, title=f"Campbell diagram at Q/Q_T = {r}: {text}"))
+            color="green")).opts(**dict(opts, title=f"Campbell diagram at Q/Q_T = {r}: {text}",
+                                        ylim=(0.0, 1.5 * speeds[-1])))
 
     def _summary_text(self, s) -> str:
         spec = s["spectrum"]
