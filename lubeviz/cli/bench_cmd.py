@@ -14,10 +14,13 @@ def register(sub) -> None:
                    help="film: solver timings; mesh: mesh study; smoothness: roughness of K, C over Q; "
                         "rotor: assembly, response, modes, 15 s record (ROSS alongside); stability: critical speed and "
                         "instability threshold across 50-150 %% Q_T; "
-                        "identify: tables, one identification (and --reproduce: the 128 cases)")
+                        "identify: tables, one identification (and --reproduce: the 128 cases; "
+                        "--accuracy: tables vs direct solves)")
     p.add_argument("--no-ross", action="store_true", help="rotor: skip the side-by-side ROSS timings")
     p.add_argument("--reproduce", action="store_true",
                    help="identify: also time the paper's whole protocol, both locations, both modes (cold tables)")
+    p.add_argument("--accuracy", action="store_true",
+                   help="identify: also measure the tables' error in fb and phi against direct solves (~30 s)")
     p.add_argument("--secant-amplitude-um", type=finite_float, default=None,
                    help="smoothness: use secant coefficients over +-this amplitude (um) instead of the tangent")
     p.add_argument("--repeat", type=int, default=5, help="repetitions (the median is reported)")
@@ -45,5 +48,6 @@ def run_bench(args) -> dict:
     if args.what == "identify":
         from ..identify.bench import bench_identify
 
-        return bench_identify(args.machine, repeat=args.repeat, reproduce_all=args.reproduce, progress=StderrBar())
+        return bench_identify(args.machine, repeat=args.repeat, reproduce_all=args.reproduce, accuracy=args.accuracy,
+                              progress=StderrBar())
     return bench_film(args.machine, repeat=args.repeat, progress=StderrBar())

@@ -10,20 +10,26 @@ The noise floor (`NOISE_FB_REL`, `NOISE_PHI_DEG`): the standard deviation of fb 
 seeds of a 5 s record at 12 dB SNR (the paper's protocol), measured with `noise_floor`.
 
 What the difference contains: (1) the interpolation error of the spline, which falls like h^4 with
-the node spacing h, and (2) the film's own roughness in Q: on a finite-volume mesh the cavitation
-boundary moves cell by cell, so K(Q) and C(Q) of direct solves are a fine staircase about a smooth
-curve. A direct solve at a midpoint sits on that staircase; the spline through the nodes cannot,
-however dense. So the difference levels off at the roughness as points grow.
+the node spacing h where the coefficients are smooth; (2) kinks: around Q_T the discrete groove fills
+cell by cell and the slope of K(Q), C(Q) jumps at mesh-dependent flows (the first 0.75-1 ml/min below
+Q_T), which a spline only follows with short steps (tables.DENSE_BAND); (3) the film's own roughness
+in Q: the sub-cell tangent's residual staircase (~0.045 % in K, C) is in the direct solves, and a
+smooth table cannot follow it, however dense. So away from the band the difference levels off at (3).
 
-Measured (bearing 1, 100 x 100 mesh, 75 Hz, nodes 6, 20, 5, 21):
-- roughness: direct solves on 295 flows vs a least-squares spline through them: fb 0.4 % rms below
-  Q_T and 0.8 % above (max 3.5 %), phi 0.09 / 0.24 deg rms (max 0.9 deg): of the order of the noise.
-- table vs direct solves at all midpoints and reference flows, current grid and single spline:
-  71 points max 4.3 % / 1.05 deg, median 0.08 % / 0.022 deg; 101 points max 3.2 % / 0.9 deg.
-- interpolation proper (table of a smooth surrogate vs the surrogate): a single spline through the
-  kink of K(Q), C(Q) at Q_T (the groove starts to pressurize) never gets below ~0.75 % in fb; with a
-  node at Q_T and separate splines on either side the max error is 0.097 % / 0.016 deg at 21
-  points, 0.022 % / 0.0024 deg at 41, 0.0067 % / 0.0007 deg at 51, 0.0008 % at 71.
+Measured (`lubeviz bench identify --accuracy`; bearing 1, 100 x 100 mesh, 75 Hz, nodes 6, 20, 5, 21,
+all midpoints between nodes and the reference flows; target = a tenth of the noise floor, 0.033 % in
+fb and 0.0079 deg in phi):
+- 222 points (111 in the band at 0.05 % Q_T steps), median / 90th percentile / max:
+  below Q_T - 5 ml/min  fb 0.0002 / 0.003 / 0.011 %, phi 0.0001 / 0.001 / 0.0033 deg (met);
+  Q_T - 5 ... Q_T + 25  fb 0.00002 / 0.001 / 0.052 % (the max in the interval holding the first kink),
+                        phi 0.00000 / 0.0001 / 0.0053 deg;
+  above Q_T + 25        fb 0.0004 / 0.018 / 0.054 %, phi 0.0001 / 0.0056 / 0.014 deg: the max is the
+  direct solves' own roughness (their deviation from a local cubic in Q reaches 0.05 % / 0.014 deg there).
+  Bearing 2 alike (max 0.010 / 0.049 / 0.049 %, 0.0028 / 0.0041 / 0.012 deg).
+- the former 71-point grid without the dense band: max 0.35 % / 0.036 deg below (at Q_T - 7 ml/min,
+  ringing of the first kink), 1.37 % / 0.14 deg at Q_T + 7, 0.21 % / 0.034 deg above.
+- on 1014 flows every 1 ml/min (0.1 near Q_T) instead of the midpoints: the same picture (222 points:
+  max 0.012 / 0.055 / 0.058 % in fb, 0.0035 / 0.0056 / 0.014 deg in phi).
 """
 
 from __future__ import annotations
@@ -43,6 +49,10 @@ from .tables import CoefficientTable
 
 # The paper's reference flows (SPEC §5), ml/min.
 REFERENCE_FLOWS_MLMIN = (409.5, 448.5, 487.5, 526.5, 565.5, 604.5, 643.5, 682.5)
+
+# The band around Q_T where the groove fills cell by cell (ml/min from Q_T), as in BENCHMARKS "Smoothness".
+GROOVE_BAND_MLMIN = (-5.0, 25.0)
+_STATS = {"median": np.median, "p90": lambda a: np.percentile(a, 90), "max": np.max}
 
 # Noise of the features at 12 dB SNR over 5 s at 75 Hz, the paper's machine: one standard deviation
 # over 50 seeds (`noise_floor`) with both bearings at Q_T, bearing centres (nodes 6, 20). It varies
@@ -90,6 +100,22 @@ class InterpolationError:
     @property
     def median_phi_deg(self) -> float:
         return float(np.median(self.phi_deg))
+
+    def regions(self, q_threshold: float, band_mlmin=GROOVE_BAND_MLMIN) -> dict:
+        """Median, 90th percentile and max of the fb (%) and phi (deg) errors below, across and above
+        the band Q_T + band_mlmin (ml/min) where the groove fills cell by cell; None for an empty region."""
+        dq = (self.flows - q_threshold) * 6e7
+        lo, hi = band_mlmin
+        out = {}
+        for name, sel in (("below", dq < lo), ("band", (dq >= lo) & (dq <= hi)), ("above", dq > hi)):
+            if not sel.any():
+                out[name] = None
+                continue
+            fb, phi = 100.0 * self.fb_rel[sel], self.phi_deg[sel]
+            out[name] = {"flows": int(sel.sum()),
+                         **{f"fb_pct_{k}": float(f(fb)) for k, f in _STATS.items()},
+                         **{f"phi_deg_{k}": float(f(phi)) for k, f in _STATS.items()}}
+        return out
 
     def summary(self) -> dict:
         """Max and median errors, and the max as a fraction of the noise floor."""

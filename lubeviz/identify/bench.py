@@ -1,4 +1,5 @@
-"""`lubeviz bench identify`: tables cold and warm, one identification, the whole 128-case reproduction."""
+"""`lubeviz bench identify`: tables cold and warm, one identification, the whole 128-case reproduction,
+and (`--accuracy`) the tables' error in fb and φ against direct solves."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ from .newton import identify
 from .settings import IdentificationSettings
 
 
-def bench_identify(machine_path=None, *, repeat: int = 5, reproduce_all: bool = False,
+def bench_identify(machine_path=None, *, repeat: int = 5, reproduce_all: bool = False, accuracy: bool = False,
                    progress: ProgressFn = silent) -> dict:
     from ..signals.synthesize import synthesize_record
     from .reproduce import reproduce
@@ -54,6 +55,8 @@ def bench_identify(machine_path=None, *, repeat: int = 5, reproduce_all: bool = 
                 identify(model, measure(rec, ALL_FEATURES), IdentificationSettings(mode=mode))
                 times.append(time.perf_counter() - t0)
             out[f"identification_{mode}_s"] = statistics.median(times)
+        if accuracy:
+            out["interpolation_error"] = table_accuracy(machine, tables)
         if reproduce_all:
             for loc in ("center", "outside"):
                 t0 = time.perf_counter()
@@ -63,4 +66,19 @@ def bench_identify(machine_path=None, *, repeat: int = 5, reproduce_all: bool = 
                 out[f"reproduce_{loc}_s"] = time.perf_counter() - t0
             out["reproduce_all_with_cold_tables_s"] = (out["tables_cold_s"] + out["reproduce_center_s"]
                                                        + out["reproduce_outside_s"])
+    return out
+
+
+def table_accuracy(machine, tables) -> dict:
+    """Each table's fb/φ error against direct solves at every midpoint and reference flow, below,
+    across and above the groove-filling band, next to issue 4's target (a tenth of the noise floor)."""
+    from .accuracy import GROOVE_BAND_MLMIN, NOISE_FB_REL, NOISE_PHI_DEG, interpolation_error
+
+    out: dict = {"target_fb_pct": 10.0 * NOISE_FB_REL, "target_phi_deg": 0.1 * NOISE_PHI_DEG,
+                 "band_mlmin_from_q_threshold": list(GROOVE_BAND_MLMIN)}
+    for t in tables:
+        t0 = time.perf_counter()
+        e = interpolation_error(machine, t)
+        out[f"bearing_{t.bearing + 1}"] = {"nodes": list(e.nodes), "flows": int(e.flows.size),
+                                           **e.regions(t.q_threshold), "seconds": time.perf_counter() - t0}
     return out

@@ -3,12 +3,23 @@
 For a given load, speed and oil a bearing's coefficients depend on its own supply flow only, so the
 whole identification needs just one table per bearing: equilibria on a grid of flows spanning
 `span` x Q_T (default 25-200 %), each warm-started from its neighbour, interpolated with a cubic
-spline per entry (C2-smooth, so a Newton search and its finite-difference Jacobian see smooth
-functions). The coefficients turn sharply at Q_T itself (the groove starts to pressurize: Kyy falls
-towards Q_T and rises above it), so the grid has a node exactly at Q_T and each side gets its own
-spline: one spline across the kink left a 0.75 % error in fb at any density, two bring it below a
-tenth of the noise floor from ~41 points (measured, `lubeviz.identify.accuracy`). `lubeviz bench`
-and the tests measure the interpolation error against direct solves.
+spline per entry (C2-smooth between kinks, so a Newton search and its finite-difference Jacobian see
+smooth functions).
+
+The grid follows what the coefficients do (measured on the paper's bearings, 100 x 100, sub-cell K, C):
+- Q_T is a change of regime (the groove starts to pressurize: Kyy turns from falling to rising), so
+  Q_T is a node and each side gets its own spline: one spline across it left 0.75 % in fb.
+- Just around and above Q_T the discrete groove fills cell by cell: the first groove cells pressurize
+  0.75-1 ml/min (0.15 %) *below* Q_T, where the slope of K, C jumps (Kyy: from -0.1 to +1.9 % per
+  ml/min), and again at each later stage (Q_T + 1, + 6, + 11 ... ml/min). These are kinks at
+  mesh-dependent flows that no node can be placed on in advance; a coarse spline rings around them
+  (the old 71-point grid: 0.35 % in fb at Q_T - 7 and 1.4 % at Q_T + 7 ml/min). `DENSE_BAND` around
+  Q_T therefore gets a uniform step `DENSE_STEP`, short enough that a kink costs little inside its
+  own interval and its ringing dies out within a few steps (max 0.05 % in fb there).
+- Elsewhere the coefficients are smooth: a grid uniform in s = sqrt(Q / Q_T), about twice as dense
+  below Q_T as above.
+`lubeviz bench identify --accuracy` and the tests measure the error against direct solves
+(`lubeviz.identify.accuracy`).
 """
 
 from __future__ import annotations
@@ -29,7 +40,11 @@ from ..progress import ProgressFn, silent
 from ..rotor.statics import bearing_static_loads
 
 DEFAULT_SPAN = (0.25, 2.0)
-DEFAULT_POINTS = 71
+# The band where the groove fills cell by cell, relative to Q_T, and its step (0.27 ml/min at Q_T =
+# 545 ml/min): 111 of the default points; the other 111 on the sqrt(Q) grid outside it.
+DENSE_BAND = (-0.005, 0.05)
+DENSE_STEP = 0.0005
+DEFAULT_POINTS = 222
 
 
 @dataclass(frozen=True)
@@ -100,10 +115,11 @@ class CoefficientTable:
 
 
 def table_flows(q_threshold: float, span=DEFAULT_SPAN, points: int = DEFAULT_POINTS) -> np.ndarray:
-    """Flows of a table: denser where the coefficients change fastest (near and below Q_T).
+    """`points` flows (m^3/s): uniform steps of `DENSE_STEP` x Q_T across `DENSE_BAND` around Q_T
+    (Q_T itself a node), and a grid uniform in s = sqrt(Q / Q_T) over the rest of the span.
 
-    A grid uniform in s = sqrt(Q / Q_T), split at s = 1 so Q_T itself is a node (when inside the span),
-    puts about twice as many points below Q_T as above.
+    The dense band is used when the span holds it and it takes at most half the points; otherwise
+    (coarse tables, e.g. in tests) the sqrt grid covers everything, still with a node at Q_T.
     """
     lo, hi = span
     if not (0 < lo < hi and points >= 8):
@@ -111,6 +127,16 @@ def table_flows(q_threshold: float, span=DEFAULT_SPAN, points: int = DEFAULT_POI
     a, b = math.sqrt(lo), math.sqrt(hi)
     if not a < 1.0 < b:
         return q_threshold * np.linspace(a, b, points) ** 2
+    m_below = int(round(-DENSE_BAND[0] / DENSE_STEP))
+    m_above = int(round(DENSE_BAND[1] / DENSE_STEP))
+    band = 1.0 + DENSE_STEP * np.arange(-m_below, m_above + 1)
+    if band.size <= points // 2 and lo < band[0] and band[-1] < hi:
+        s_lo, s_hi = math.sqrt(band[0]), math.sqrt(band[-1])
+        outside = points - band.size  # nodes strictly outside the band
+        n_below = min(max(int(round((s_lo - a) / (s_lo - a + b - s_hi) * outside)), 1), outside - 1)
+        s_below = np.linspace(a, s_lo, n_below + 1)[:-1]
+        s_above = np.linspace(s_hi, b, outside - n_below + 1)[1:]
+        return q_threshold * np.concatenate([s_below**2, band, s_above**2])
     n_below = min(max(int(round((1.0 - a) / (b - a) * (points - 1))), 3), points - 4)
     s = np.concatenate([np.linspace(a, 1.0, n_below + 1), np.linspace(1.0, b, points - n_below)[1:]])
     return q_threshold * s**2

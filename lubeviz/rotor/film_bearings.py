@@ -2,7 +2,10 @@
 
 This is where the film model (Sec. 2.1) meets the rotor (Sec. 2.2): the static load on each journal
 is its support reaction from the rotor's weight (`statics.bearing_static_loads`), the film finds the
-journal's equilibrium for the bearing's own supply flow, and its fixed-pattern K, C enter Eq. 8.
+journal's equilibrium for the bearing's own supply flow, and its K, C enter Eq. 8: by default the
+sub-cell tangent (`find_equilibrium`'s default, smooth in the supply); `coefficients="fixed-pattern"`
+gives the exact small-amplitude derivative of this mesh's discrete film instead (what a time
+integration on that film tends to as the orbit shrinks, `film_transient`).
 """
 
 from __future__ import annotations
@@ -14,7 +17,7 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import ConvergenceError, InputError
-from ..film.equilibrium import Equilibrium, find_equilibrium, flooded_threshold
+from ..film.equilibrium import DEFAULT_COEFFICIENTS, Equilibrium, find_equilibrium, flooded_threshold
 from ..film.feed import Feed
 from .assembly import Rotor, rotor_from_machine
 from .response import UnbalanceResponse, machine_unbalance, unbalance_response
@@ -46,10 +49,11 @@ def _flows(machine, flows) -> tuple[float, ...]:
 
 
 def film_bearings(machine, flows: Sequence[float], omega: float | None = None, *,
-                  previous: FilmBearings | None = None) -> FilmBearings:
+                  previous: FilmBearings | None = None, coefficients: str = DEFAULT_COEFFICIENTS) -> FilmBearings:
     """Equilibrium and coefficients of every bearing at its supply flow (m^3/s) and speed (rad/s).
 
     `previous` (a nearby operating point) warm-starts each equilibrium from its position and film.
+    `coefficients`: how K, C are computed at each equilibrium (`find_equilibrium`'s option).
     Raises ConvergenceError naming the bearing and flow when no equilibrium is found.
     """
     omega = 2.0 * math.pi * machine.operating_speed if omega is None else float(omega)
@@ -61,7 +65,7 @@ def film_bearings(machine, flows: Sequence[float], omega: float | None = None, *
     for k, (b, q, load) in enumerate(zip(machine.bearings, flows, loads)):
         prev = previous.equilibria[k] if previous is not None else None
         eq = find_equilibrium(b, omega, load, Feed.flow(q), start=None if prev is None else prev.position,
-                              warm=None if prev is None else prev.film)
+                              warm=None if prev is None else prev.film, coefficients=coefficients)
         if not eq.converged:
             raise ConvergenceError(f"bearing {k + 1} at {q * 6e7:.1f} ml/min, {omega / 2 / math.pi:g} Hz: "
                                    f"{eq.message}")

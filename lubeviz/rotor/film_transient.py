@@ -12,8 +12,14 @@ explicit treatment of r is accurate and stable: r enters the first-order hold of
 extrapolated linearly from the two previous steps (second order in dt). Each step costs one warm
 started film solve per bearing.
 
-For small unbalance the result must tend to the linear response; `tests/rotor` checks that, and the
-difference at the paper's unbalance is an effect the linear model lacks.
+K0, C0 are those `bearings` carries. r is zero to first order only when they are the exact tangent of
+this mesh's discrete film, the fixed-pattern one (`film_bearings(..., coefficients="fixed-pattern")`);
+with the sub-cell default (smooth in Q, ~1 % away from it) r keeps a first-order part of that size,
+still small for the explicit coupling. Either way the integrated orbit is that of the discrete film.
+
+For small unbalance the result must tend to the linear response with the fixed-pattern K, C (the
+film's small-amplitude limit); `tests/rotor` checks that, and the difference at the paper's
+unbalance is an effect the linear model lacks.
 """
 
 from __future__ import annotations

@@ -64,6 +64,18 @@ def test_cache_hit_returns_the_same_table_without_rebuilding(tmp_path, builds):
     assert_same_table(both[0], first)
 
 
+def test_a_default_grid_table_with_its_dense_band_is_read_back(tmp_path, builds):
+    """The default grid (a dense band around Q_T plus the sqrt(Q) grid) passes the cache's own grid check."""
+    m = coarse_machine()
+    first = cached_table(m, 0, directory=tmp_path)
+    assert first.q.size == tables.DEFAULT_POINTS
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", StaleCacheWarning)
+        second = cached_table(m, 0, directory=tmp_path)
+    assert builds == [0]
+    assert_same_table(first, second)
+
+
 def _variant(change):
     m = coarse_machine()
     change(m)

@@ -6,9 +6,8 @@ import pytest
 
 from lubeviz.errors import InputError
 from lubeviz.film.sweep import sweep_supply
-from lubeviz.identify.accuracy import (NOISE_FB_REL, NOISE_PHI_DEG, REFERENCE_FLOWS_MLMIN, interpolation_error,
-                                       midpoint_flows)
-from lubeviz.identify.tables import DEFAULT_SPAN, build_table, table_flows
+from lubeviz.identify.accuracy import NOISE_FB_REL, NOISE_PHI_DEG, interpolation_error
+from lubeviz.identify.tables import DEFAULT_POINTS, DEFAULT_SPAN, DENSE_BAND, DENSE_STEP, build_table, table_flows
 from lubeviz.model.machine import load_machine
 from lubeviz.rotor.statics import bearing_static_loads
 
@@ -25,6 +24,13 @@ def paper_table():
     """Bearing 1 of the paper's machine at the paper's 100 x 100 mesh, default span and points."""
     m = load_machine()
     return m, build_table(m, 0)
+
+
+@pytest.fixture(scope="module")
+def paper_error(paper_table):
+    """fb and φ on the table vs direct solves at every midpoint between nodes and the reference flows."""
+    m, t = paper_table
+    return interpolation_error(m, t)
 
 
 def test_interpolant_passes_through_the_nodes(coarse):
@@ -67,6 +73,15 @@ def test_refuses_a_degenerate_span():
         table_flows(1e-5, (0.25, 2.0), 3)
 
 
+def test_grid_is_uniform_and_dense_where_the_groove_fills():
+    q = table_flows(1.0)
+    assert q.size == DEFAULT_POINTS and np.all(np.diff(q) > 0)
+    band = q[(q >= 1 + DENSE_BAND[0] - 1e-12) & (q <= 1 + DENSE_BAND[1] + 1e-12)]
+    np.testing.assert_allclose(np.diff(band), DENSE_STEP, rtol=1e-9)
+    assert np.any(np.abs(band - 1.0) < 1e-12)  # Q_T is a node: the splines split there
+    assert band.size <= DEFAULT_POINTS // 2
+
+
 @pytest.mark.slow
 def test_flooded_threshold_matches_the_paper(paper_table):
     """SPEC §2: Q_T = 546 ml/min for this bearing at 75 Hz; a correct solver lands within a few percent."""
@@ -74,24 +89,47 @@ def test_flooded_threshold_matches_the_paper(paper_table):
     assert t.q_threshold * 6e7 == pytest.approx(546.0, rel=0.03)
 
 
+# Issue 4's target: the table's error in fb and φ below a tenth of the measurement noise floor
+# (accuracy.NOISE_FB_REL, NOISE_PHI_DEG: 12 dB over 5 s), measured against direct solves.
+FB_TARGET_PCT = 100 * 0.1 * NOISE_FB_REL
+PHI_TARGET = 0.1 * NOISE_PHI_DEG
+
+
+@pytest.fixture(scope="module")
+def regions(paper_table, paper_error):
+    """Median / p90 / max below, across and above the band Q_T - 5 ... Q_T + 25 ml/min where the groove
+    fills cell by cell (fb in %, φ in degrees)."""
+    _, t = paper_table
+    out = paper_error.regions(t.q_threshold)
+    assert all(r is not None and r["flows"] >= 20 for r in out.values())
+    return out
+
+
 @pytest.mark.slow
-def test_between_nodes_fb_and_phi_match_direct_solves(paper_table):
-    """At midpoints and at the paper's reference flows, fb and φ on the table agree with direct solves
-    to the measured figure (BENCHMARKS: table accuracy); it is dominated by the film's roughness in Q."""
-    m, t = paper_table
-    mids = midpoint_flows(t)
-    below = mids[mids < t.q_threshold]
-    flows = np.concatenate([below[:: max(len(below) // 4, 1)], np.array(REFERENCE_FLOWS_MLMIN) / 6e7])
-    e = interpolation_error(m, t, flows)
-    assert e.fb_rel.shape == (flows.size, 4)
-    assert e.max_fb_rel < FB_LIMIT
-    assert e.max_phi_deg < PHI_LIMIT
-    assert e.median_fb_rel < 0.5 * NOISE_FB_REL
-    assert e.median_phi_deg < 0.5 * NOISE_PHI_DEG
+def test_below_q_t_the_table_is_within_a_tenth_of_the_noise_floor(regions):
+    """Met everywhere below the band (measured: max 0.011 % / 0.0033 deg)."""
+    r = regions["below"]
+    assert r["fb_pct_max"] < FB_TARGET_PCT and r["phi_deg_max"] < PHI_TARGET
 
 
-# Measured (71 points, all midpoints and reference flows, nodes 6, 20, 5, 21): max 4.3 % in fb and
-# 1.05 deg in phi, both just above Q_T where the film's staircase roughness in Q is largest; median
-# 0.08 % and 0.022 deg. The max reflects the film's roughness, not the spline (see accuracy.py).
-FB_LIMIT = 0.05
-PHI_LIMIT = 1.5
+@pytest.mark.slow
+def test_across_the_groove_filling_band_the_table_is_within_the_target_but_at_the_first_kink(regions):
+    """Q_T - 5 ... Q_T + 25 ml/min: the groove fills cell by cell and the coefficients kink at
+    mesh-dependent flows (the first 0.75-1 ml/min below Q_T). φ meets the target everywhere and fb at 90 %
+    of the flows; inside the interval holding the first kink fb is off by up to 1.6 x the target
+    (0.052 %), still a sixth of the noise floor."""
+    r = regions["band"]
+    assert r["phi_deg_max"] < PHI_TARGET
+    assert r["fb_pct_p90"] < FB_TARGET_PCT
+    assert r["fb_pct_max"] < 2 * FB_TARGET_PCT
+
+
+@pytest.mark.slow
+def test_above_q_t_the_table_is_within_the_target_but_for_the_films_own_roughness(regions):
+    """Above the band the direct solves are themselves rough at this level: their deviation from a
+    local cubic in Q reaches 0.05 % in fb and 0.014 deg in φ (the sub-cell tangent's residual
+    staircase, BENCHMARKS "Smoothness"), which no smooth table can follow. The typical (90 %) error
+    meets the target; the max is held at a fifth of the noise floor."""
+    r = regions["above"]
+    assert r["fb_pct_p90"] < FB_TARGET_PCT and r["phi_deg_p90"] < PHI_TARGET
+    assert r["fb_pct_max"] < 2 * FB_TARGET_PCT and r["phi_deg_max"] < 2 * PHI_TARGET

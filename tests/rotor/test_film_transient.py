@@ -15,12 +15,20 @@ pytestmark = pytest.mark.slow
 
 @pytest.fixture(scope="module")
 def coarse(machine):
-    """The paper's machine with 60 x 40 film meshes (the limit checked here does not need 100 x 100)."""
+    """The paper's machine with 60 x 40 film meshes (the limit checked here does not need 100 x 100).
+
+    Fixed-pattern coefficients, not the sub-cell default: as the orbit shrinks, the integration on the
+    discrete film tends to the derivative of that film with its cavitation pattern held, which is the
+    fixed-pattern tangent exactly. The sub-cell tangent places the fronts inside the cells (smooth in Q,
+    closer to the mesh limit) and differs from it by ~1 % on this mesh: the linear response on it misses
+    the integrated orbit by 0.4 % / 0.3 deg, several times what this test allows.
+    """
     from lubeviz.model.machine import load_machine
 
     m = load_machine()
     m.bearings = [b.copy(n_circumferential=60, n_axial=40) for b in m.bearings]
-    return m, rotor_from_machine(m), film_bearings(m, (450 / 6e7, 450 / 6e7))
+    bearings = film_bearings(m, (450 / 6e7, 450 / 6e7), coefficients="fixed-pattern")
+    return m, rotor_from_machine(m), bearings
 
 
 def test_small_orbits_on_the_p_theta_film_match_the_linear_response(coarse):
@@ -33,7 +41,8 @@ def test_small_orbits_on_the_p_theta_film_match_the_linear_response(coarse):
         x, y = res.node_xy(node)
         for sig, ref in ((x, lin.x[k]), (y, lin.y[k])):
             ratio = amplitude_ratio(res.t[late], sig[late], bearings.omega, ref)
-            assert abs(abs(ratio) - 1) < 5e-3 and abs(np.angle(ratio)) < math.radians(0.5)
+            # measured: 0.07 % / 0.06 deg against fixed-pattern K, C; 0.4 % / 0.32 deg against sub-cell
+            assert abs(abs(ratio) - 1) < 2e-3 and abs(np.angle(ratio)) < math.radians(0.2)
     # the film force is the equilibrium force plus a small oscillation, and the residual is tiny
     f0 = bearings.equilibria[0].film.force
     assert np.allclose(res.film_force[0].mean(axis=1), f0, rtol=0, atol=1e-3 * np.hypot(*f0))
