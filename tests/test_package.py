@@ -23,4 +23,4 @@ def test_app_page_builds():
     page = build()
     assert page.title.startswith("lubeviz")
     tabs = page.main[0]
-    assert [name for name in tabs._names] == ["Bearing", "Rotor", "Maps", "Identify", "About"]
+    assert [name for name in tabs._names] == ["Start", "Bearing", "Rotor", "Maps", "Identify"]

@@ -252,7 +252,9 @@ class BearingPage(pn.viewable.Viewer):
             img = hv.Image(np.zeros((2, 2)), bounds=(-90, 0, 270, 70), kdims=["alpha", "z"], vdims=[clabel])
             return (img.opts(title=f"{label}: computing …", **opts) * hv.Bounds((0, 0, 0, 0))).opts(framewise=True)
         deg, order = _view_order(frame.alpha)
-        img = hv.Image((deg, frame.z * 1e3, values[:, order]), kdims=["alpha", "z"], vdims=[clabel])
+        # float32: half the bytes to the browser, far below the plot's colour resolution
+        img = hv.Image((deg, frame.z * 1e3, values[:, order].astype(np.float32)), kdims=["alpha", "z"],
+                       vdims=[clabel])
         opts["title"] = f"{label} at Q = {frame.q / M3S_PER_MLMIN:.0f} ml/min"
         return (img.opts(**opts) * _groove_box(frame, deg, order)).opts(framewise=True)
 

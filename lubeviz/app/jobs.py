@@ -75,6 +75,7 @@ class JobPanel(pn.viewable.Viewer):
         self._cancel.on_click(lambda event: self.cancel())
         self._layout = pn.Row(self._bar, self._cancel, self._text, sizing_mode="stretch_width",
                               margin=(0, 5))
+        self.param.watch(lambda e: setattr(self._text, "object", e.new), "status")
 
     def __panel__(self):
         return self._layout

@@ -35,6 +35,11 @@ Daniel; see the README).
 * **Identify**: upload a measured record and get the flows, their uncertainty and a verdict.
 
 Everything shown here is also a Python API and a command (`lubeviz --help`).
+
+**Where to start.** A student: open **Bearing** and drag the supply flow below Q_T. An engineer with a
+record: open **Identify**, upload it (or load the sample) and press *Identify*. A researcher: **Maps**
+shows the paper's Figs. 7 and 9–11 for any flows; `lubeviz reproduce` and `lubeviz figures` regenerate its
+tables and figures.
 """
 
 
@@ -53,15 +58,16 @@ def build() -> pn.template.FastListTemplate:
     state = SessionState(name="session")
     names = list(PAGES)
     pages: dict[str, object] = {}
-    tabs = pn.Tabs(*[(name, pn.Column(pn.indicators.LoadingSpinner(value=True, size=40), sizing_mode="stretch_width"))
+    start = pn.pane.Markdown(ABOUT, sizing_mode="stretch_width", css_classes=["lubeviz-start"])
+    tabs = pn.Tabs(("Start", start),
+                   *[(name, pn.Column(pn.indicators.LoadingSpinner(value=True, size=40), sizing_mode="stretch_width"))
                      for name in names],
-                   ("About", pn.pane.Markdown(ABOUT, sizing_mode="stretch_width")),
                    dynamic=True, sizing_mode="stretch_width", css_classes=["lubeviz-pages"])
 
     def show(index: int):
-        if index >= len(names):
-            return
-        name = names[index]
+        if not 1 <= index <= len(names):
+            return  # the start page is static
+        name = names[index - 1]
         if name not in pages:
             pages[name] = PAGES[name](machine, op, state)
             tabs[index] = (name, pages[name])

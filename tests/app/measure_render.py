@@ -27,18 +27,39 @@ from tests.app.harness import (
     APP_SCRIPT,
     chromium_launch_args,
     serve_app,
+    slider,
+    slider_value,
     wait_for_panel,
+    wait_for_plot_title,
     wait_for_plots,
 )
 
 
-def measure(script: Path = APP_SCRIPT, loads: int = 5, plots: int = 0) -> dict:
+def slider_redraws(page, moves: int) -> list[float]:
+    """Seconds from one step of the Bearing page's supply slider (a key press: one change event) until the
+    pressure field is redrawn at the new flow, for `moves` steps over flows whose film is already cached."""
+    page.locator(".bk-tab", has_text="Bearing").first.click()
+    page.locator(".lubeviz-pages").get_by_text("flows ready", exact=False).first.wait_for(timeout=600_000)
+    handle = slider(page, "Supply flow Q1").locator(".noUi-handle").first
+    out = []
+    for k in range(moves):
+        key = "ArrowLeft" if k % 2 == 0 else "ArrowRight"
+        q = slider_value(page, "Supply flow Q1")
+        target = q - 10 if key == "ArrowLeft" else q + 10
+        t0 = time.perf_counter()
+        handle.press(key)
+        wait_for_plot_title(page, f"Pressure p(α, z) at Q = {target:.0f} ml/min")
+        out.append(time.perf_counter() - t0)
+    return out
+
+
+def measure(script: Path = APP_SCRIPT, loads: int = 5, plots: int = 0, moves: int = 0) -> dict:
     """Server start and first-render times (seconds) of `script`'s page over `loads` fresh page loads."""
     started = time.perf_counter()
     with serve_app(script) as base_url:
         server_start_s = time.perf_counter() - started
         url = f"{base_url}/{Path(script).stem}"
-        render_s, plots_s = [], []
+        render_s, plots_s, redraw_s = [], [], []
         with sync_playwright() as pw:
             browser = pw.chromium.launch(**chromium_launch_args())
             try:
@@ -49,9 +70,12 @@ def measure(script: Path = APP_SCRIPT, loads: int = 5, plots: int = 0) -> dict:
                     page.goto(url)
                     wait_for_panel(page)
                     render_s.append(time.perf_counter() - t0)
-                    if plots:
+                    if plots:  # the plots of the Bearing page, opened from the start page
+                        page.locator(".bk-tab", has_text="Bearing").first.click()
                         wait_for_plots(page, plots)
                         plots_s.append(time.perf_counter() - t0)
+                    if moves and _ == loads - 1:
+                        redraw_s = slider_redraws(page, moves)
                     context.close()
                 chromium_version = browser.version
             finally:
@@ -65,6 +89,9 @@ def measure(script: Path = APP_SCRIPT, loads: int = 5, plots: int = 0) -> dict:
         "first_render_s": [round(t, 3) for t in render_s],
         "chromium": chromium_version,
     }
+    if redraw_s:
+        result.update({"slider_moves": moves, "slider_redraw_median_s": round(statistics.median(redraw_s), 3),
+                       "slider_redraw_s": [round(t, 3) for t in redraw_s]})
     if plots:
         result.update({"plots": plots, "plots_drawn_median_s": round(statistics.median(plots_s), 3),
                        "plots_drawn_s": [round(t, 3) for t in plots_s]})
@@ -75,11 +102,14 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--loads", type=int, default=5, help="page loads, each in a new browser context")
     parser.add_argument("--plots", type=int, default=0, help="also time until this many plots are drawn")
+    parser.add_argument("--slider", type=int, default=0,
+                        help="then step the Bearing page's supply slider this many times (cached flows) and time "
+                             "each redraw")
     parser.add_argument("--script", type=Path, default=APP_SCRIPT, help="the Panel script to serve")
     args = parser.parse_args(argv)
     if args.loads < 1:
         parser.error(f"--loads must be at least 1, got {args.loads}")
-    print(json.dumps(measure(args.script, args.loads, args.plots)))
+    print(json.dumps(measure(args.script, args.loads, args.plots, args.slider)))
     return 0
 
 

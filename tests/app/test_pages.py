@@ -42,7 +42,13 @@ def open_tab(page, name: str):
     page.locator(".bk-tab", has_text=name).first.click()
 
 
+def test_start_page_explains_and_leads_to_the_pages(app_page, screenshot):
+    expect(app_page.locator(".lubeviz-start")).to_contain_text("Where to start")
+    screenshot(app_page, "start")
+
+
 def test_bearing_page_draws_the_film_and_the_slider_starves_it(app_page, screenshot):
+    open_tab(app_page, "Bearing")
     wait_for_plots(app_page, count=2, timeout_ms=SLOW_MS)
     wait_for_plot_title(app_page, "Pressure p(α, z) at Q = ", timeout_ms=SLOW_MS)
     expect(app_page.locator(".lubeviz-bearing-summary")).to_contain_text("eccentricity ratio", timeout=SLOW_MS)
@@ -163,6 +169,7 @@ def test_two_sessions_do_not_share_flows(page, app_server, browser):
     other = browser.new_context().new_page()
     for p in (page, other):
         p.goto(app_server + "/app")
+        open_tab(p, "Bearing")
         wait_for_plot_title(p, "Pressure p(α, z) at Q = ", timeout_ms=SLOW_MS)
     set_slider(page, "Supply flow Q1", 300)
     wait_for_plot_title(page, "at Q = 300 ml/min", timeout_ms=SLOW_MS)
