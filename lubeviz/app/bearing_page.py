@@ -41,7 +41,8 @@ and below 1 where it holds oil streamers and air.
   identification reads from the vibration.
 
 Drag the slider from flooded down to starved and watch the pressure zone shrink and the centre drop.
-A non-mass-conserving (half-Sommerfeld) model would show the same film at every Q: it cannot starve.
+The dashed curve is what a non-mass-conserving (half-Sommerfeld) model says at the same journal
+position: it has no supply flow among its inputs, so it shows the same film at every Q — it cannot starve.
 """
 
 FIELD_OPTS = dict(cmap="viridis", colorbar=True, responsive=True, min_height=260, tools=["hover"],
@@ -275,13 +276,17 @@ class BearingPage(pn.viewable.Viewer):
                            "Blues_r")
 
     def _profile_pressure(self, data):
-        opts = dict(responsive=True, min_height=220, framewise=True, tools=["hover"], color="#b2182b",
+        opts = dict(responsive=True, min_height=220, framewise=True, legend_position="top_left",
                     title="Mid-plane pressure" + ("" if data is None else f" at Q = {data.q / M3S_PER_MLMIN:.0f} ml/min"))
-        deg, p = [], []
+        deg, p, hs = [], [], []
         if data is not None:
             deg, order = _view_order(data.alpha)
             p = data.mid_plane()[0][order] / 1e6
-        return hv.Curve((deg, p), "α (deg)", "p (MPa)").opts(**opts)
+            hs = data.half_sommerfeld[order] / 1e6
+        return (hv.Curve((deg, p), "α (deg)", "p (MPa)", label="p–θ (mass-conserving)").opts(
+                    color="#b2182b", tools=["hover"])
+                * hv.Curve((deg, hs), "α (deg)", "p (MPa)", label="half-Sommerfeld (ignores Q)").opts(
+                    color="gray", line_dash="dashed")).opts(**opts)
 
     def _profile_theta(self, data):
         opts = dict(responsive=True, min_height=220, xlabel="α (deg)", ylabel="θ and h/c (–)",

@@ -20,6 +20,7 @@ from ..progress import ProgressFn, silent
 from .derived import FilmSummary, summarize
 from .equilibrium import Equilibrium, find_equilibrium
 from .feed import Feed
+from .sommerfeld import sommerfeld_film
 
 
 @dataclass(frozen=True)
@@ -42,6 +43,8 @@ class SupplyFrame:
     film_thickness: np.ndarray  # (n_circ,) m, h(alpha) of Eq. 1
     summary: FilmSummary
     clearance: float
+    half_sommerfeld: np.ndarray  # (n_circ,) Pa: the half-Sommerfeld mid-plane pressure at the same position
+
 
     @property
     def eccentricity_ratio(self) -> float:
@@ -68,7 +71,14 @@ def frame_from_equilibrium(eq: Equilibrium) -> SupplyFrame:
         K=np.array(eq.coefficients.K), C=np.array(eq.coefficients.C),
         pressure=sol.pressure_field(), theta=sol.theta_field(), alpha=np.array(m.alpha), z=z,
         groove=np.array(groove, dtype=bool), film_thickness=np.array(pr.H[0] * pr.clearance),
-        summary=summarize(sol, eq.position), clearance=float(pr.clearance))
+        summary=summarize(sol, eq.position), clearance=float(pr.clearance),
+        half_sommerfeld=_half_sommerfeld_mid_plane(eq))
+
+
+def _half_sommerfeld_mid_plane(eq: Equilibrium) -> np.ndarray:
+    """What a model without a supply flow says at this journal position (film.sommerfeld), mid-plane row."""
+    film = sommerfeld_film(eq.bearing, eq.omega, eq.position)
+    return film.half[film.half.shape[0] // 2].copy()
 
 
 def supply_frame(bearing: Bearing, omega: float, load, q_supply: float | None, *,

@@ -1,0 +1,49 @@
+"""Frames of the Bearing page (film.explore): what they keep must be the equilibrium's own numbers."""
+
+import math
+
+import numpy as np
+
+from lubeviz.film.equilibrium import find_equilibrium
+from lubeviz.film.explore import supply_frame, supply_frames
+from lubeviz.film.feed import Feed
+from lubeviz.model.machine import load_machine
+from lubeviz.rotor.statics import bearing_static_loads
+
+OMEGA = 2 * math.pi * 75.0
+
+
+def _setup():
+    m = load_machine()
+    return m.bearings[0].copy(n_circumferential=60, n_axial=40), bearing_static_loads(m)[0]
+
+
+def test_frame_keeps_the_equilibrium_and_its_coefficients():
+    b, load = _setup()
+    frame, eq = supply_frame(b, OMEGA, load, 400 / 6e7)
+    ref = find_equilibrium(b, OMEGA, load, Feed.flow(400 / 6e7))
+    np.testing.assert_allclose(frame.position, ref.position, rtol=1e-6)
+    np.testing.assert_allclose(frame.K, ref.coefficients.K, rtol=1e-6)
+    np.testing.assert_allclose(frame.C, ref.coefficients.C, rtol=1e-6)
+    # The film force balances the load, and the whole-film field is the mirror image about z = L/2.
+    np.testing.assert_allclose(eq.film.force, -load, atol=1e-6 * np.hypot(*load))
+    np.testing.assert_array_equal(frame.pressure, frame.pressure[::-1])
+    # The groove mask covers the groove's area (16.2 mm x 35 mm) to within one cell in each direction.
+    cell = (b.radius * 2 * math.pi / b.n_circumferential) * (b.length / b.n_axial)
+    area = frame.groove.sum() * cell
+    assert abs(area - b.groove_length * b.groove_width) < cell * (frame.groove.any(axis=0).sum()
+                                                                   + frame.groove.any(axis=1).sum())
+
+
+def test_starving_the_bearing_raises_the_eccentricity_and_shrinks_the_full_film():
+    b, load = _setup()
+    frames = supply_frames(b, OMEGA, load, np.array([250.0, 400.0, 550.0, 800.0]) / 6e7)
+    qs = sorted(frames)
+    ecc = [frames[q].eccentricity_ratio for q in qs]
+    full = [np.count_nonzero(frames[q].theta >= 1.0) for q in qs]
+    assert all(a > b for a, b in zip(ecc, ecc[1:]))
+    assert full[0] < full[-1]
+    # The half-Sommerfeld comparison is the same shape of film whatever the supply: it peaks in the
+    # loaded half and is never negative.
+    for q in qs:
+        assert frames[q].half_sommerfeld.min() >= 0.0 and frames[q].half_sommerfeld.max() > 0.0
