@@ -16,6 +16,7 @@ import panel as pn
 import param
 
 from ..film.explore import SupplyFrame
+from ..identify.newton import lubrication_verdict
 from ..model.machine import Machine
 from ..model.operating import OperatingPoint
 from ..progress import Cancelled
@@ -353,10 +354,9 @@ class BearingPage(pn.viewable.Viewer):
         qt = self._q_threshold.get((self.bearing, self.speed))
         state = ""
         if qt:
-            r = f.q / qt
-            state = ("**starved**" if r < 0.95 else "**over-supplied** (groove pressurized)" if r > 1.05
-                     else "**at the flooded threshold**")
-            state = f"{state}: Q / Q_T = {r:.2f}"
+            state = {"starved": "**starved**", "over-supplied": "**over-supplied** (groove pressurized)",
+                     "normal": "**at the flooded threshold**"}[lubrication_verdict(f.q, qt)]
+            state = f"{state}: Q / Q_T = {f.q / qt:.2f}"
         return "\n".join([
             f"#### Q = {f.q / M3S_PER_MLMIN:.0f} ml/min — {state}",
             "| quantity | value |", "|---|---|",

@@ -18,8 +18,8 @@ import numpy as np
 import pandas as pd
 import panel as pn
 
-from ..errors import InputError, LubevizError
-from ..identify.batch import identify_record, model_speed, result_csv, result_dict
+from ..errors import LubevizError
+from ..identify.batch import check_model_speed, identify_record, model_speed, result_csv, result_dict
 from ..identify.measured import measure
 from ..identify.settings import IdentificationSettings
 from ..model.machine import Machine
@@ -207,9 +207,7 @@ class IdentifyPage(pn.viewable.Viewer):
 
     def _identify(self, record, measured, settings, progress):
         speed = model_speed(self.machine, record)
-        if not self.machine.speed_min <= speed <= self.machine.speed_max:
-            raise InputError(f"record speed {speed:g} Hz is outside the model's range "
-                             f"{self.machine.speed_min:g}-{self.machine.speed_max:g} Hz")
+        check_model_speed(self.machine, speed)
         model = resources.forward_model(self.machine, speed, record.nodes, progress=progress)
         return identify_record(record, self.machine, settings, model=model, measured=measured, progress=progress)
 

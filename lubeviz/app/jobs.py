@@ -143,7 +143,3 @@ class JobPanel(pn.viewable.Viewer):
                 self._bar.visible = self._cancel.visible = False
                 self._text.object = self.status
 
-
-def run_sync_in_pool(fn, *args, **kwargs):
-    """Run a short computation in the pool from a synchronous context (tests, scripts)."""
-    return EXECUTOR.submit(fn, *args, **kwargs).result()

@@ -14,7 +14,7 @@ from collections import OrderedDict
 import numpy as np
 
 from ..film.equilibrium import flooded_threshold
-from ..film.explore import SupplyFrame, supply_frame
+from ..film.explore import SupplyFrame, supply_frames
 from ..identify.cache import machine_tables
 from ..identify.forward import ForwardModel
 from ..model.machine import Machine, load_machine
@@ -66,10 +66,6 @@ def tables(m: Machine, speed_hz: float, progress: ProgressFn = silent):
         return _TABLES[key]
 
 
-def tables_ready(m: Machine, speed_hz: float) -> bool:
-    return (m.source, round(float(speed_hz), 9)) in _TABLES
-
-
 def forward_model(m: Machine, speed_hz: float, nodes, progress: ProgressFn = silent) -> ForwardModel:
     key = (m.source, round(float(speed_hz), 9), tuple(int(n) for n in nodes))
     t = tables(m, speed_hz, progress)
@@ -117,19 +113,15 @@ def cached_frames(m: Machine, index: int, speed_hz: float) -> dict[float, Supply
 
 
 def frames(m: Machine, index: int, speed_hz: float, flows, progress: ProgressFn = silent) -> dict[float, SupplyFrame]:
-    """Frames at `flows` (m^3/s, snapped to the grid), computing the missing ones warm-started in ascending order."""
+    """Frames at `flows` (m^3/s, snapped to the grid), computing the missing ones here (warm-started in
+    ascending order) and keeping them for every session. Two sessions asking at once may both compute a
+    frame; the result is the same."""
     store = cached_frames(m, index, speed_hz)
     wanted = sorted({snap(q) for q in flows})
     missing = [q for q in wanted if q not in store]
-    bearing, load = m.bearings[index], bearing_load(m, index)
-    omega = 2.0 * math.pi * speed_hz
-    warm = None
-    for n, q in enumerate(missing):
-        with _key_lock(("frame", m.source, index, round(float(speed_hz), 9), q)):
-            if q not in store:
-                frame, warm = supply_frame(bearing, omega, load, q, warm=warm)
-                store[q] = frame
-        progress(n + 1, len(missing), f"bearing {index + 1} at {q / M3S_PER_MLMIN:.0f} ml/min")
+    if missing:
+        store.update(supply_frames(m.bearings[index], 2.0 * math.pi * speed_hz, bearing_load(m, index), missing,
+                                   progress=progress))
     return {q: store[q] for q in wanted}
 
 
@@ -152,15 +144,11 @@ def memo_put(key, value, *, keep: int = 64) -> None:
 # --- work for the process pool (module-level, picklable; each worker loads the machine once) -----------
 
 def compute_frames(machine_path: str, index: int, speed_hz: float, flows) -> dict[float, SupplyFrame]:
-    """Frames at `flows` computed in a worker process (warm-started in ascending order); the caller stores
-    them with `store_frames`."""
+    """Frames at `flows` (snapped to the grid) computed in a worker process; the caller stores them with
+    `store_frames`."""
     m = machine(machine_path or None)
-    bearing, load = m.bearings[index], bearing_load(m, index)
-    omega = 2.0 * math.pi * speed_hz
-    out, warm = {}, None
-    for q in sorted({snap(q) for q in flows}):
-        out[q], warm = supply_frame(bearing, omega, load, q, warm=warm)
-    return out
+    return supply_frames(m.bearings[index], 2.0 * math.pi * speed_hz, bearing_load(m, index),
+                         sorted({snap(q) for q in flows}))
 
 
 def store_frames(m: Machine, index: int, speed_hz: float, new: dict) -> None:

@@ -29,10 +29,15 @@ class RecordIdentification:
     speed_hz: float
 
 
-def model_for(machine, speed_hz: float, nodes, *, progress: ProgressFn = silent) -> ForwardModel:
+def check_model_speed(machine, speed_hz: float) -> None:
+    """Raise InputError when a record's speed lies outside the speeds the machine model is meant for."""
     if not machine.speed_min <= speed_hz <= machine.speed_max:
         raise InputError(f"record speed {speed_hz:g} Hz is outside the model's range "
                          f"{machine.speed_min:g}-{machine.speed_max:g} Hz")
+
+
+def model_for(machine, speed_hz: float, nodes, *, progress: ProgressFn = silent) -> ForwardModel:
+    check_model_speed(machine, speed_hz)
     tables = machine_tables(machine, 2 * math.pi * speed_hz, progress=progress)
     return ForwardModel(machine, tables, nodes)
 

@@ -71,8 +71,13 @@ class Identification:
 
     def verdict(self, k: int) -> str:
         """'starved', 'normal' or 'over-supplied' for bearing k (0-based), relative to Q_T."""
-        r = self.q[k] / self.q_threshold[k]
-        return "starved" if r < 0.95 else ("over-supplied" if r > 1.05 else "normal")
+        return lubrication_verdict(self.q[k], self.q_threshold[k])
+
+
+def lubrication_verdict(q_supply: float, q_threshold: float) -> str:
+    """'starved' below 95 % of Q_T, 'over-supplied' above 105 %, else 'normal'."""
+    r = q_supply / q_threshold
+    return "starved" if r < 0.95 else ("over-supplied" if r > 1.05 else "normal")
 
 
 def _grid_starts(model: ForwardModel, settings: IdentificationSettings) -> np.ndarray:
