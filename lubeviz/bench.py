@@ -37,7 +37,8 @@ def bench_film(machine_file=None, repeat: int = 5, progress: ProgressFn = silent
     feed = Feed.flow(0.8 * q_t)
     eq = find_equilibrium(b, omega, PAPER_LOAD, feed, start=eq_t.position)
     problem = setup_problem(b, omega, eq.position, feed)
-    results = {"mesh": f"{b.n_circumferential}x{b.n_axial}", "bearing": b.name,
+    results = {"mesh": f"{b.n_circumferential}x{b.n_axial}", "groove_refinement": b.groove_refinement,
+               "columns_solved": problem.mesh.n_circ, "bearing": b.name,
                "speed_hz": machine.operating_speed, "q_mlmin": 0.8 * q_t * 6e7, "repeat": repeat}
     progress(1, 7, "film solve, cold")
     results["solve_cold_s"], sol = _median(lambda: solve(problem), repeat)

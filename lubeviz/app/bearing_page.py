@@ -60,7 +60,8 @@ def _view_order(alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _groove_box(frame: SupplyFrame, deg: np.ndarray, order: np.ndarray):
-    g = frame.groove[:, order]
+    """The groove's outline; `deg`, `order` are those of the field on its uniform grid (on_uniform_grid)."""
+    g = frame.on_uniform_grid(frame.groove)[1][:, order]
     cols, rows = np.flatnonzero(g.any(axis=0)), np.flatnonzero(g.any(axis=1))
     if cols.size == 0:
         return hv.Bounds((0, 0, 0, 0))
@@ -260,7 +261,8 @@ class BearingPage(pn.viewable.Viewer):
         if frame is None:  # same element types as below: a DynamicMap must keep one type
             img = hv.Image(np.zeros((2, 2)), bounds=(-90, 0, 270, 70), kdims=["alpha", "z"], vdims=[clabel])
             return (img.opts(title=f"{label}: computing …", **opts) * hv.Bounds((0, 0, 0, 0))).opts(framewise=True)
-        deg, order = _view_order(frame.alpha)
+        alpha, values = frame.on_uniform_grid(values)  # the groove's refined columns at their own width
+        deg, order = _view_order(alpha)
         # float32: half the bytes to the browser, far below the plot's colour resolution
         img = hv.Image((deg, frame.z * 1e3, values[:, order].astype(np.float32)), kdims=["alpha", "z"],
                        vdims=[clabel])

@@ -51,6 +51,14 @@ def _bearing(args, index: int = 0):
             changes[name] = value * scale
     if getattr(args, "mesh", None) is not None:
         changes["n_circumferential"], changes["n_axial"] = args.mesh
+    if getattr(args, "groove_refinement", None) is not None:
+        if not 1 <= args.groove_refinement <= 16:
+            raise InputError(f"--groove-refinement {args.groove_refinement}: expected an integer from 1 to 16")
+        changes["groove_refinement"] = args.groove_refinement
+    if getattr(args, "groove_refinement", None) is not None:
+        if not 1 <= args.groove_refinement <= 16:
+            raise InputError(f"--groove-refinement {args.groove_refinement}: expected an integer from 1 to 16")
+        changes["groove_refinement"] = args.groove_refinement
     if getattr(args, "no_groove", False):
         changes["groove_length"] = changes["groove_width"] = 0.0
     try:
@@ -76,6 +84,8 @@ def register(sub) -> None:
         p.add_argument(flag, type=finite_float, default=None, help=f"override the {what}")
     p.add_argument("--speed-hz", type=finite_float, default=None, help="shaft speed (default: the machine's)")
     p.add_argument("--mesh", type=mesh_arg, default=None, metavar="NxM", help="circumferential x axial cells")
+    p.add_argument("--groove-refinement", type=int, default=None, metavar="R",
+                   help="split the groove's columns and their neighbours in R (1: uniform mesh; default: the model's)")
     p.set_defaults(run=run_film)
 
     p = sub.add_parser("bearing", help="static equilibrium and dynamic coefficients of one bearing")
@@ -87,6 +97,8 @@ def register(sub) -> None:
                    help="vertical load on the journal, downwards (default: the bearing's static share "
                         "of the rotor weight, from the rotor model)")
     p.add_argument("--mesh", type=mesh_arg, default=None, metavar="NxM", help="circumferential x axial cells")
+    p.add_argument("--groove-refinement", type=int, default=None, metavar="R",
+                   help="split the groove's columns and their neighbours in R (1: uniform mesh; default: the model's)")
     p.set_defaults(run=run_bearing)
 
 

@@ -50,17 +50,18 @@ def summarize(sol: FilmSolution, position) -> FilmSummary:
     m = pr.mesh
     c, mu, om = pr.clearance, pr.viscosity, pr.omega
     U = om * m.radius
-    area = m.cell_area * m.mirror_factor
-    total = m.shape[0] * m.shape[1]
+    area = np.broadcast_to(m.cell_area * m.mirror_factor, m.shape)  # per cell (refined columns are narrower)
+    total = float(area.sum())
     incomplete = sol.theta < THETA_FULL
     converging = pr.H_e < np.roll(pr.H_e, 1, axis=1)
     p = sol.P * pr.p_ref
     h = pr.H * c
     # Shear on the journal: Couette mu U / h carried by the oil fraction (theta: oil streamers in the
     # cavitated zone, the JFO/Elrod assumption) plus the Poiseuille part (h / 2) dp/dx.
-    dpdx = (np.roll(p, -1, axis=1) - np.roll(p, 1, axis=1)) / (2.0 * m.radius * m.d_alpha)
+    spacing = m.d_alpha_east + np.roll(m.d_alpha_east, 1)  # from the west to the east neighbour's centre
+    dpdx = (np.roll(p, -1, axis=1) - np.roll(p, 1, axis=1)) / (m.radius * spacing)
     shear = mu * U * sol.theta / h + 0.5 * h * dpdx
-    torque = float(shear.sum() * area * m.radius)
+    torque = float((shear * area).sum() * m.radius)
     groove = pr.groove & ~pr.fixed
     e_x, e_y = position
     return FilmSummary(
@@ -69,9 +70,9 @@ def summarize(sol: FilmSolution, position) -> FilmSummary:
         attitude_angle=attitude_from_force(position, sol.force),
         min_film=c - math.hypot(e_x, e_y),
         max_pressure=float(p.max()),
-        cavitated_fraction=float(np.count_nonzero(incomplete) / total),
-        starved_fraction=float(np.count_nonzero(incomplete & converging) / total),
-        groove_pressure=float(p[groove].mean()) if groove.any() else 0.0,
+        cavitated_fraction=float(area[incomplete].sum() / total),
+        starved_fraction=float(area[incomplete & converging].sum() / total),
+        groove_pressure=float(np.average(p[groove], weights=area[groove])) if groove.any() else 0.0,
         friction_torque=torque,
         power_loss=torque * om,
         side_leakage=sol.side_leakage,

@@ -37,7 +37,8 @@ class SupplyFrame:
     C: np.ndarray  # (2, 2) N s/m
     pressure: np.ndarray  # (n_axial, n_circ) Pa
     theta: np.ndarray  # (n_axial, n_circ) oil fraction
-    alpha: np.ndarray  # (n_circ,) rad
+    alpha: np.ndarray  # (n_circ,) rad, cell centres
+    d_alpha: np.ndarray  # (n_circ,) rad, column widths (narrower where the mesh is refined at the groove)
     z: np.ndarray  # (n_axial,) m
     groove: np.ndarray  # (n_axial, n_circ) bool: cells of the supply groove
     film_thickness: np.ndarray  # (n_circ,) m, h(alpha) of Eq. 1
@@ -49,6 +50,15 @@ class SupplyFrame:
     @property
     def eccentricity_ratio(self) -> float:
         return self.summary.eccentricity_ratio
+
+    def on_uniform_grid(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(alpha, values) with every column repeated so all have the narrowest column's width: the
+        field as an image on a uniform grid (each refined column shown at its own width)."""
+        counts = np.maximum(np.rint(self.d_alpha / self.d_alpha.min()).astype(int), 1)
+        start = self.alpha[0] - 0.5 * self.d_alpha[0]
+        width = 2.0 * np.pi / counts.sum()
+        alpha = start + (np.arange(counts.sum()) + 0.5) * width
+        return alpha, np.repeat(values, counts, axis=-1)
 
     def mid_plane(self) -> tuple[np.ndarray, np.ndarray]:
         """Pressure (Pa) and oil fraction along the circumference at the axial row nearest z = L/2."""
@@ -69,7 +79,7 @@ def frame_from_equilibrium(eq: Equilibrium) -> SupplyFrame:
     return SupplyFrame(
         q=float(q), position=np.array(eq.position, dtype=float),
         K=np.array(eq.coefficients.K), C=np.array(eq.coefficients.C),
-        pressure=sol.pressure_field(), theta=sol.theta_field(), alpha=np.array(m.alpha), z=z,
+        pressure=sol.pressure_field(), theta=sol.theta_field(), alpha=np.array(m.alpha), d_alpha=np.array(m.d_alpha), z=z,
         groove=np.array(groove, dtype=bool), film_thickness=np.array(pr.H[0] * pr.clearance),
         summary=summarize(sol, eq.position), clearance=float(pr.clearance),
         half_sommerfeld=_half_sommerfeld_mid_plane(eq))

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..model.bearing import Bearing
-from .mesh import FilmMesh, groove_aligned_offset, groove_cells
+from .mesh import FilmMesh, groove_aligned_offset, groove_cells, refined_split
 from .operator import FilmProblem, build_problem, max_film_angle
 
 
@@ -64,15 +64,19 @@ def check_operating(bearing: Bearing, omega: float, position, velocity=(0.0, 0.0
 
 
 def make_mesh(bearing: Bearing, *, half: bool = True, alpha_offset: float | None = None) -> FilmMesh:
-    """The bearing's mesh, placed so the groove is centred on it (see groove_aligned_offset)."""
+    """The bearing's mesh, placed so the groove is centred on it (see groove_aligned_offset), with the
+    groove's columns and their neighbours split into `bearing.groove_refinement` sub-columns
+    (mesh.refined_split). A bearing without a groove gets a uniform mesh."""
+    n = bearing.n_circumferential
+    if not bearing.has_groove:
+        return FilmMesh(n, bearing.n_axial, bearing.radius, bearing.length,
+                        0.0 if alpha_offset is None else alpha_offset, half=half)
     if alpha_offset is None:
-        alpha_offset = (
-            groove_aligned_offset(bearing.n_circumferential, bearing.radius, bearing.groove_angle,
-                                  bearing.groove_length)
-            if bearing.has_groove else 0.0
-        )
-    return FilmMesh(bearing.n_circumferential, bearing.n_axial, bearing.radius, bearing.length,
-                    alpha_offset, half=half)
+        alpha_offset = groove_aligned_offset(n, bearing.radius, bearing.groove_angle, bearing.groove_length)
+    split = refined_split(n, bearing.radius, alpha_offset, bearing.groove_angle, bearing.groove_length,
+                          bearing.groove_refinement)
+    return FilmMesh(n if split is None else sum(split), bearing.n_axial, bearing.radius, bearing.length,
+                    alpha_offset, half=half, split=split)
 
 
 def setup_problem(bearing: Bearing, omega: float, position, feed: Feed, *, velocity=(0.0, 0.0),
@@ -81,9 +85,10 @@ def setup_problem(bearing: Bearing, omega: float, position, feed: Feed, *, veloc
     check_operating(bearing, omega, position, velocity)
     if feed.kind == "plain":
         if mesh is None:
-            # Put a cell centre on the line of maximum film thickness: the feed line.
+            # Put a cell centre on the line of maximum film thickness: the feed line (uniform mesh).
             d_alpha = 2.0 * math.pi / bearing.n_circumferential
-            mesh = make_mesh(bearing, alpha_offset=max_film_angle(*position) - 0.5 * d_alpha)
+            mesh = FilmMesh(bearing.n_circumferential, bearing.n_axial, bearing.radius, bearing.length,
+                            max_film_angle(*position) - 0.5 * d_alpha)
         gap = np.abs(np.angle(np.exp(1j * (mesh.alpha - max_film_angle(*position)))))
         line = gap == gap.min()  # the cell column on the line of maximum film thickness
         fixed = np.broadcast_to(line, mesh.shape).copy()

@@ -4,6 +4,16 @@ Coordinates: alpha in [0, 2 pi) measured from +Y in the direction of rotation (E
 bearing from one edge (z = 0) to the other (z = L). Cells are indexed [j, i] with i around the
 circumference (the direction of the Couette flow) and j along the axis.
 
+Local refinement: the columns in and around the groove may be split into equal sub-columns (`split`),
+so the circumferential spacing is non-uniform there (see `refined_split`). Why: just above Q_T the
+groove pressurizes and its full-film zone spreads up- and downstream of it; on a uniform 100-column
+mesh that zone grows one whole column (25 axial cells at once) at a time, and the coefficients follow
+in a staircase of slope changes (0.16 % deviation from a local cubic over 15 ml/min; 0.02 % with 4x finer
+columns). Splitting those 14 columns by 4 makes the growth as smooth as on a 400-column mesh for 42 %
+more cells instead of 300 %. The groove itself is decided on the nominal columns (`angle_mask`), so
+the refinement does not change what the groove covers: Q_T and the flooded film stay those of the
+uniform mesh.
+
 Symmetry: with an axially centred groove and an aligned journal the film is symmetric about the
 mid-plane, so by default only the half 0 <= z <= L/2 is solved, with a zero-flux face at L/2. The
 discrete solution is identical to the full-domain one (tested); the linear solves are ~2x cheaper.
@@ -23,16 +33,28 @@ MIN_GROOVE_CELLS = 2  # cells the groove must span in each direction to be resol
 
 @dataclass(frozen=True)
 class FilmMesh:
-    """Cell-centred mesh of the film; `half` = only 0 <= z <= L/2 is meshed."""
+    """Cell-centred mesh of the film; `half` = only 0 <= z <= L/2 is meshed.
 
-    n_circ: int
+    Uniform around the circumference unless `split` is given: then nominal column k (of
+    len(split) equal columns of 2 pi / len(split)) is divided into split[k] equal sub-columns, and
+    `n_circ` = sum(split) is the number of columns solved.
+    """
+
+    n_circ: int  # columns solved
     n_axial: int  # cells over the full length L (even when `half`)
     radius: float
     length: float
     alpha_offset: float = 0.0  # alpha of the west face of cell i = 0 (rad)
     half: bool = True
+    split: tuple[int, ...] | None = None  # sub-columns of each nominal column (None: uniform)
 
     def __post_init__(self):
+        if self.split is not None:
+            if any(int(k) < 1 for k in self.split) or sum(self.split) != self.n_circ:
+                raise InputError(f"mesh split {self.split!r} must be positive integers summing to "
+                                 f"n_circ = {self.n_circ}")
+            if len(self.split) < 8:
+                raise InputError(f"mesh has {len(self.split)} nominal circumferential cells; expected at least 8")
         if self.n_circ < 8:
             raise InputError(f"mesh has {self.n_circ} circumferential cells; expected at least 8")
         if self.n_axial < 2:
@@ -43,8 +65,34 @@ class FilmMesh:
             )
 
     @property
-    def d_alpha(self) -> float:
-        return 2.0 * math.pi / self.n_circ
+    def n_nominal(self) -> int:
+        """Columns of the mesh before refinement."""
+        return self.n_circ if self.split is None else len(self.split)
+
+    @property
+    def uniform(self) -> bool:
+        return self.split is None or all(k == self.split[0] for k in self.split)
+
+    @property
+    def d_alpha(self) -> np.ndarray:
+        """Angular width of each column (rad), shape (n_circ,)."""
+        if self.split is None:
+            return np.full(self.n_circ, 2.0 * math.pi / self.n_circ)
+        split = np.asarray(self.split)
+        return np.repeat(2.0 * math.pi / self.n_nominal / split, split)
+
+    @property
+    def d_alpha_east(self) -> np.ndarray:
+        """Angle from each cell centre to the next one downstream (rad), shape (n_circ,)."""
+        w = self.d_alpha
+        return 0.5 * (w + np.roll(w, -1))
+
+    @property
+    def nominal_column(self) -> np.ndarray:
+        """Index of the nominal column each column belongs to, shape (n_circ,)."""
+        if self.split is None:
+            return np.arange(self.n_circ)
+        return np.repeat(np.arange(self.n_nominal), self.split)
 
     @property
     def dz(self) -> float:
@@ -62,12 +110,13 @@ class FilmMesh:
     @property
     def alpha(self) -> np.ndarray:
         """Cell-centre angles (rad), shape (n_circ,)."""
-        return self.alpha_offset + (np.arange(self.n_circ) + 0.5) * self.d_alpha
+        w = self.d_alpha
+        return self.alpha_offset + np.cumsum(w) - 0.5 * w
 
     @property
     def alpha_east(self) -> np.ndarray:
         """Angles of the east (downstream) faces, shape (n_circ,)."""
-        return self.alpha_offset + (np.arange(self.n_circ) + 1.0) * self.d_alpha
+        return self.alpha_offset + np.cumsum(self.d_alpha)
 
     @property
     def z(self) -> np.ndarray:
@@ -75,7 +124,8 @@ class FilmMesh:
         return (np.arange(self.nz) + 0.5) * self.dz
 
     @property
-    def cell_area(self) -> float:
+    def cell_area(self) -> np.ndarray:
+        """Area of the cells of each column (m^2), shape (n_circ,)."""
         return self.radius * self.d_alpha * self.dz
 
     @property
@@ -85,9 +135,13 @@ class FilmMesh:
 
 
 def angle_mask(mesh: FilmMesh, centre: float, arc: float) -> np.ndarray:
-    """Cells whose centre angle lies within +-arc/2 of `centre`, shape (n_circ,)."""
-    d = np.angle(np.exp(1j * (mesh.alpha - centre)))  # wrapped to (-pi, pi]
-    return np.abs(d) <= 0.5 * arc * (1.0 + 1e-9)
+    """Columns whose *nominal* column's centre angle lies within +-arc/2 of `centre`, shape (n_circ,).
+
+    Decided on the nominal columns so that refining a column never changes what it covers: the
+    sub-columns of a nominal column are all in or all out."""
+    nominal = mesh.alpha_offset + (np.arange(mesh.n_nominal) + 0.5) * (2.0 * math.pi / mesh.n_nominal)
+    d = np.angle(np.exp(1j * (nominal - centre)))  # wrapped to (-pi, pi]
+    return (np.abs(d) <= 0.5 * arc * (1.0 + 1e-9))[mesh.nominal_column]
 
 
 def groove_cells(mesh: FilmMesh, angle: float, groove_length: float, groove_width: float) -> np.ndarray:
@@ -98,7 +152,7 @@ def groove_cells(mesh: FilmMesh, angle: float, groove_length: float, groove_widt
     """
     in_arc = angle_mask(mesh, angle, groove_length / mesh.radius)
     in_width = np.abs(mesh.z - 0.5 * mesh.length) <= 0.5 * groove_width * (1.0 + 1e-9)
-    n_arc = int(in_arc.sum())
+    n_arc = int(np.unique(mesh.nominal_column[in_arc]).size)
     n_width = int(np.count_nonzero(np.abs(
         (np.arange(mesh.n_axial) + 0.5) * mesh.dz - 0.5 * mesh.length) <= 0.5 * groove_width * (1.0 + 1e-9)))
     if n_arc < MIN_GROOVE_CELLS or n_width < MIN_GROOVE_CELLS:
@@ -128,3 +182,29 @@ def groove_aligned_offset(n_circ: int, radius: float, angle: float, groove_lengt
         if best is None or err < best[0] - 1e-12:
             best = (err, offset)
     return best[1]
+
+
+# Refined zone of `refined_split`, in nominal columns beyond the groove: the groove-fed full film
+# reaches ~1 column upstream and ~3 downstream of the groove within Q_T .. Q_T + 60 ml/min on the
+# paper's bearing (100 columns), where it grows fastest; a margin of 2 / 6 also covers its growth up
+# to 150 % Q_T (measured: local-cubic deviation over 15 ml/min 0.033 % with 1 / 3, 0.020 % with 2 / 6).
+REFINE_UPSTREAM = 2
+REFINE_DOWNSTREAM = 6
+
+
+def refined_split(n_circ: int, radius: float, alpha_offset: float, angle: float, groove_length: float,
+                  factor: int) -> tuple[int, ...] | None:
+    """`split` for a nominal uniform mesh with the groove's columns and their neighbours
+    (REFINE_UPSTREAM / REFINE_DOWNSTREAM) divided into `factor` sub-columns; None when factor is 1."""
+    if factor <= 1:
+        return None
+    nominal = FilmMesh(n_circ, 2, radius, 1.0, alpha_offset, half=False)
+    cols = np.flatnonzero(angle_mask(nominal, angle, groove_length / radius))
+    if cols.size == 0:
+        return None
+    # the groove's columns are contiguous modulo n_circ; find its upstream end
+    first = next(c for c in cols if (c - 1) % n_circ not in set(cols.tolist()))
+    zone = [(first + k) % n_circ for k in range(-REFINE_UPSTREAM, cols.size + REFINE_DOWNSTREAM)]
+    split = np.ones(n_circ, int)
+    split[zone] = factor
+    return tuple(int(k) for k in split)

@@ -83,7 +83,8 @@ def build_coefficients(mesh: FilmMesh, H, H_e, sq, source) -> Coefficients:
     Also used with *derivatives* of (H^3, H_e, ...) through `coefficient_derivatives`; the balance
     is linear in every coefficient, so its derivative at fixed (p, theta) is the same formula.
     """
-    da = mesh.d_alpha
+    da = mesh.d_alpha  # column widths (n_circ,)
+    da_e = mesh.d_alpha_east  # centre-to-centre spacing across each east face
     H_w = np.roll(H_e, 1, axis=1)
     axial = da * (mesh.radius / mesh.dz) ** 2
     H_n3 = np.empty_like(H)
@@ -98,13 +99,13 @@ def build_coefficients(mesh: FilmMesh, H, H_e, sq, source) -> Coefficients:
     else:
         aN[-1] = 2.0 * axial * H[-1] ** 3  # film edge z = L
     return Coefficients(
-        C1=H_e + sq, C2=H_w, aE=H_e**3 / da, aW=H_w**3 / da, aN=aN, aS=aS, S=source
+        C1=H_e + sq, C2=H_w, aE=H_e**3 / da_e, aW=H_w**3 / np.roll(da_e, 1), aN=aN, aS=aS, S=source
     )
 
 
 def coefficient_derivatives(mesh: FilmMesh, H, H_e, dH, dH_e, dsq) -> Coefficients:
     """d(coefficients)/ds for a parameter s moving H by dH, H_e by dH_e and sq by dsq (S fixed)."""
-    da = mesh.d_alpha
+    da, da_e = mesh.d_alpha, mesh.d_alpha_east
     H_w, dH_w = np.roll(H_e, 1, axis=1), np.roll(dH_e, 1, axis=1)
     axial = da * (mesh.radius / mesh.dz) ** 2
     dH_n3 = np.empty_like(H)
@@ -117,7 +118,7 @@ def coefficient_derivatives(mesh: FilmMesh, H, H_e, dH, dH_e, dsq) -> Coefficien
     daS[0] = 2.0 * axial * 3.0 * H[0] ** 2 * dH[0]
     daN[-1] = 0.0 if mesh.half else 2.0 * axial * 3.0 * H[-1] ** 2 * dH[-1]
     return Coefficients(
-        C1=dH_e + dsq, C2=dH_w, aE=3.0 * H_e**2 * dH_e / da, aW=3.0 * H_w**2 * dH_w / da,
+        C1=dH_e + dsq, C2=dH_w, aE=3.0 * H_e**2 * dH_e / da_e, aW=3.0 * H_w**2 * dH_w / np.roll(da_e, 1),
         aN=daN, aS=daS, S=np.zeros_like(H),
     )
 
@@ -162,8 +163,9 @@ def build_problem(
     groove = np.zeros(mesh.shape, bool) if groove is None else groove
     fixed = np.zeros(mesh.shape, bool) if fixed is None else fixed
     if q_supply and groove.any():
-        n_groove_total = groove.sum() * mesh.mirror_factor
-        source[groove] = q_supply / n_groove_total / flux_ref  # Eq. 4: Qs / Ng per groove volume
+        # Eq. 4: Qs / Ng per groove volume; with refined columns, in proportion to each volume's area
+        area = np.where(groove, mesh.cell_area, 0.0)
+        source = q_supply * area / (area.sum() * mesh.mirror_factor) / flux_ref
     coef = build_coefficients(mesh, H, H_e, sq, source)
     p_ref = 6.0 * viscosity * U * mesh.radius / clearance**2
     edge_n = coef.aN[-1] if not mesh.half else np.zeros(mesh.n_circ)
@@ -193,9 +195,8 @@ def film_force(problem: FilmProblem, P) -> np.ndarray:
     F = -integral(p n dA) = (integral p sin alpha dA, -integral p cos alpha dA).
     """
     m = problem.mesh
-    scale = problem.p_ref * m.cell_area * m.mirror_factor
-    col = P.sum(axis=0)
-    return scale * np.array([col @ np.sin(m.alpha), -(col @ np.cos(m.alpha))])
+    col = P.sum(axis=0) * (problem.p_ref * m.cell_area * m.mirror_factor)
+    return np.array([col @ np.sin(m.alpha), -(col @ np.cos(m.alpha))])
 
 
 def force_weights(problem: FilmProblem) -> np.ndarray:

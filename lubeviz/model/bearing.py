@@ -37,6 +37,10 @@ class Bearing(param.Parameterized):
     )
     n_circumferential = param.Integer(100, bounds=(8, 4000), doc="Finite volumes around the circumference")
     n_axial = param.Integer(100, bounds=(2, 4000), doc="Finite volumes along the bearing length")
+    groove_refinement = param.Integer(
+        4, bounds=(1, 16),
+        doc="Sub-columns each circumferential cell in and next to the groove is split into (1: the paper's "
+            "uniform mesh). Smooths the coefficients just above Q_T, where the groove pressurizes")
     node = param.Integer(None, allow_None=True, bounds=(1, None), doc="Rotor node (paper numbering) of the bearing centre")
 
     def __init__(self, **params):

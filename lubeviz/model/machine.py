@@ -96,7 +96,8 @@ _OPTIONAL = {("machine", "description"), ("material", "name"), ("unbalance", "ph
 _DISC = {"node": int, "width_mm": float, "outer_diameter_mm": float, "bore_diameter_mm": float}
 _BEARING = {"name": str, "node": int, "radius_mm": float, "length_mm": float, "clearance_um": float,
             "viscosity_pa_s": float, "groove_angle_deg": float, "groove_length_mm": float,
-            "groove_width_mm": float, "mesh_circumferential": int, "mesh_axial": int}
+            "groove_width_mm": float, "mesh_circumferential": int, "mesh_axial": int,
+            "mesh_groove_refinement": int}
 
 
 def _typed(value, kind, where):
@@ -179,7 +180,7 @@ def load_machine(path: str | Path | None = None) -> Machine:
         bearings = []
         for k, b in enumerate(raw.get("bearings", []), start=1):
             w = f"{where} [[bearings]] #{k}"
-            t = _table(b, _BEARING, w, {"name"})
+            t = _table(b, _BEARING, w, {"name", "mesh_groove_refinement"})
             try:
                 bearings.append(Bearing(
                     name=t.get("name", f"bearing {k}"), node=node_ok(t["node"], w),
@@ -187,7 +188,7 @@ def load_machine(path: str | Path | None = None) -> Machine:
                     clearance=t["clearance_um"] * 1e-6, viscosity=t["viscosity_pa_s"],
                     groove_angle=math.radians(t["groove_angle_deg"]), groove_length=t["groove_length_mm"] * 1e-3,
                     groove_width=t["groove_width_mm"] * 1e-3, n_circumferential=t["mesh_circumferential"],
-                    n_axial=t["mesh_axial"]))
+                    n_axial=t["mesh_axial"], groove_refinement=t.get("mesh_groove_refinement", 4)))
             except ValueError as exc:
                 raise ModelFileError(f"{w}: {exc}") from None
         if len(bearings) != 2:

@@ -27,6 +27,12 @@ FINE_MESH = {400: ([138.7, 63.1, -67.1, 67.7], [216, -418, -204, 623]),
              700: ([219.7, 203.0, -199.3, 104.1], [858, -794, 93, 865])}
 
 
+@pytest.fixture(scope="module")
+def paper_bearing(machine):
+    """The paper's uniform 100 x 100 mesh: the smoothing acts per cell and was chosen on it (smoothed.py)."""
+    return machine.bearings[0].copy(groove_refinement=1)
+
+
 @pytest.fixture(scope="module", params=sorted(FEEDS))
 def equilibrium(request, paper_bearing):
     return find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, FEEDS[request.param], coefficients="fixed-pattern")
