@@ -113,22 +113,21 @@ def test_below_q_t_the_table_is_within_a_tenth_of_the_noise_floor(regions):
 
 
 @pytest.mark.slow
-def test_across_the_groove_filling_band_the_table_is_within_the_target_but_at_the_first_kink(regions):
-    """Q_T - 5 ... Q_T + 25 ml/min: the groove fills cell by cell and the coefficients kink at
-    mesh-dependent flows (the first 0.75-1 ml/min below Q_T). φ meets the target everywhere and fb at 90 %
-    of the flows; inside the interval holding the first kink fb is off by up to 1.6 x the target
-    (0.052 %), still a sixth of the noise floor."""
+def test_across_the_groove_filling_band_the_table_is_within_the_target(regions):
+    """Q_T - 5 ... Q_T + 25 ml/min, where the groove pressurizes: with the groove's columns refined
+    (mesh.refined_split) the coefficients follow a smooth ramp and the dense table meets the target at
+    every flow (measured: fb max 0.0065 %, phi max 0.0007 deg). On the uniform mesh the column-by-column
+    kinks cost up to 1.6 x the target in fb."""
     r = regions["band"]
     assert r["phi_deg_max"] < PHI_TARGET
-    assert r["fb_pct_p90"] < FB_TARGET_PCT
-    assert r["fb_pct_max"] < 2 * FB_TARGET_PCT
+    assert r["fb_pct_max"] < FB_TARGET_PCT
 
 
 @pytest.mark.slow
 def test_above_q_t_the_table_is_within_the_target_but_for_the_films_own_roughness(regions):
     """Above the band the direct solves are themselves rough at this level: their deviation from a
-    local cubic in Q reaches 0.05 % in fb and 0.014 deg in φ (the sub-cell tangent's residual
-    staircase, BENCHMARKS "Smoothness"), which no smooth table can follow. The typical (90 %) error
+    local cubic in Q reaches 0.06 % in fb and 0.013 deg in φ (the sub-cell tangent's residual
+    staircase, 0.03 % in K, BENCHMARKS "Smoothness"), which no smooth table can follow. The typical (90 %) error
     meets the target; the max is held at a fifth of the noise floor."""
     r = regions["above"]
     assert r["fb_pct_p90"] < FB_TARGET_PCT and r["phi_deg_p90"] < PHI_TARGET
