@@ -51,13 +51,7 @@ def _bearing(args, index: int = 0):
             changes[name] = value * scale
     if getattr(args, "mesh", None) is not None:
         changes["n_circumferential"], changes["n_axial"] = args.mesh
-    if getattr(args, "groove_refinement", None) is not None:
-        if not 1 <= args.groove_refinement <= 16:
-            raise InputError(f"--groove-refinement {args.groove_refinement}: expected an integer from 1 to 16")
-        changes["groove_refinement"] = args.groove_refinement
-    if getattr(args, "groove_refinement", None) is not None:
-        if not 1 <= args.groove_refinement <= 16:
-            raise InputError(f"--groove-refinement {args.groove_refinement}: expected an integer from 1 to 16")
+    if getattr(args, "groove_refinement", None) is not None:  # bounds: Bearing.groove_refinement
         changes["groove_refinement"] = args.groove_refinement
     if getattr(args, "no_groove", False):
         changes["groove_length"] = changes["groove_width"] = 0.0

@@ -79,7 +79,8 @@ def frame_from_equilibrium(eq: Equilibrium) -> SupplyFrame:
     return SupplyFrame(
         q=float(q), position=np.array(eq.position, dtype=float),
         K=np.array(eq.coefficients.K), C=np.array(eq.coefficients.C),
-        pressure=sol.pressure_field(), theta=sol.theta_field(), alpha=np.array(m.alpha), d_alpha=np.array(m.d_alpha), z=z,
+        pressure=sol.pressure_field(), theta=sol.theta_field(), alpha=np.array(m.alpha),
+        d_alpha=np.array(m.d_alpha), z=z,
         groove=np.array(groove, dtype=bool), film_thickness=np.array(pr.H[0] * pr.clearance),
         summary=summarize(sol, eq.position), clearance=float(pr.clearance),
         half_sommerfeld=_half_sommerfeld_mid_plane(eq))

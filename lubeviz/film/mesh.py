@@ -70,10 +70,6 @@ class FilmMesh:
         return self.n_circ if self.split is None else len(self.split)
 
     @property
-    def uniform(self) -> bool:
-        return self.split is None or all(k == self.split[0] for k in self.split)
-
-    @property
     def d_alpha(self) -> np.ndarray:
         """Angular width of each column (rad), shape (n_circ,)."""
         if self.split is None:
@@ -203,7 +199,8 @@ def refined_split(n_circ: int, radius: float, alpha_offset: float, angle: float,
     if cols.size == 0:
         return None
     # the groove's columns are contiguous modulo n_circ; find its upstream end
-    first = next(c for c in cols if (c - 1) % n_circ not in set(cols.tolist()))
+    in_groove = set(cols.tolist())
+    first = next(c for c in cols if (c - 1) % n_circ not in in_groove)
     zone = [(first + k) % n_circ for k in range(-REFINE_UPSTREAM, cols.size + REFINE_DOWNSTREAM)]
     split = np.ones(n_circ, int)
     split[zone] = factor

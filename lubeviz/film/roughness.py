@@ -11,8 +11,8 @@ regime with a genuine kink in K(Q) and C(Q) (on every mesh; on 100 x 100 the slo
 sign within 1 ml/min), which a cubic across it cannot follow. So besides the plain figure
 ("K_max", "C_max") each method also reports the roughness with the fits split at Q_T
 ("split_at_threshold": no fit spans the kink) and outside the transition band Q_T - 5 .. Q_T + 25
-ml/min ("outside_threshold_band"): on 100 x 100 the groove starts to fill ~0.5 ml/min below the
-flooded film's Q_T and its cells pressurize one after the other up to ~Q_T + 25 ml/min.
+ml/min ("outside_threshold_band"), where the groove pressurizes and its full-film zone spreads (on
+the uniform 100-column mesh one column at a time, from ~0.7 ml/min below Q_T to ~Q_T + 25 ml/min).
 
 Two windows. Above Q_T the groove's pressurized zone spreads, and the slope of K(Q) and C(Q) ramps
 from its starved value to about 3x over ~10 ml/min (the same on 100, 200 and 400 columns). A cubic
@@ -41,7 +41,7 @@ from .sweep import sweep_supply
 
 WINDOW = 31
 SHORT_WINDOW = 15
-THRESHOLD_BAND = (-5 / 6e7, 25 / 6e7)  # m^3/s around Q_T where the groove fills cell by cell (100 x 100)
+THRESHOLD_BAND = (-5 / 6e7, 25 / 6e7)  # m^3/s around Q_T where the groove pressurizes
 METHODS = ("fixed-pattern", "smoothed", "subcell")
 
 

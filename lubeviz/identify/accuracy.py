@@ -10,10 +10,10 @@ The noise floor (`NOISE_FB_REL`, `NOISE_PHI_DEG`): the standard deviation of fb 
 seeds of a 5 s record at 12 dB SNR (the paper's protocol), measured with `noise_floor`.
 
 What the difference contains: (1) the interpolation error of the spline, which falls like h^4 with
-the node spacing h where the coefficients are smooth; (2) kinks: around Q_T the discrete groove fills
-cell by cell and the slope of K(Q), C(Q) jumps at mesh-dependent flows (the first 0.75-1 ml/min below
-Q_T), which a spline only follows with short steps (tables.DENSE_BAND); (3) the film's own roughness
-in Q: the sub-cell tangent's residual staircase (~0.045 % in K, C) is in the direct solves, and a
+the node spacing h where the coefficients are smooth; (2) the fast change of slope of K(Q), C(Q) as the
+groove pressurizes just above Q_T (on the uniform mesh, kinks at mesh-dependent flows; smooth with the
+groove's columns refined), which a spline only follows with short steps (tables.DENSE_BAND); (3) the film's own roughness
+in Q: the sub-cell tangent's residual staircase (~0.03 % in K, C) is in the direct solves, and a
 smooth table cannot follow it, however dense. So away from the band the difference levels off at (3).
 
 Measured (`lubeviz bench identify --accuracy`; bearing 1, 100 x 100 mesh, 75 Hz, nodes 6, 20, 5, 21,
@@ -50,7 +50,7 @@ from .tables import CoefficientTable
 # The paper's reference flows (SPEC §5), ml/min.
 REFERENCE_FLOWS_MLMIN = (409.5, 448.5, 487.5, 526.5, 565.5, 604.5, 643.5, 682.5)
 
-# The band around Q_T where the groove fills cell by cell (ml/min from Q_T), as in BENCHMARKS "Smoothness".
+# The band around Q_T where the groove pressurizes (ml/min from Q_T), as in BENCHMARKS "Smoothness".
 GROOVE_BAND_MLMIN = (-5.0, 25.0)
 _STATS = {"median": np.median, "p90": lambda a: np.percentile(a, 90), "max": np.max}
 
@@ -103,7 +103,7 @@ class InterpolationError:
 
     def regions(self, q_threshold: float, band_mlmin=GROOVE_BAND_MLMIN) -> dict:
         """Median, 90th percentile and max of the fb (%) and phi (deg) errors below, across and above
-        the band Q_T + band_mlmin (ml/min) where the groove fills cell by cell; None for an empty region."""
+        the band Q_T + band_mlmin (ml/min) where the groove pressurizes; None for an empty region."""
         dq = (self.flows - q_threshold) * 6e7
         lo, hi = band_mlmin
         out = {}

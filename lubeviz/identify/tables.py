@@ -9,13 +9,13 @@ smooth functions).
 The grid follows what the coefficients do (measured on the paper's bearings, 100 x 100, sub-cell K, C):
 - Q_T is a change of regime (the groove starts to pressurize: Kyy turns from falling to rising), so
   Q_T is a node and each side gets its own spline: one spline across it left 0.75 % in fb.
-- Just around and above Q_T the discrete groove fills cell by cell: the first groove cells pressurize
-  0.75-1 ml/min (0.15 %) *below* Q_T, where the slope of K, C jumps (Kyy: from -0.1 to +1.9 % per
-  ml/min), and again at each later stage (Q_T + 1, + 6, + 11 ... ml/min). These are kinks at
-  mesh-dependent flows that no node can be placed on in advance; a coarse spline rings around them
-  (the old 71-point grid: 0.35 % in fb at Q_T - 7 and 1.4 % at Q_T + 7 ml/min). `DENSE_BAND` around
-  Q_T therefore gets a uniform step `DENSE_STEP`, short enough that a kink costs little inside its
-  own interval and its ringing dies out within a few steps (max 0.05 % in fb there).
+- Just above Q_T the slope of K, C ramps to ~3x its starved value within ~10 ml/min as the groove
+  pressurizes (Kyy: from -0.1 to +1.9 % per ml/min). On the uniform mesh the ramp came in kinks at
+  mesh-dependent flows (the groove's pressurized zone growing a column at a time: Q_T - 0.7, + 6,
+  + 12 ml/min) and a coarse spline rang around them (the old 71-point grid: 0.35 % in fb at Q_T - 7,
+  1.4 % at Q_T + 7 ml/min). `DENSE_BAND` around Q_T gets a uniform step `DENSE_STEP`; with the
+  groove's columns refined (film.mesh.refined_split) the ramp is smooth and the band's error is
+  0.0065 % in fb at most (0.052 % on the uniform mesh).
 - Elsewhere the coefficients are smooth: a grid uniform in s = sqrt(Q / Q_T), about twice as dense
   below Q_T as above.
 `lubeviz bench identify --accuracy` and the tests measure the error against direct solves
@@ -40,7 +40,7 @@ from ..progress import ProgressFn, silent
 from ..rotor.statics import bearing_static_loads
 
 DEFAULT_SPAN = (0.25, 2.0)
-# The band where the groove fills cell by cell, relative to Q_T, and its step (0.27 ml/min at Q_T =
+# The band where the groove pressurizes, relative to Q_T, and its step (0.27 ml/min at Q_T =
 # 545 ml/min): 111 of the default points; the other 111 on the sqrt(Q) grid outside it.
 DENSE_BAND = (-0.005, 0.05)
 DENSE_STEP = 0.0005

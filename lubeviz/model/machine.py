@@ -188,7 +188,8 @@ def load_machine(path: str | Path | None = None) -> Machine:
                     clearance=t["clearance_um"] * 1e-6, viscosity=t["viscosity_pa_s"],
                     groove_angle=math.radians(t["groove_angle_deg"]), groove_length=t["groove_length_mm"] * 1e-3,
                     groove_width=t["groove_width_mm"] * 1e-3, n_circumferential=t["mesh_circumferential"],
-                    n_axial=t["mesh_axial"], groove_refinement=t.get("mesh_groove_refinement", 4)))
+                    n_axial=t["mesh_axial"],
+                    **({"groove_refinement": t["mesh_groove_refinement"]} if "mesh_groove_refinement" in t else {})))
             except ValueError as exc:
                 raise ModelFileError(f"{w}: {exc}") from None
         if len(bearings) != 2:

@@ -55,6 +55,7 @@ def test_bearing_json_reports_equilibrium_and_coefficients(capsys):
     (["film", "--eccentricity", "0.3", "--flooded", "--mesh", "abc"], "NxM"),
     (["bearing", "--q-mlmin", "400", "--machine", "/nonexistent.toml"], "no such model file"),
     (["bearing", "--q-mlmin", "400", "--load-n", "0"], "--load-n"),
+    (["bearing", "--q-mlmin", "400", "--groove-refinement", "0"], "groove_refinement"),
     (["bearing"], "required"),
 ])
 def test_bad_input_exits_2_with_one_line(capsys, argv, needle):

@@ -37,6 +37,8 @@ def _broken(tmp_path, old, new):
     ("[unbalance]\nnode = 13", "[unbalance]\nnode = 42", "node 42 outside 1..21"),
     ("young_modulus_pa = 210e9", "young_modulus_pa = nan", "not a finite number"),
     ("[shaft]", "[shaft]\n[oops", "not a valid TOML file"),
+    ("mesh_groove_refinement = 4", "mesh_groove_refinement = 0", "groove_refinement"),
+    ("mesh_groove_refinement = 4", "mesh_groove_refinement = 2.5", "expected int, got float"),
 ])
 def test_broken_model_file_is_refused_with_a_clear_message(tmp_path, old, new, expect):
     path = _broken(tmp_path, old, new)
@@ -61,3 +63,15 @@ def test_bearing_rejects_impossible_values(field, value):
 def test_groove_wider_than_the_bearing_is_refused():
     with pytest.raises(InputError, match="groove width"):
         Bearing(groove_width=0.08)
+
+
+def test_groove_refinement_is_optional_and_defaults_to_the_bearings(tmp_path):
+    from lubeviz.model.bearing import Bearing
+
+    text = Path(DEFAULT_MACHINE).read_text()
+    assert text.count("mesh_groove_refinement = 4") == 2
+    path = tmp_path / "uniform.toml"
+    path.write_text(text.replace("mesh_groove_refinement = 4", "mesh_groove_refinement = 1", 1)
+                    .replace("mesh_groove_refinement = 4", ""))
+    b1, b2 = load_machine(path).bearings
+    assert b1.groove_refinement == 1 and b2.groove_refinement == Bearing.param.groove_refinement.default
