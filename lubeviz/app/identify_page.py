@@ -83,8 +83,9 @@ class IdentifyPage(pn.viewable.Viewer):
         self._result = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["lubeviz-result"])
         self._warning = pn.pane.Alert("", alert_type="warning", visible=False, sizing_mode="stretch_width",
                                       css_classes=["lubeviz-model-warning"])
-        self._features = pn.widgets.Tabulator(None, disabled=True, show_index=False, sizing_mode="stretch_width",
-                                              visible=False, css_classes=["lubeviz-features"])
+        # Holds a table made afresh for each result: a Tabulator first drawn while hidden can show no
+        # rows once made visible (its virtual renderer sized them at zero height).
+        self._features = pn.Column(sizing_mode="stretch_width")
         self._download_json = pn.widgets.FileDownload(callback=self._export_json, filename="identification.json",
                                                       label="Export JSON", button_type="success", disabled=True,
                                                       css_classes=["lubeviz-export-json"])
@@ -133,7 +134,8 @@ class IdentifyPage(pn.viewable.Viewer):
         self.state.identification = None
         self._item = None
         self._result.object = ""
-        self._warning.visible = self._features.visible = False
+        self._warning.visible = False
+        self._features.objects = []
         self._download_json.disabled = self._download_csv.disabled = True
         self._run.disabled = False
         self._record_info.object = self._info(record, measured)
@@ -246,11 +248,12 @@ class IdentifyPage(pn.viewable.Viewer):
         std_m = self.state.measured.subset(names).std if self.state.measured is not None else np.full(len(names), np.nan)
         deg = [n.startswith("phi") or n.startswith("arg") for n in names]
         conv = np.where(deg, 180 / math.pi, 1.0)
-        self._features.value = pd.DataFrame({
+        table = pd.DataFrame({
             "feature": names, "unit": ["deg" if d else "–" for d in deg],
             "measured": np.round(meas * conv, 5), "± (1σ noise)": np.round(std_m * conv, 5),
             "model": np.round(model * conv, 5), "difference / σ": np.round((model - meas) / std_m, 2)})
-        self._features.visible = True
+        self._features.objects = [pn.widgets.Tabulator(table, disabled=True, show_index=False,
+                                                       sizing_mode="stretch_width", css_classes=["lubeviz-features"])]
 
     def _export_json(self):
         return io.StringIO(json.dumps(result_dict(self._item), indent=2)) if self._item else io.StringIO("{}")
