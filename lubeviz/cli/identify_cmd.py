@@ -17,6 +17,9 @@ def register(sub) -> None:
     p.add_argument("files", nargs="+", metavar="FILE", help="records (.csv, .npz, .mat; SPEC §6)")
     p.add_argument("--mode", choices=("best", "paper"), default="best", help="search method (default: best)")
     p.add_argument("--workers", type=int, default=None, help="processes for many records (default: all cores)")
+    p.add_argument("--effect", action="append", default=[], metavar="NAME[:key=value,...]",
+                   help="declare an effect (SPEC §7, repeatable): the parameters given are held, the others "
+                        "fitted with the flows, e.g. viscosity:bearing=both or probe_rotation:plane=1,angle_deg=4")
     p.set_defaults(run=run_identify)
 
     p = sub.add_parser("reproduce", help="the paper's 64-case protocol, Tables 4-8")
@@ -31,8 +34,15 @@ def register(sub) -> None:
 def run_identify(args) -> dict:
     from ..identify.batch import identify_files, result_dict
 
+    from ..effects import parse_effects
+
     t0 = time.perf_counter()
-    results = identify_files(args.files, args.machine, args.mode, workers=args.workers, progress=StderrBar())
+    parse_effects(args.effect)  # a bad effect is a bad-input error before any work
+    results = identify_files(args.files, args.machine, args.mode, workers=args.workers, progress=StderrBar(),
+                             effect_specs=tuple(args.effect))
+    for path, item, _ in results:
+        for w in () if item is None else tuple(item.warnings) + tuple(item.result.warnings):
+            sys.stderr.write(f"lubeviz identify: {path}: warning: {w}\n")
     if len(results) == 1:
         path, item, err = results[0]
         if err is not None:

@@ -14,6 +14,8 @@ from ..model.machine import load_machine
 from ..rotor import machine_unbalance, modal_analysis, rotor_from_machine, unbalance_response
 from ..rotor.film_bearings import film_bearings
 from ..units import mlmin_to_m3s
+from ..effects import parse_effects
+from ..progress import StderrBar
 from .common import add_common, finite_float
 
 
@@ -97,8 +99,13 @@ def register(sub) -> None:
                    help="simulated time from rest; the last --duration-s are kept (default 15)")
     p.add_argument("--sample-rate-hz", type=finite_float, default=1.0e4, help="samples per second")
     p.add_argument("--speed-hz", type=finite_float, default=None, help="shaft speed (default: the machine's)")
-    p.add_argument("--method", choices=("time", "steady"), default="time",
-                   help="time integration from rest (the paper) or the steady state sampled")
+    p.add_argument("--method", choices=("time", "steady"), default=None,
+                   help="time integration from rest (the paper; default without effects) or the steady state "
+                        "sampled (the default, and the only method, with --effect)")
+    p.add_argument("--effect", action="append", default=[], metavar="NAME[:key=value,...]",
+                   help="add an effect to the machine or the measurement (SPEC §7, repeatable), e.g. "
+                        "viscosity:factor=0.8 or probe_gain:channel=x1,gain=1.1; parameters not given take "
+                        "their defaults")
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="record file: .csv, .npz or .mat")
     p.set_defaults(run=run_simulate)
 
@@ -160,15 +167,29 @@ def run_simulate(args) -> dict:
         raise InputError(f"-o {out}: expected a .csv, .npz or .mat file name")
     if not out.parent.exists():
         raise InputError(f"-o {out}: folder {out.parent} does not exist")
-    rec = synthesize_record(machine, _flows(args), nodes=nodes, snr_db=snr,
-                            rng=np.random.default_rng(args.seed), duration_s=args.duration_s,
-                            total_s=args.total_s, sample_rate_hz=args.sample_rate_hz, speed_hz=speed_hz,
-                            method=args.method)
+    effects = parse_effects(args.effect)
+    method = args.method or ("steady" if effects else "time")
+    if effects and method != "steady":
+        raise InputError("--method time with --effect: effects are simulated through the steady forward chain; "
+                         "use --method steady (or leave --method out)")
+    if effects:
+        from ..identify.chain import ForwardChain, simulate
+
+        held = tuple(e.hold() for e in effects)
+        chain = ForwardChain(machine, speed_hz, nodes, held, progress=StderrBar())
+        rec = simulate(chain, np.array(_flows(args)), snr_db=snr, rng=np.random.default_rng(args.seed),
+                       duration_s=args.duration_s, sample_rate_hz=args.sample_rate_hz,
+                       metadata={"effects": "; ".join(e.spec() for e in held), "seed": str(args.seed)})
+    else:
+        rec = synthesize_record(machine, _flows(args), nodes=nodes, snr_db=snr,
+                                rng=np.random.default_rng(args.seed), duration_s=args.duration_s,
+                                total_s=args.total_s, sample_rate_hz=args.sample_rate_hz, speed_hz=speed_hz,
+                                method=method)
     write_record(rec, out)
     return {"file": str(out), "q1_mlmin": args.q1_mlmin, "q2_mlmin": args.q2_mlmin, "nodes": list(nodes),
             "snr_db": snr, "seed": args.seed, "n_samples": rec.n_samples, "duration_s": rec.duration,
-            "sample_rate_hz": rec.sample_rate_hz, "speed_hz": speed_hz, "method": args.method,
-            "seconds": time.perf_counter() - t0}
+            "sample_rate_hz": rec.sample_rate_hz, "speed_hz": speed_hz, "method": method,
+            "effects": [e.spec() for e in effects], "seconds": time.perf_counter() - t0}
 
 
 def finite_float_or_error(text: str, flag: str) -> float:

@@ -27,6 +27,7 @@ class RecordIdentification:
     result: Identification
     nodes: tuple[int, int]
     speed_hz: float
+    warnings: tuple[str, ...] = ()  # the record reader's (e.g. an unknown metadata key)
 
 
 def check_model_speed(machine, speed_hz: float) -> None:
@@ -52,26 +53,79 @@ def model_speed(machine, record) -> float:
 
 def identify_record(record, machine=None, settings: IdentificationSettings | None = None, *,
                     progress: ProgressFn = silent, model: ForwardModel | None = None,
-                    measured=None) -> RecordIdentification:
-    """Identify Q1, Q2 from a `Record` (already read); the model is built at `model_speed` unless given."""
+                    measured=None, effects=(), budget=None) -> RecordIdentification:
+    """Identify Q1, Q2 (and the free parameters of declared `effects`) from a `Record` (already read).
+
+    Best mode: the fit on named parameters (`fit.fit`: global search over the flow box, model budget,
+    profile intervals) through the forward chain with the record's probe angles. Paper mode: the paper's
+    Newton-Raphson on the table model (`newton.identify_paper`), without effects.
+    """
     machine = load_machine() if machine is None else machine
     settings = settings or IdentificationSettings()
     speed = model_speed(machine, record)
-    if model is None or model.nodes != tuple(record.nodes) or abs(model.omega / (2 * math.pi) - speed) > 1e-9:
-        model = model_for(machine, speed, record.nodes, progress=progress)
+    check_model_speed(machine, speed)
     measured = measure(record, ALL_FEATURES) if measured is None else measured
-    result = identify(model, measured, settings)
+    if settings.mode == "paper":
+        if effects:
+            raise InputError("paper mode identifies the flows only; declare effects in best mode")
+        if model is None or model.nodes != tuple(record.nodes) or abs(model.omega / (2 * math.pi) - speed) > 1e-9:
+            model = model_for(machine, speed, record.nodes, progress=progress)
+        result = identify(model, measured, settings)
+    else:
+        result = _fit_record(record, machine, speed, measured, settings, effects, budget, progress, model)
     return RecordIdentification(file=str(record.source or "record"), result=result, nodes=tuple(record.nodes),
-                                speed_hz=record.speed_hz)
+                                speed_hz=record.speed_hz, warnings=tuple(getattr(record, "warnings", ())))
+
+
+def _fit_record(record, machine, speed, measured, settings, effects, budget, progress, model) -> Identification:
+    from .chain import ForwardChain
+    from .fit import fit
+    from .newton import check_record
+
+    tables = model.tables if model is not None and abs(model.omega / (2 * math.pi) - speed) < 1e-9 else None
+    chain = ForwardChain(machine, speed, record.nodes, effects, probe_angles_deg=record.probe_angles_deg,
+                         tables=tables, progress=progress)
+    check_record(_NodesSpeed(chain), measured, settings)
+    res = fit(chain, measured, names=tuple(settings.features), budget=budget, lower=settings.lower,
+              upper=settings.upper)
+    q = res.values[:2]
+    effect_values = {}
+    for j, name in enumerate(res.names[2:], start=2):
+        head, _, pname = name.rpartition(".")
+        effect_values.setdefault(head, {})[pname] = float(res.values[j])
+        effect_values[head][pname + "_std"] = float(res.std[j])
+    for e in chain.effects:  # the held parameters, as given
+        head = chain._prefix(e)
+        for pname, v in e.values().items():
+            effect_values.setdefault(head, {}).setdefault(pname, v)
+    alternatives = tuple(a[0][:2] for a in res.alternatives)
+    return Identification(
+        q=q, q_std=res.std[:2], converged=res.status in (0, 1), iterations=res.iterations,
+        starts_tried=len(res.paths), paths=res.paths, features_names=res.features_names,
+        features_measured=res.features_measured, features_model=res.features_model, residual=res.residual,
+        total_error=res.chi2, mode="best", evaluations=res.evaluations, seconds=res.seconds,
+        message="; ".join([res.message, *res.warnings]), q_threshold=chain.q_threshold.copy(), chi2=res.chi2,
+        dof=res.dof, p_value=res.p_value, unique=not alternatives, alternatives=alternatives,
+        intervals=tuple(res.intervals.get(n) for n in ("q1", "q2")), level=res.level, warnings=res.warnings,
+        effects=effect_values, alternatives_chi2=tuple(a[1] for a in res.alternatives))
+
+
+class _NodesSpeed:
+    """What `newton.check_record` reads of a model: its speed and planes."""
+
+    def __init__(self, chain):
+        self.omega, self.nodes = chain.omega, chain.nodes
 
 
 def identify_file(path, machine=None, settings: IdentificationSettings | None = None, *,
-                  progress: ProgressFn = silent, model: ForwardModel | None = None) -> RecordIdentification:
+                  progress: ProgressFn = silent, model: ForwardModel | None = None,
+                  effects=()) -> RecordIdentification:
     """Read a record (SPEC §6) and identify Q1, Q2. The model is built at the record's speed."""
     machine = load_machine() if machine is None else machine
     rec = read_record(path, default_nodes=tuple(machine.center_nodes))
-    out = identify_record(rec, machine, settings, progress=progress, model=model)
-    return RecordIdentification(file=str(path), result=out.result, nodes=out.nodes, speed_hz=out.speed_hz)
+    out = identify_record(rec, machine, settings, progress=progress, model=model, effects=effects)
+    return RecordIdentification(file=str(path), result=out.result, nodes=out.nodes, speed_hz=out.speed_hz,
+                                warnings=out.warnings)
 
 
 def result_dict(item: RecordIdentification) -> dict:
@@ -91,9 +145,22 @@ def result_dict(item: RecordIdentification) -> dict:
         "residual": r.residual.tolist(), "total_error": r.total_error, "mode": r.mode,
         "model_evaluations": r.evaluations, "nodes": list(item.nodes), "speed_hz": item.speed_hz,
         "unique": r.unique, "alternatives_mlmin": [(a * 6e7).tolist() for a in r.alternatives],
-        "chi2": r.chi2, "dof": r.dof, "p_value": r.p_value, "model_explains_data": r.model_explains_data,
+        "alternatives": [{"q1_mlmin": a[0] * 6e7, "q2_mlmin": a[1] * 6e7,
+                          "chi2": r.alternatives_chi2[j] if j < len(r.alternatives_chi2) else None}
+                         for j, a in enumerate(r.alternatives)],
+        "q1_interval_mlmin": _interval(r, 0), "q2_interval_mlmin": _interval(r, 1),
+        "chi2": r.chi2, "dof": r.dof, "p_value": r.p_value, "level": r.level,
+        "model_explains_data": r.model_explains_data, "effects": r.effects,
+        "warnings": list(r.warnings) + list(getattr(item, "warnings", ())),
         "message": r.message, "seconds": r.seconds,
     }
+
+
+def _interval(r, k):
+    if r.intervals is None or r.intervals[k] is None:
+        return None
+    low, high = r.intervals[k]
+    return [low * 6e7, None if high is None else high * 6e7]
 
 
 def result_csv(item: RecordIdentification) -> str:
@@ -111,15 +178,19 @@ def result_csv(item: RecordIdentification) -> str:
     return "\n".join(rows) + "\n"
 
 
-def _worker(path, machine_path, mode):
+def _worker(path, machine_path, mode, effect_specs=()):
+    from ..effects import parse_effects
+
     try:
-        return identify_file(path, load_machine(machine_path), IdentificationSettings(mode=mode)), None
+        return identify_file(path, load_machine(machine_path), IdentificationSettings(mode=mode),
+                             effects=parse_effects(effect_specs)), None
     except LubevizError as exc:
         return None, str(exc)
 
 
 def identify_files(paths, machine_path=None, mode: str = "best", *, workers: int | None = None,
-                   progress: ProgressFn = silent) -> list[tuple[str, RecordIdentification | None, str | None]]:
+                   progress: ProgressFn = silent,
+                   effect_specs=()) -> list[tuple[str, RecordIdentification | None, str | None]]:
     """Identify many records; returns (file, result or None, error message or None) in input order.
 
     Tables are built (or loaded) once, up front, then records run on `workers` processes.
@@ -131,11 +202,14 @@ def identify_files(paths, machine_path=None, mode: str = "best", *, workers: int
     out: dict[str, tuple] = {}
     t0 = time.perf_counter()
     if workers == 1 or len(paths) == 1:
+        from ..effects import parse_effects
+
         settings = IdentificationSettings(mode=mode)
+        effects = parse_effects(effect_specs)
         model = None
         for n, p in enumerate(paths, start=1):
             try:
-                r = identify_file(p, machine, settings, model=model)
+                r = identify_file(p, machine, settings, model=model, effects=effects)
                 model = None
                 out[p] = (r, None)
             except LubevizError as exc:
@@ -143,7 +217,7 @@ def identify_files(paths, machine_path=None, mode: str = "best", *, workers: int
             progress(n, len(paths), os.path.basename(p))
     else:
         with ProcessPoolExecutor(max_workers=workers) as pool:
-            futures = {pool.submit(_worker, p, machine_path, mode): p for p in paths}
+            futures = {pool.submit(_worker, p, machine_path, mode, tuple(effect_specs)): p for p in paths}
             for n, f in enumerate(as_completed(futures), start=1):
                 out[futures[f]] = f.result()
                 progress(n, len(paths), f"{os.path.basename(futures[f])} ({time.perf_counter() - t0:.1f} s)")

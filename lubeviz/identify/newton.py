@@ -58,6 +58,13 @@ class Identification:
     p_value: float | None = None
     unique: bool = True
     alternatives: tuple[np.ndarray, ...] = field(default=())
+    # from the fit on named parameters (`lubeviz.identify.fit`): 95 % intervals of the flows with the model
+    # budget ((low, high or None) per bearing), the test's level, warnings, the fitted effect parameters
+    intervals: tuple | None = None
+    level: float = 1e-3
+    warnings: tuple[str, ...] = field(default=())
+    effects: dict = field(default_factory=dict)
+    alternatives_chi2: tuple[float, ...] = field(default=())
 
     @property
     def path(self) -> np.ndarray:
@@ -66,8 +73,8 @@ class Identification:
 
     @property
     def model_explains_data(self) -> bool | None:
-        """Best mode: the fit is consistent with the record's noise (p > 0.001)."""
-        return None if self.p_value is None else self.p_value > 1e-3
+        """Best mode: the fit is consistent with the record's noise and the model budget (p > `level`)."""
+        return None if self.p_value is None else self.p_value > self.level
 
     def verdict(self, k: int) -> str:
         """'starved', 'normal' or 'over-supplied' for bearing k (0-based), relative to Q_T."""

@@ -1,0 +1,171 @@
+"""What every effect is: a small `param.Parameterized` class that changes one stage of the forward chain.
+
+The forward chain (`lubeviz.identify.chain.ForwardChain`) has fixed, named stages:
+
+    bearings (K, C and journal position of each bearing)  ->  rotor (forces, supports)
+    ->  probes (what the sensors read)  ->  features
+
+An effect declares its `effect_name` (SPEC §7), the `stage` it changes, its parameters once (bounds, unit, doc),
+which of them are *placement* (discrete: which bearing, plane, channel or node; always held) and which
+are *continuous* (a fit may free them), and one hook for its stage (see `lubeviz.effects.hooks`). The
+chain calls the hooks with arrays of parameter values, so one call evaluates a whole batch of trial
+points (a Jacobian, a map). An effect never reaches into a kernel: it transforms what a stage hands it.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from typing import ClassVar
+
+import numpy as np
+import param
+
+from ..errors import InputError
+
+STAGES = ("bearings", "rotor", "probes")
+
+
+class Effect(param.Parameterized):
+    """Base of the effect library. Subclasses set `effect_name`, `stage`, `continuous`, `placement`, `story`."""
+
+    effect_name: ClassVar[str] = ""  # SPEC §7 name (param reserves `name`)
+    stage: ClassVar[str] = ""
+    continuous: ClassVar[tuple[str, ...]] = ()  # parameters a fit may free (real numbers)
+    placement: ClassVar[tuple[str, ...]] = ()  # discrete parameters (which bearing/plane/channel/node)
+    neutral: ClassVar[dict] = {}  # continuous values at which the effect changes nothing
+    step: ClassVar[dict] = {}  # finite-difference step of each continuous parameter (its own unit)
+
+    def __init__(self, **params):
+        super().__init__(**params)
+        given = set(params)
+        self._free = tuple(p for p in self.continuous if p not in given)
+
+    # --- fitting ---------------------------------------------------------------------------------
+    @property
+    def free(self) -> tuple[str, ...]:
+        """Continuous parameters not given by the user: a fit varies them, a simulation uses the defaults."""
+        return self._free
+
+    def hold(self, *names: str) -> "Effect":
+        """The same effect with `names` held at their current values (or all, without names)."""
+        names = names or self.continuous
+        new = self.copy()
+        new._free = tuple(p for p in self._free if p not in names)
+        return new
+
+    def release(self, *names: str) -> "Effect":
+        """The same effect with `names` (default: every continuous parameter) free in a fit."""
+        names = names or self.continuous
+        new = self.copy()
+        new._free = tuple(p for p in self.continuous if p in names or p in self._free)
+        return new
+
+    def copy(self, **changes) -> "Effect":
+        values = {k: getattr(self, k) for k in self.param if k != "name"}
+        values.update(changes)
+        new = type(self)(**values)
+        new._free = tuple(p for p in self._free if p not in changes)
+        return new
+
+    def bounds(self, pname: str) -> tuple[float, float]:
+        lo, hi = self.param[pname].bounds
+        return (-math.inf if lo is None else float(lo), math.inf if hi is None else float(hi))
+
+    def values(self) -> dict:
+        """Every parameter's current value (placement and continuous)."""
+        return {p: getattr(self, p) for p in (*self.placement, *self.continuous)}
+
+    def label(self) -> str:
+        """'pedestals[bearing=1]': the name and its placement, what tells two candidates apart."""
+        if not self.placement:
+            return self.effect_name
+        return f"{self.effect_name}[" + ",".join(f"{p}={getattr(self, p)}" for p in self.placement) + "]"
+
+    def spec(self) -> str:
+        """SPEC §7 form, NAME:key=value,... with every parameter (round-trips through `parse_effect`)."""
+        return self.effect_name + ":" + ",".join(f"{k}={_fmt(v)}" for k, v in self.values().items())
+
+    def unit(self, pname: str) -> str:
+        p = self.param[pname]
+        return getattr(p, "unit", "") or ""
+
+    def placements(self) -> list["Effect"]:
+        """Every placement of this effect (each bearing, plane, channel...): the candidates to try."""
+        return [self]
+
+    def describe(self) -> str:
+        return (type(self).__doc__ or "").strip().split("\n\n")[0]
+
+
+def _fmt(v) -> str:
+    if isinstance(v, float):
+        return f"{v:.10g}"
+    return str(v)
+
+
+class Registry(dict):
+    """{name: Effect subclass}; parses SPEC §7's NAME:key=value,... and names the closest key on a typo."""
+
+    def register(self, cls):
+        if not cls.effect_name or cls.stage not in STAGES:
+            raise TypeError(f"effect class {cls.__name__} needs a name and a stage in {STAGES}")
+        self[cls.effect_name] = cls
+        return cls
+
+    def parse(self, text: str) -> Effect:
+        text = str(text).strip()
+        name, _, rest = text.partition(":")
+        name = name.strip()
+        if name not in self:
+            close = difflib.get_close_matches(name, list(self), n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise InputError(f"unknown effect {name!r}{hint} (known effects: {', '.join(sorted(self))})")
+        cls = self[name]
+        allowed = (*cls.placement, *cls.continuous)
+        params = {}
+        for item in filter(None, (s.strip() for s in rest.split(","))):
+            key, eq, value = (s.strip() for s in item.partition("="))
+            if not eq:
+                raise InputError(f"effect {name}: {item!r} is not key=value (allowed keys: {', '.join(allowed)})")
+            if key not in allowed:
+                close = difflib.get_close_matches(key, allowed, n=1)
+                hint = f"; did you mean {close[0]!r}?" if close else ""
+                raise InputError(f"effect {name}: unknown parameter {key!r}{hint} "
+                                 f"(allowed: {', '.join(allowed)})")
+            if key in params:
+                raise InputError(f"effect {name}: parameter {key!r} given twice")
+            params[key] = _convert(cls, key, value, name)
+        try:
+            return cls(**params)
+        except ValueError as exc:  # param's bound or selector message
+            raise InputError(f"effect {name}: {exc}") from None
+
+
+def _convert(cls, key: str, value: str, name: str):
+    p = cls.param[key]
+    if isinstance(p, param.Selector):
+        for obj in p.objects:
+            if str(obj) == value:
+                return obj
+        raise InputError(f"effect {name}: {key}={value!r}; expected one of "
+                         f"{', '.join(str(o) for o in p.objects)}")
+    try:
+        if isinstance(p, param.Integer):
+            return int(value)
+        v = float(value)
+    except ValueError:
+        raise InputError(f"effect {name}: {key}={value!r} is not a number") from None
+    if not math.isfinite(v):
+        raise InputError(f"effect {name}: {key}={value!r} is not finite")
+    lo, hi = p.bounds or (None, None)
+    if (lo is not None and v < lo) or (hi is not None and v > hi):
+        unit = getattr(p, "unit", "") or ""
+        raise InputError(f"effect {name}: {key}={value} is out of bounds [{lo}, {hi}] {unit}".rstrip())
+    return v
+
+
+def as_array(values: dict, effect: Effect, pname: str, shape) -> np.ndarray:
+    """A continuous parameter as an array broadcast to the batch `shape` (its value, or the trial values)."""
+    v = values.get(pname, getattr(effect, pname))
+    return np.broadcast_to(np.asarray(v, dtype=float), shape)

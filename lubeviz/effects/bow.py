@@ -1,0 +1,70 @@
+"""A residual shaft bow."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import param
+
+from ..errors import InputError
+from ..rotor.elements import THETA_X, THETA_Y, X, Y, node_dofs
+from .base import Effect, as_array
+
+
+def bow_shape(rotor, node: int) -> np.ndarray:
+    """Complex nodal shape (n_dof) of a unit bow turning with the shaft, 1 m at `node`.
+
+    The unstressed centreline is bent as s(z) = sin(pi (z - z1)/(z2 - z1)) between the bearing centres
+    z1, z2 (zero outside): x = s cos(Omega t), y = s sin(Omega t), so X = s, Y = -i s, and the section
+    rotations theta_y = dx/dz = s', theta_x = -dy/dz = i s'.
+    """
+    z = rotor.node_z
+    z1, z2 = (z[n - 1] for n in rotor.bearing_nodes[:2])
+    span = z2 - z1
+    inside = (z >= z1 - 1e-12) & (z <= z2 + 1e-12)
+    s = np.where(inside, np.sin(math.pi * (z - z1) / span), 0.0)
+    ds = np.where(inside, math.pi / span * np.cos(math.pi * (z - z1) / span), 0.0)
+    s_node = s[node - 1]
+    if abs(s_node) < 0.05:
+        raise InputError(f"bow amplitude node {node} lies at or outside the bearings (the bow there is "
+                         f"{s_node:.3f} of its peak); expected a node between the bearings")
+    q = np.zeros(rotor.n_dof, dtype=complex)
+    for n in range(1, rotor.n_nodes + 1):
+        d = node_dofs(n)
+        q[d[X]], q[d[Y]] = s[n - 1], -1j * s[n - 1]
+        q[d[THETA_Y]], q[d[THETA_X]] = ds[n - 1], 1j * ds[n - 1]
+    return q / s_node
+
+
+class Bow(Effect):
+    """A residual bow of `amplitude_um` at `node`, turning with the shaft at `phase_deg` from the unbalance.
+
+    A shaft bent by a thermal gradient, a rub or storage carries its bent line round with it: the
+    shaft's elastic forces K_shaft (q - q_bow) push it towards the bent line, a 1X force whose shape is
+    not the unbalance's, so the invariants change. Its effect does not grow with speed squared like an
+    unbalance's, which a second speed shows. Changes the rotor stage (forcing). Shape: `bow_shape`.
+    """
+
+    effect_name = "bow"
+    stage = "rotor"
+    continuous = ("amplitude_um", "phase_deg")
+    placement = ("node",)
+    neutral = {"amplitude_um": 0.0}
+    step = {"amplitude_um": 0.01, "phase_deg": 0.05}
+
+    node = param.Integer(13, bounds=(1, None), doc="Node where the bow's amplitude is given (between the bearings)")
+    amplitude_um = param.Number(10.0, bounds=(0.0, 1000.0), doc="Bow at `node` (um)")
+    phase_deg = param.Number(0.0, bounds=(-360.0, 360.0), doc="Its angle relative to the main unbalance (deg)")
+
+    def forcing_shapes(self, rotor, omega: float, machine) -> list[np.ndarray]:
+        q = bow_shape(rotor, self.node) * np.exp(1j * machine.unbalance_phase)
+        return [rotor.K @ q]  # the shaft's elastic force towards the bent line (bearings excluded)
+
+    def forcing_weights(self, values: dict, shape) -> np.ndarray:
+        a = 1e-6 * as_array(values, self, "amplitude_um", shape)
+        ph = np.radians(as_array(values, self, "phase_deg", shape))
+        return (a * np.exp(1j * ph))[..., None]
+
+    def unit(self, pname):
+        return {"amplitude_um": "um", "phase_deg": "deg"}[pname]

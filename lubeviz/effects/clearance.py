@@ -1,0 +1,40 @@
+"""Bearing wear: a radial clearance different from the declared one."""
+
+from __future__ import annotations
+
+import param
+
+from .base import Effect, as_array
+
+
+class Clearance(Effect):
+    """Bearing `bearing` has radial clearance `clearance_um` instead of the declared one.
+
+    A worn bearing has a larger clearance: a lower Sommerfeld number (S ~ 1/c^2), a softer and less
+    damped film, a higher flooded threshold (Q_T ~ c), and a static journal position lower in a larger
+    circle; the rest position of SPEC §6 ((0, -c) from the bearing centre) moves down with it. Changes
+    the bearings stage. `clearance_um` given as None means the declared clearance (a fit starts there).
+    """
+
+    effect_name = "clearance"
+    stage = "bearings"
+    continuous = ("clearance_um",)
+    placement = ("bearing",)
+    step = {"clearance_um": 0.05}
+
+    bearing = param.Selector(default=1, objects=[1, 2, "both"], doc="Bearing whose clearance differs: 1, 2 or both")
+    clearance_um = param.Number(None, allow_None=True, bounds=(20.0, 1000.0),
+                                doc="True radial clearance (um); None: the declared one")
+
+    def bearing_change(self, k: int, values: dict, shape) -> dict:
+        if self.bearing != "both" and self.bearing != k + 1:
+            return {}
+        if self.clearance_um is None and "clearance_um" not in values:
+            return {}
+        return {"clearance": 1e-6 * as_array(values, self, "clearance_um", shape)}
+
+    def unit(self, pname):
+        return "um"
+
+    def placements(self):
+        return [self.copy(bearing=b) for b in (1, 2)]

@@ -1,0 +1,54 @@
+"""Flexible bearing pedestals."""
+
+from __future__ import annotations
+
+import numpy as np
+import param
+
+from .base import Effect, as_array
+
+BEARINGS = ["both", 1, 2]
+
+
+class Pedestals(Effect):
+    """Each chosen bearing housing is a mass on a spring and damper to ground (isotropic).
+
+    The film acts between journal and housing, so each bearing and its pedestal act in series: at the
+    synchronous frequency the journal sees B_eff = B (H + B)^-1 H, with B = K + i Omega C of the film
+    and H = (k - Omega^2 m + i Omega c) I of the pedestal, and the housing moves x_h = (H + B)^-1 B x_j.
+    Proximity probes are mounted on the housing, so plane k reads the shaft relative to housing k
+    (plane 1 with bearing 1, plane 2 with bearing 2). A soft pedestal lowers the critical speed and
+    eats damping; the fb and phi it produces look like a change of the film. Changes the rotor stage.
+    (ROSS models the same with a point mass on a support linked to the journal by `n_link`.)
+    """
+
+    effect_name = "pedestals"
+    stage = "rotor"
+    continuous = ("mass_kg", "stiffness_n_m", "damping_ns_m")
+    placement = ("bearing",)
+    step = {"mass_kg": 0.01, "stiffness_n_m": 1e4, "damping_ns_m": 10.0}
+
+    bearing = param.Selector(default="both", objects=BEARINGS, doc="Bearing(s) on soft pedestals: both, 1 or 2")
+    mass_kg = param.Number(50.0, bounds=(0.0, 5000.0), doc="Housing mass (kg)")
+    stiffness_n_m = param.Number(2e8, bounds=(1e5, 1e12), doc="Pedestal stiffness to ground, each direction (N/m)")
+    damping_ns_m = param.Number(1e4, bounds=(0.0, 1e8), doc="Pedestal damping to ground, each direction (N*s/m)")
+
+    def applies(self, k: int) -> bool:
+        return self.bearing == "both" or self.bearing == k + 1
+
+    def support(self, k: int, B: np.ndarray, omega: float, values: dict, shape):
+        """(B_eff, T) for bearing k (0-based), or None: the film B in series with the pedestal."""
+        if not self.applies(k):
+            return None
+        m = as_array(values, self, "mass_kg", shape)
+        s = as_array(values, self, "stiffness_n_m", shape)
+        c = as_array(values, self, "damping_ns_m", shape)
+        h = (s - omega**2 * m + 1j * omega * c)[..., None, None] * np.eye(2)
+        inv = np.linalg.inv(h + B)
+        return B @ inv @ h, inv @ B
+
+    def unit(self, pname):
+        return {"mass_kg": "kg", "stiffness_n_m": "N/m", "damping_ns_m": "N*s/m"}[pname]
+
+    def placements(self):
+        return [self.copy(bearing=b) for b in BEARINGS]

@@ -1,0 +1,43 @@
+"""A probe pair mounted at other angles than declared."""
+
+from __future__ import annotations
+
+import numpy as np
+import param
+
+from .base import Effect, as_array
+
+
+def rotation(angle_rad) -> np.ndarray:
+    c, s = np.cos(angle_rad), np.sin(angle_rad)
+    return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
+
+
+class ProbeRotation(Effect):
+    """The probe pair of `plane` sits `angle_deg` (from +X towards +Y) away from its declared angles.
+
+    Each probe reads the displacement along its real direction, declared angle + a; resolving with the
+    declared angles gives R(-a) d. The orbit's shape is unchanged but its angle phi is off by -a, which
+    the identification otherwise blames on the bearings. Changes the probes stage.
+    """
+
+    effect_name = "probe_rotation"
+    stage = "probes"
+    continuous = ("angle_deg",)
+    placement = ("plane",)
+    neutral = {"angle_deg": 0.0}
+    step = {"angle_deg": 0.01}
+
+    plane = param.Selector(default=1, objects=[1, 2], doc="Measurement plane of the rotated pair")
+    angle_deg = param.Number(5.0, bounds=(-45.0, 45.0), doc="Rotation of the pair, + from +X towards +Y (deg)")
+
+    def probe_matrix(self, plane: int, angles_deg, values: dict, shape):
+        if plane + 1 != self.plane:
+            return None
+        return rotation(-np.radians(as_array(values, self, "angle_deg", shape)))
+
+    def unit(self, pname):
+        return "deg"
+
+    def placements(self):
+        return [self.copy(plane=p) for p in (1, 2)]

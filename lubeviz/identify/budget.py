@@ -1,0 +1,128 @@
+"""The model's own uncertainty, propagated to the features at the record's operating point.
+
+Two honest implementations of the same physics differ by more than a 5 s record's noise, most near a
+critical speed, and a real machine differs more: a significance test or an interval that carries only the
+noise flags everything and holds nothing. The budget is a stated list of what the model does not know,
+each an input uncertainty propagated through the whole chain (linearly, by central differences, at the
+fitted parameters, so it grows where the features amplify it, e.g. just above the first critical speed):
+
+- film discretization: the 100 x 100 coefficients against the 200 x 200 ones differ by about 0.5 % (K)
+  and 0.8 % (C) of the largest entry (`lubeviz bench mesh`). Carried as a common scale error of K and of C
+  per bearing (the mesh moves all entries together) plus an independent error per entry of that size;
+- the shaft's damping: the model file's stiffness-proportional beta is a guess (the paper gives none);
+- the oil's viscosity and each bearing's clearance: declared values with a tolerance (the dimensionless
+  tables give the coefficients at the changed Sommerfeld number without a film solve);
+The noise covariance of the measured features is added to the result by the caller. The budget's terms
+are checked against the feature differences between the model and the independent record source
+(`lubeviz.verification`) in the tests and `lubeviz bench coverage`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import param
+
+from ..errors import InputError
+from ..model.quantity import Quantity
+from .forward import wrap_difference
+
+
+class ModelBudget(param.Parameterized):
+    """What the model does not know, each as a relative standard uncertainty (1 sigma)."""
+
+    coefficient_k = Quantity(0.005, bounds=(0.0, 1.0), unit="",
+                             doc="Film stiffness K: relative to its largest entry (mesh 100^2 vs 200^2)")
+    coefficient_c = Quantity(0.008, bounds=(0.0, 1.0), unit="",
+                             doc="Film damping C: relative to its largest entry (mesh 100^2 vs 200^2)")
+    shaft_damping = Quantity(0.5, bounds=(0.0, 5.0), unit="",
+                             doc="Shaft damping beta, relative (the model file's value is a typical guess)")
+    viscosity = Quantity(0.0, bounds=(0.0, 1.0), unit="",
+                         doc="Oil viscosity, relative: the tolerance the user declares for the machine (0: the "
+                             "declared viscosity is taken as known; a viscosity that is not is an effect to fit)")
+    clearance = Quantity(0.0, bounds=(0.0, 1.0), unit="",
+                         doc="Each bearing's radial clearance, relative: the declared manufacturing tolerance "
+                             "(0: taken as known; wear is an effect to fit)")
+
+    @classmethod
+    def none(cls) -> "ModelBudget":
+        """No model uncertainty: the noise alone (what the old identification used)."""
+        return cls(coefficient_k=0.0, coefficient_c=0.0, shaft_damping=0.0, viscosity=0.0, clearance=0.0)
+
+
+def _coefficient_perturbations(chain, theta, budget: ModelBudget) -> list[tuple[np.ndarray, float]]:
+    """(dB (4, 4) complex, sigma) pairs: each a unit perturbation of the bearings' dynamic stiffness."""
+    out = []
+    w = chain.omega
+    for k, src in enumerate(chain.sources):
+        factor, clearance = chain._bearing_changes(k, np.asarray(theta), ())
+        K, C, _ = src.evaluate(theta[k], factor, clearance)
+        sl = slice(2 * k, 2 * k + 2)
+        for M, s, scale in ((K, budget.coefficient_k, 1.0), (C, budget.coefficient_c, 1j * w)):
+            if s == 0:
+                continue
+            d = np.zeros((4, 4), dtype=complex)
+            d[sl, sl] = scale * M
+            out.append((d, s))  # common scale error
+            big = np.abs(M).max()
+            for i in range(2):
+                for j in range(2):
+                    d = np.zeros((4, 4), dtype=complex)
+                    d[2 * k + i, 2 * k + j] = scale * big
+                    out.append((d, s / np.sqrt(2.0)))  # entrywise, half the variance each way
+        for change, s in (("viscosity", budget.viscosity), ("clearance", budget.clearance)):
+            if s == 0:
+                continue
+            try:
+                if change == "viscosity":
+                    Kp, Cp, _ = src.evaluate(theta[k], factor * (1 + s), clearance)
+                    Km, Cm, _ = src.evaluate(theta[k], factor * (1 - s), clearance)
+                else:
+                    Kp, Cp, _ = src.evaluate(theta[k], factor, clearance * (1 + s))
+                    Km, Cm, _ = src.evaluate(theta[k], factor, clearance * (1 - s))
+            except InputError as exc:  # outside the tables' range: say so rather than drop the term silently
+                raise InputError(f"model budget: the {change} tolerance of bearing {k + 1} reaches outside the "
+                                 f"coefficient tables ({exc})") from None
+            d = np.zeros((4, 4), dtype=complex)
+            d[sl, sl] = 0.5 * ((Kp - Km) + 1j * w * (Cp - Cm))
+            out.append((d, 1.0))
+    return out
+
+
+def model_covariance(chain, theta, names, budget: ModelBudget | None = None) -> np.ndarray:
+    """Covariance (n_features, n_features) of the features' model error at parameters `theta`."""
+    budget = budget or ModelBudget()
+    names = tuple(names)
+    theta = np.asarray(theta, dtype=float)
+    cov = np.zeros((len(names), len(names)))
+    perts = _coefficient_perturbations(chain, theta, budget)
+    if perts:
+        h = 1e-3
+        dB = np.stack([p for p, _ in perts])
+        sig = np.array([s for _, s in perts])
+        pts = np.broadcast_to(theta, (len(perts), theta.size))
+        gp = chain.features(pts, names, dB_extra=h * dB)
+        gm = chain.features(pts, names, dB_extra=-h * dB)
+        J = wrap_difference(gp - gm, names) / (2 * h)  # per unit perturbation
+        cov += (J * sig[:, None]).T @ (J * sig[:, None])
+    if budget.shaft_damping > 0:
+        cov += _shaft_damping_cov(chain, theta, names, budget.shaft_damping)
+    return cov
+
+
+def _shaft_damping_cov(chain, theta, names, rel: float) -> np.ndarray:
+    from .chain import ForwardChain
+
+    key = ("beta", rel)
+    cache = chain.__dict__.setdefault("_budget_chains", {})
+    if key not in cache:
+        beta = chain.rotor.shaft_damping_beta
+        tables = [s.nominal for s in chain.sources]
+        cache[key] = [ForwardChain(chain.machine, chain.speed_hz, chain.nodes, chain.effects,
+                                   probe_angles_deg=chain.probe_angles_deg, tables=tables,
+                                   shaft_damping_beta=beta * (1 + s * rel)) for s in (1, -1)]
+        for c, ref in zip(cache[key], (chain, chain)):
+            for s_new, s_old in zip(c.sources, ref.sources):
+                s_new._views = s_old._views  # share the bearing views
+    up, down = cache[key]
+    d = wrap_difference(up.features(theta, names) - down.features(theta, names), names) / 2.0
+    return np.outer(d, d)

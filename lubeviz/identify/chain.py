@@ -1,0 +1,422 @@
+"""The forward chain: named parameters -> what the probes read, with the effects of a real machine.
+
+One chain with fixed, named stages (STYLE "the effect library and the fit"):
+
+    bearings  each bearing's K, C and journal position at its supply flow, from its coefficient table;
+              bearings-stage effects change the bearing first (viscosity, clearance)
+    rotor     Eq. 8 at the record's speed; rotor-stage effects add forcing (a second unbalance, a bow)
+              or put a support in series with a bearing (pedestals)
+    probes    the planes' displacements as the probes resolve them (probe rotation, probe gain)
+    features  the invariants of an unbalance of unknown size and phase (fb, phi per plane, Zf2/Zf1)
+              and, when the record holds it, the static journal position per plane
+
+The parameters are a named vector: `q1`, `q2` (m^3/s), then every free continuous parameter of every
+effect (`viscosity.factor`, `pedestals.stiffness_n_m`, ...). Evaluations are batched over any leading
+shape, so a Jacobian by central differences, a start grid or a whole Q1 x Q2 map is one call.
+
+The rotor solve is the rank-4 Woodbury update of `lubeviz.identify.forward` generalized: with D0 the
+dynamic stiffness at reference bearings, factorized once, and the forcing a linear combination of fixed
+shapes (main unbalance, effect shapes) with complex weights,
+
+    x0 = sum_j w_j D0^-1 F_j,   c = (I + dB W)^-1 dB x0_U,   x_out = x0_out - Z_out c,   x_U = x0_U - W c,
+
+where dB = blockdiag(B_k - B0_k) and B_k the bearing's dynamic stiffness (in series with its pedestal
+when there is one). Tests check every path against a direct solve of the assembled system.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import InputError
+from ..progress import ProgressFn, silent
+from ..rotor.assembly import bearing_matrices, rotor_from_machine
+from ..rotor.elements import X, Y, node_dofs
+from ..rotor.response import dynamic_stiffness, machine_unbalance, unbalance_force
+from ..rotor.statics import bearing_static_loads
+from .forward import feature_vector
+from .tables import CoefficientTable
+
+STATIC_FEATURES = ("sx1", "sy1", "sx2", "sy2")  # static journal offset from the rest reading, m (SPEC §6)
+DEFAULT_PROBE_ANGLES = ((0.0, 90.0), (0.0, 90.0))
+
+
+# --- bearings stage ------------------------------------------------------------------------------
+
+class BearingSource:
+    """One bearing's K, C and journal position at one speed, for any supply flow, viscosity and clearance.
+
+    The declared bearing is served by its coefficient table (`lubeviz.identify.cache`); a bearing with
+    another viscosity or clearance by the table of that bearing, which the dimensionless (S, Q/Q_T)
+    tables give without a film solve when they cover it. Flows are clipped to the table's span (25-200 %
+    of that bearing's own Q_T): the search box's edge.
+    """
+
+    def __init__(self, machine, index: int, omega: float, table: CoefficientTable | None = None, *,
+                 load=None, progress: ProgressFn = silent):
+        self.bearing = machine.bearings[index]
+        self.index = index
+        self.omega = float(omega)
+        self.load = bearing_static_loads(machine)[index] if load is None else np.asarray(load, dtype=float)
+        self.progress = progress
+        self._views: dict = {}
+        if table is not None:
+            self._views[self._key(1.0, self.bearing.clearance)] = table
+
+    @staticmethod
+    def _key(factor: float, clearance: float):
+        return (round(float(factor), 12), round(float(clearance), 15))
+
+    def view(self, factor: float = 1.0, clearance: float | None = None) -> CoefficientTable:
+        """The coefficient table of this bearing with viscosity x `factor` and radial clearance `clearance` (m)."""
+        clearance = self.bearing.clearance if clearance is None else float(clearance)
+        key = self._key(factor, clearance)
+        if key not in self._views:
+            bearing = self.bearing
+            if key != self._key(1.0, self.bearing.clearance):
+                bearing = self.bearing.copy(viscosity=self.bearing.viscosity * float(factor), clearance=clearance)
+            self._views[key] = bearing_table_view(bearing, self.load, self.omega, index=self.index,
+                                                  progress=self.progress)
+        return self._views[key]
+
+    @property
+    def nominal(self) -> CoefficientTable:
+        return self.view()
+
+    def evaluate(self, q, factor=1.0, clearance=None):
+        """K, C (... 2, 2) and journal position (..., 2) at flows q (m^3/s) with the given bearing changes."""
+        q = np.asarray(q, dtype=float)
+        factor = np.broadcast_to(np.asarray(factor, dtype=float), q.shape)
+        clearance = np.broadcast_to(np.asarray(self.bearing.clearance if clearance is None else clearance,
+                                               dtype=float), q.shape)
+        K = np.empty(q.shape + (2, 2))
+        C = np.empty(q.shape + (2, 2))
+        pos = np.empty(q.shape + (2,))
+        pairs = np.stack([factor.ravel(), clearance.ravel()], axis=1)
+        uniq, inverse = np.unique(pairs, axis=0, return_inverse=True)
+        qf = q.ravel()
+        Kf, Cf, Pf = K.reshape(-1, 2, 2), C.reshape(-1, 2, 2), pos.reshape(-1, 2)
+        for j, (f, c) in enumerate(uniq):
+            sel = np.flatnonzero(inverse.ravel() == j)
+            t = self.view(f, c)
+            qq = np.clip(qf[sel], t.q_min, t.q_max)
+            Kf[sel], Cf[sel] = t.coefficients(qq)
+            Pf[sel] = t.journal_position(qq)
+        return K, C, pos
+
+
+def bearing_table_view(bearing, load, omega: float, *, index: int = 0, progress: ProgressFn = silent):
+    """The coefficient table of a (possibly changed) bearing: from the dimensionless tables when the
+    package has them (`cache.bearing_view`), else a direct build over the flows."""
+    from . import cache
+
+    if hasattr(cache, "bearing_view"):
+        return cache.bearing_view(bearing, load, omega, progress=progress)
+    from .tables import bearing_table
+
+    return bearing_table(bearing, load, omega, index=index, progress=progress)
+
+
+# --- the chain -----------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class ChainOutput:
+    """What the probes read: 1X amplitudes x, y (..., 2 planes) and the static offsets (..., 2, 2) or None."""
+
+    x: np.ndarray
+    y: np.ndarray
+    static: np.ndarray | None
+
+
+class ForwardChain:
+    """Named parameters -> probe readings and features at two planes of `machine` at `speed_hz`."""
+
+    def __init__(self, machine, speed_hz: float, nodes: Sequence[int] = (6, 20), effects=(), *,
+                 probe_angles_deg=DEFAULT_PROBE_ANGLES, tables: Sequence[CoefficientTable] | None = None,
+                 rotor=None, shaft_damping_beta: float | None = None, progress: ProgressFn = silent):
+        self.machine = machine
+        self.speed_hz = float(speed_hz)
+        if not (math.isfinite(self.speed_hz) and self.speed_hz > 0):
+            raise InputError(f"speed {speed_hz!r} Hz; expected a positive number")
+        self.omega = 2 * math.pi * self.speed_hz
+        self.rotor = rotor_from_machine(machine, shaft_damping_beta=shaft_damping_beta) if rotor is None else rotor
+        self.nodes = tuple(self.rotor.check_node(int(n), "measurement node") for n in nodes)
+        if len(self.nodes) != 2 or self.nodes[0] == self.nodes[1]:
+            raise InputError(f"two distinct measurement planes expected, got nodes {tuple(nodes)}")
+        self.probe_angles_deg = tuple(tuple(float(a) for a in p) for p in probe_angles_deg)
+        self.effects = tuple(effects)
+        for e in self.effects:
+            if getattr(e, "stage", None) not in ("bearings", "rotor", "probes"):
+                raise InputError(f"{e!r} is not an effect (no stage)")
+        if tables is None:
+            from .cache import machine_tables
+
+            tables = machine_tables(machine, self.omega, progress=progress)
+        self.sources = [BearingSource(machine, k, self.omega, t, progress=progress) for k, t in enumerate(tables)]
+        if len(self.sources) != 2:
+            raise InputError(f"the forward chain needs two bearings, the machine has {len(self.sources)}")
+        self.q_threshold = np.array([s.nominal.q_threshold for s in self.sources])
+        self.names = ("q1", "q2") + tuple(f"{self._prefix(e)}.{p}" for e in self.effects for p in e.free)
+        self._slots = [(e, p) for e in self.effects for p in e.free]
+        self._build_reference()
+        self.evaluations = 0
+
+    # --- parameters -------------------------------------------------------------------------------
+    def _prefix(self, effect) -> str:
+        same = [e for e in self.effects if e.effect_name == effect.effect_name]
+        return effect.effect_name if len(same) == 1 else effect.label()
+
+    @property
+    def n_params(self) -> int:
+        return len(self.names)
+
+    def start(self) -> np.ndarray:
+        """The parameter vector at Q_T and the effects' current values (their declared ones when None)."""
+        out = [*self.q_threshold]
+        for e, p in self._slots:
+            v = getattr(e, p)
+            out.append(self._declared(e, p) if v is None else float(v))
+        return np.array(out)
+
+    def _declared(self, effect, pname) -> float:
+        if pname == "clearance_um":
+            k = 0 if effect.bearing in (1, "both") else 1
+            return self.machine.bearings[k].clearance * 1e6
+        return float(effect.neutral.get(pname, 0.0))
+
+    def bounds(self, lower: float = 0.25, upper: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
+        lo = [lower * self.q_threshold[0], lower * self.q_threshold[1]]
+        hi = [upper * self.q_threshold[0], upper * self.q_threshold[1]]
+        for e, p in self._slots:
+            a, b = e.bounds(p)
+            lo.append(a)
+            hi.append(b)
+        return np.array(lo), np.array(hi)
+
+    def steps(self) -> np.ndarray:
+        """Central-difference step of each parameter (flows: 1e-4 Q_T)."""
+        return np.array([1e-4 * self.q_threshold[0], 1e-4 * self.q_threshold[1]]
+                        + [e.step.get(p, 1e-4) for e, p in self._slots])
+
+    def _values(self, theta: np.ndarray, effect) -> dict:
+        return {p: theta[..., 2 + j] for j, (e, p) in enumerate(self._slots) if e is effect}
+
+    def _bearing_changes(self, k: int, theta, shape) -> tuple:
+        """(viscosity factor, clearance) of bearing k after every bearings-stage effect (factors multiply)."""
+        factor, clearance = 1.0, self.sources[k].bearing.clearance
+        for e in self.effects:
+            if e.stage == "bearings":
+                change = e.bearing_change(k, self._values(theta, e), shape)
+                factor = factor * change.get("viscosity_factor", 1.0)
+                clearance = change.get("clearance", clearance)
+        return factor, clearance
+
+    # --- reference solve --------------------------------------------------------------------------
+    def _build_reference(self):
+        rotor, omega = self.rotor, self.omega
+        B0 = []
+        for s, qt in zip(self.sources, self.q_threshold):
+            K, C = s.nominal.coefficients(qt)
+            B0.append(K + 1j * omega * C)
+        self._B0 = B0
+        Kt, Ct = bearing_matrices(rotor, [(b.real, b.imag / omega) for b in B0])
+        D0 = dynamic_stiffness(rotor, omega, Kt, Ct)
+        shapes = [unbalance_force(rotor, omega, machine_unbalance(self.machine))]
+        self._forcing = []  # (effect, first column, n columns)
+        for e in self.effects:
+            if hasattr(e, "forcing_shapes"):
+                cols = e.forcing_shapes(rotor, omega, self.machine)
+                self._forcing.append((e, len(shapes), len(cols)))
+                shapes.extend(cols)
+        self._U = np.concatenate([node_dofs(n)[[X, Y]] for n in rotor.bearing_nodes])
+        out = np.concatenate([node_dofs(n)[[X, Y]] for n in self.nodes])
+        nf = len(shapes)
+        rhs = np.zeros((rotor.n_dof, nf + 4), dtype=complex)
+        rhs[:, :nf] = np.stack(shapes, axis=1)
+        rhs[self._U, nf + np.arange(4)] = 1.0
+        sol = np.linalg.solve(D0, rhs)
+        self._x0_out, self._x0_U = sol[out, :nf], sol[self._U, :nf]  # (4, nf)
+        self._Z_out, self._W = sol[out, nf:], sol[self._U, nf:]
+        self._n_forcing = nf
+        # a plane at a bearing's centre node reads that bearing's static position (SPEC §6)
+        self.static_planes = tuple(k for k in range(2) if self.nodes[k] == rotor.bearing_nodes[k])
+
+    # --- evaluation -------------------------------------------------------------------------------
+    def output(self, theta, dB_extra=None) -> ChainOutput:
+        """Probe readings for parameter vectors theta (..., n_params).
+
+        `dB_extra` (..., 4, 4), optional: added to the bearings' dynamic stiffness (the model budget
+        perturbs the coefficients with it)."""
+        theta = np.asarray(theta, dtype=float)
+        if theta.shape[-1] != self.n_params:
+            raise InputError(f"parameter vector of length {theta.shape[-1]}; expected {self.n_params} {self.names}")
+        shape = theta.shape[:-1]
+        omega = self.omega
+        # forcing weights (main unbalance: 1)
+        w = np.zeros(shape + (self._n_forcing,), dtype=complex)
+        w[..., 0] = 1.0
+        for e, j0, n in self._forcing:
+            w[..., j0:j0 + n] = e.forcing_weights(self._values(theta, e), shape)
+        x0_out = np.einsum("ij,...j->...i", self._x0_out, w)
+        x0_U = np.einsum("ij,...j->...i", self._x0_U, w)
+        # bearings stage, then supports
+        dB = np.zeros(shape + (4, 4), dtype=complex)
+        housing = [None, None]
+        static = np.zeros(shape + (2, 2))
+        for k, src in enumerate(self.sources):
+            factor, clearance = self._bearing_changes(k, theta, shape)
+            K, C, pos = src.evaluate(theta[..., k], factor, clearance)
+            B = K + 1j * omega * C
+            for e in self.effects:
+                if hasattr(e, "support"):
+                    r = e.support(k, B, omega, self._values(theta, e), shape)
+                    if r is not None:
+                        B, T = r
+                        housing[k] = T if housing[k] is None else housing[k]
+            dB[..., 2 * k:2 * k + 2, 2 * k:2 * k + 2] = B - self._B0[k]
+            static[..., k, :] = pos + np.stack([np.zeros_like(pos[..., 0]), np.broadcast_to(clearance, shape)], -1)
+        if dB_extra is not None:
+            dB = dB + dB_extra
+        A = np.eye(4) + dB @ self._W
+        c = np.linalg.solve(A, (dB @ x0_U[..., None]))[..., 0]
+        x_out = x0_out - np.einsum("ij,...j->...i", self._Z_out, c)
+        x_U = x0_U - np.einsum("ij,...j->...i", self._W, c)
+        d = x_out.reshape(shape + (2, 2))  # (plane, [x, y])
+        for k in range(2):
+            if housing[k] is not None:  # probes on housing k read the shaft relative to it
+                xh = np.einsum("...ij,...j->...i", housing[k], x_U[..., 2 * k:2 * k + 2])
+                d = d.copy()
+                d[..., k, :] = d[..., k, :] - xh
+        # probes stage
+        for k in range(2):
+            for e in self.effects:
+                if e.stage == "probes":
+                    M = e.probe_matrix(k, self.probe_angles_deg[k], self._values(theta, e), shape)
+                    if M is not None:
+                        d = d.copy()
+                        static = static.copy()
+                        d[..., k, :] = np.einsum("...ij,...j->...i", M, d[..., k, :])
+                        static[..., k, :] = np.einsum("...ij,...j->...i", M, static[..., k, :])
+        self.evaluations += int(np.prod(shape)) if shape else 1
+        return ChainOutput(x=d[..., 0], y=d[..., 1], static=static if self.static_planes else None)
+
+    def features(self, theta, names: Sequence[str], dB_extra=None) -> np.ndarray:
+        """Features (last axis, `names` order): the 1X invariants and the static offsets (m)."""
+        out = self.output(theta, dB_extra)
+        names = tuple(names)
+        dyn = [n for n in names if n not in STATIC_FEATURES]
+        g = {}
+        if dyn:
+            g.update(zip(dyn, np.moveaxis(feature_vector(out.x, out.y, dyn), -1, 0)))
+        for n in names:
+            if n in STATIC_FEATURES:
+                k, j = int(n[-1]) - 1, (0 if n[1] == "x" else 1)
+                if out.static is None or k not in self.static_planes:
+                    raise InputError(f"feature {n}: plane {k + 1} (node {self.nodes[k]}) is not at a bearing "
+                                     "centre, where the static position is measured")
+                g[n] = out.static[..., k, j]
+        return np.stack([g[n] for n in names], axis=-1)
+
+    def direct_output(self, theta) -> ChainOutput:
+        """The same readings from a direct solve of the assembled system (no Woodbury): the check."""
+        theta = np.asarray(theta, dtype=float)
+        omega, rotor = self.omega, self.rotor
+        F = unbalance_force(rotor, omega, machine_unbalance(self.machine))
+        for e, j0, n in self._forcing:
+            wts = e.forcing_weights(self._values(theta, e), ())
+            for j, col in enumerate(e.forcing_shapes(rotor, omega, self.machine)):
+                F = F + wts[..., j] * col
+        n0 = rotor.n_dof
+        extra = [k for k in range(2) if any(hasattr(e, "support") and e.applies(k) for e in self.effects)]
+        n = n0 + 2 * len(extra)
+        D = np.zeros((n, n), dtype=complex)
+        D[:n0, :n0] = dynamic_stiffness(rotor, omega, rotor.K, rotor.C)
+        hdofs = {}
+        static = np.zeros((2, 2))
+        for j, k in enumerate(extra):
+            hdofs[k] = n0 + 2 * j + np.arange(2)
+        for k, src in enumerate(self.sources):
+            factor, clearance = self._bearing_changes(k, theta, ())
+            clearance = float(clearance)
+            K, C, pos = src.evaluate(theta[k], factor, clearance)
+            B = K + 1j * omega * C
+            jd = node_dofs(rotor.bearing_nodes[k])[[X, Y]]
+            other = hdofs.get(k)
+            D[np.ix_(jd, jd)] += B
+            if other is not None:
+                e = next(e for e in self.effects if hasattr(e, "support") and e.applies(k))
+                vals = self._values(theta, e)
+                m, s, c = (float(vals.get(p, getattr(e, p))) for p in ("mass_kg", "stiffness_n_m", "damping_ns_m"))
+                D[np.ix_(other, other)] += B + (s - omega**2 * m + 1j * omega * c) * np.eye(2)
+                D[np.ix_(jd, other)] -= B
+                D[np.ix_(other, jd)] -= B
+            static[k] = pos + np.array([0.0, clearance])
+        rhs = np.zeros(n, dtype=complex)
+        rhs[:n0] = F
+        q = np.linalg.solve(D, rhs)
+        d = np.array([q[node_dofs(nd)[[X, Y]]] for nd in self.nodes])
+        for k in range(2):
+            if k in hdofs:
+                d[k] = d[k] - q[hdofs[k]]
+            for e in self.effects:
+                if e.stage == "probes":
+                    M = e.probe_matrix(k, self.probe_angles_deg[k], self._values(theta, e), ())
+                    if M is not None:
+                        d[k] = M @ d[k]
+                        static[k] = M @ static[k]
+        return ChainOutput(x=d[:, 0], y=d[:, 1], static=static)
+
+    def jacobian(self, theta: np.ndarray, names: Sequence[str], *, free=None):
+        """Features at theta and their Jacobian (n_features, n_free) by central differences (one batch)."""
+        theta = np.asarray(theta, dtype=float)
+        free = np.arange(self.n_params) if free is None else np.asarray(free)
+        h = self.steps()[free]
+        pts = np.repeat(theta[None, :], 2 * free.size + 1, axis=0)
+        for j, (i, hj) in enumerate(zip(free, h)):
+            pts[1 + 2 * j, i] += hj
+            pts[2 + 2 * j, i] -= hj
+        g = self.features(pts, names)
+        from .forward import wrap_difference
+
+        J = wrap_difference(g[1::2] - g[2::2], names).T / (2 * h)
+        return g[0], J
+
+
+def simulate(chain: ForwardChain, theta, *, snr_db: float | None = 12.0, rng: np.random.Generator | None = None,
+             duration_s: float = 5.0, sample_rate_hz: float = 1.0e4, metadata: dict | None = None):
+    """A measured record (SPEC §6) of the chain at parameters `theta`: the steady 1X orbit sampled as the
+    probes read it (declared probe angles), white noise at `snr_db` per channel (seeded `rng`).
+
+    The CLI's `simulate --effect`, the app and the tests call this, so an effect shows up everywhere.
+    """
+    from ..signals.noise import add_noise
+    from ..signals.records import Record
+    from ..signals.synthesize import steady_signals
+
+    if snr_db is not None and rng is None:
+        raise InputError("a noisy record needs an explicit rng (numpy.random.Generator); pass snr_db=None "
+                         "for a clean one")
+    if not (duration_s > 0 and sample_rate_hz > 0):
+        raise InputError(f"duration {duration_s!r} s and sample rate {sample_rate_hz!r} Hz; expected positive")
+    out = chain.output(np.asarray(theta, dtype=float))
+    n = int(round(duration_s * sample_rate_hz))
+    t = np.arange(n) / sample_rate_hz
+    xy = steady_signals(out.x, out.y, chain.omega, t)  # resolved X/Y displacement per plane
+    probes = np.empty_like(xy)
+    for k, (a, b) in enumerate(chain.probe_angles_deg):  # what each probe reads along its declared direction
+        ua, ub = (np.array([math.cos(math.radians(v)), math.sin(math.radians(v))]) for v in (a, b))
+        probes[k, 0] = ua[0] * xy[k, 0] + ua[1] * xy[k, 1]
+        probes[k, 1] = ub[0] * xy[k, 0] + ub[1] * xy[k, 1]
+    if snr_db is not None:
+        probes = add_noise(probes, snr_db, rng)
+    meta = {"q1_mlmin": f"{theta[0] * 6e7:.6g}", "q2_mlmin": f"{theta[1] * 6e7:.6g}",
+            "snr_db": "none" if snr_db is None else f"{snr_db:g}", "synthetic": "lubeviz simulate"}
+    meta.update(metadata or {})
+    return Record(speed_hz=chain.speed_hz, sample_rate_hz=sample_rate_hz, displacement=probes, nodes=chain.nodes,
+                  probe_angles_deg=chain.probe_angles_deg, t0=0.0,
+                  machine=Path(chain.machine.source).name if chain.machine.source else None, metadata=meta)
