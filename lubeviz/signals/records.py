@@ -10,16 +10,44 @@ Files (`read_record` / `write_record`), the same fields in three formats:
 - CSV: leading comment lines `# key: value` (metadata), then a header row and numeric rows.
   Metadata: `speed_hz` (required), `sample_rate_hz` (required unless there is a `t` column),
   `units` (required: m, mm, um or mils, via `lubeviz.units`), optional `node1`, `node2`,
-  `probe_angles_deg` ("45, 135" for both planes or "45, 135, 30, 120" plane by plane), `machine`,
-  `t0_s` (time of the first sample when there is no `t` column). Other `key: value` lines are kept
-  as `Record.metadata` (strings); comment lines without a colon are free comments and are skipped.
+  `probe_angles_deg` ("45, 135" for both planes or "45, 135, 30, 120" plane by plane), `machine`
+  (a plain model file name: no folder, no `..`, `NAME` or `NAME.toml`), `t0_s` (time of the first
+  sample when there is no `t` column), `set` (records of one machine taken together), `static` and
+  `rest_position` (below). Comment lines without a colon are free comments and are skipped.
   Columns, matched by name (case-insensitive, any order): `t` (optional), `x1`, `y1`, `x2`, `y2`
-  (probe readings of planes 1 and 2 in `units`), `keyphasor` (optional, stored unscaled). Columns
-  with other names are ignored. Delimiter: comma (or semicolon, tab, whitespace, as the header uses).
+  (probe readings of planes 1 and 2 in `units`), `keyphasor` (optional, stored unscaled).
+  Delimiter: comma (or semicolon, tab, whitespace, as the header uses).
 - `.npz` / `.mat`: variables with the same names; metadata as scalars or strings, the probe angles
-  as an array of 2 or 4 numbers (a 2x2 array is read plane by plane, i.e. row by row). Other scalar
-  or string variables become `Record.metadata` (as strings); other arrays are ignored. MATLAB v7.3
-  (HDF5) files are not read: save with `-v7`.
+  and rest readings as arrays of 2 or 4 numbers (a 2x2 array is read plane by plane, i.e. row by
+  row). MATLAB v7.3 (HDF5) files are not read: save with `-v7`. A v5/v7 MAT-file is walked
+  element by element before scipy reads it (`_check_mat5`: scipy's reader crashes the process on
+  some corrupt files); sparse, object and function-handle variables are skipped with a warning.
+
+Unknown names are never used and never silent. A metadata key that is not a record field is kept
+as text in `Record.metadata` and adds a line to `Record.warnings`, naming the closest known key
+("unknown key 'node_1' ignored; did you mean 'node1'?"), because a misspelled optional key would
+otherwise leave the default in force unnoticed. Without a warning are kept: the informational keys
+`lubeviz simulate` writes (`INFO_KEYS`: q1_mlmin, q2_mlmin, snr_db, synthetic, seed, effects,
+method; any `truth_...`) and free text under `note`, `notes`, `comment`, `description`, `operator`,
+`date` or any key starting with `x_` (`x_rig: B`). Columns (CSV) and arrays (.npz/.mat) with other
+names are ignored, with a warning unless they start with `x_`; a `# node1 5` comment line that
+looks like a known key missing its colon also warns.
+
+Static shaft position (SPEC §6). `# static: absolute` says the columns keep the probes' DC gap and
+`# rest_position: X1, Y1, X2, Y2` (record units, along the probe directions like the columns) gives
+each probe's reading with the machine at rest, journal at the bottom of its bearing. Both or
+neither. The record then carries `static_offset` = mean reading - rest reading, resolved to X and
+Y, and its standard error `static_offset_std` (see `_channel_means` for the estimator);
+`journal_static_position` adds (0, -c) per plane and checks that the journal lies within its
+clearance. Without them the mean of each channel is ignored, as the 1X features always do.
+
+Sets (SPEC §6): `# set: NAME` -> `Record.set_name`; `read_set` reads the records of one set (sorted
+by speed, checked by `check_set` to agree on set, machine, nodes and probes, one record per speed),
+`group_records` groups records already read by their set.
+
+Physical plausibility is checked when a record is built: a channel that does not move (peak-to-peak
+below `MIN_VIBRATION_PTP`) is a dead probe, a peak-to-peak above `MAX_VIBRATION_PTP` (5 mm) is no
+shaft vibration but almost always a wrong `units` field; node1 = node2 is refused.
 
 With a `t` column, the time must increase strictly and uniformly: each step within `TIME_RTOL` of
 the median step, so a dropped sample or a jump is pointed at by line; then `sample_rate_hz` is
@@ -39,13 +67,15 @@ was expected; no numpy or csv traceback reaches the user.
 from __future__ import annotations
 
 import dataclasses
-
+import difflib
+import io
 import math
 import numbers
 import re
+import struct
 import zipfile
 import zlib
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -55,6 +85,7 @@ import scipy.io
 from scipy.io.matlab import MatReadError
 
 from ..errors import DataFormatError, InputError
+from ..model.machine import model_name_problem
 from ..units import length_factor
 
 MAX_RECORD_BYTES = 200_000_000  # files above this are refused before reading (read at call time)
@@ -62,6 +93,11 @@ MIN_REVOLUTIONS = 10.0  # the 1X DFT needs several whole revolutions to separate
 MIN_SAMPLES = 16
 MIN_PROBE_SEPARATION_DEG = 10.0  # two probes closer than this (mod 180°) cannot resolve X and Y
 TIME_RTOL = 1e-6  # allowed relative deviation of each time step from the mean step
+MIN_VIBRATION_PTP = 1e-12  # m; a channel moving less than this (1 pm, far below any probe) is dead
+MAX_VIBRATION_PTP = 5e-3  # m; no journal-bearing shaft vibrates 5 mm peak-to-peak: wrong units
+MIN_BATCHES = 10  # batch means for a mean's standard error: at least this many batches
+SET_SPEED_RTOL = 1e-3  # two records of one set closer than this in speed are the same speed
+STATIC_TOLERANCE = 0.05  # fraction of c a static position may lie beyond the clearance circle
 DEFAULT_NODES = (6, 20)  # the paper machine's bearing centres
 DEFAULT_PROBE_ANGLES_DEG = ((0.0, 90.0), (0.0, 90.0))  # probe a along +X, probe b along +Y
 FORMATS = (".csv", ".npz", ".mat")
@@ -69,8 +105,13 @@ FORMATS = (".csv", ".npz", ".mat")
 CHANNELS = ("x1", "y1", "x2", "y2")  # file names of displacement[plane][probe], row-major
 COLUMNS = ("t", *CHANNELS, "keyphasor")
 META_KEYS = ("speed_hz", "sample_rate_hz", "units", "node1", "node2", "probe_angles_deg",
-             "machine", "t0_s")
+             "machine", "t0_s", "set", "static", "rest_position")
 RESERVED = frozenset(COLUMNS + META_KEYS)
+# Informational keys `lubeviz simulate` writes, and free-text keys: kept without a warning.
+INFO_KEYS = ("q1_mlmin", "q2_mlmin", "snr_db", "synthetic", "seed", "effects", "method")
+FREE_TEXT_KEYS = ("note", "notes", "comment", "description", "operator", "date")
+FREE_PREFIXES = ("x_", "truth_")  # `x_anything: ...` is the user's own; `truth_*` the simulator's
+STATIC_ABSOLUTE = "absolute"
 _MATLAB_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,62}\Z")
 
 
@@ -93,10 +134,20 @@ class Record:
     nodes: tuple[int, int] = DEFAULT_NODES  # model nodes of the two planes
     probe_angles_deg: tuple[tuple[float, float], tuple[float, float]] = DEFAULT_PROBE_ANGLES_DEG
     t0: float = 0.0  # time of the first sample, s
-    machine: str | None = None  # model file name under models/
+    machine: str | None = None  # model file name under models/ (a plain name, no folder)
     keyphasor: np.ndarray | None = None  # (n_samples,), as recorded (not scaled)
     metadata: Mapping[str, str] = field(default_factory=dict)  # other `key: value` pairs, read-only
     source: str | None = None  # the file it came from, for messages
+    # `static: absolute`: (2 planes, 2 probes) probe readings at rest (journal at the bottom of its
+    # bearing), metres, along the probe directions; the displacement then keeps the DC gap. None:
+    # the mean of each channel means nothing.
+    rest_position: np.ndarray | None = None
+    set_name: str | None = None  # `set: NAME`, records of one machine taken together
+    warnings: tuple[str, ...] = ()  # what the reader ignored (unknown keys, columns), for the user
+    # Derived when built (never passed): mean reading - rest reading resolved to X, Y (2 planes, 2) in
+    # metres, and its standard error; None without `rest_position`.
+    static_offset: np.ndarray | None = field(default=None, init=False, repr=False)
+    static_offset_std: np.ndarray | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self):
         where = str(self.source) if self.source is not None else "record"
@@ -123,6 +174,7 @@ class Record:
         n = d.shape[2]
         if n < MIN_SAMPLES:
             raise _fail(where, "samples", f"too few samples ({n})", f"at least {MIN_SAMPLES}")
+        _check_vibration(self.displacement, where)
         if self.sample_rate_hz <= 2.0 * self.speed_hz:
             raise _fail(where, "sample_rate_hz",
                         f"{self.sample_rate_hz:g} Hz is not above twice speed_hz ({self.speed_hz:g} Hz),"
@@ -139,7 +191,11 @@ class Record:
             nodes = ()
         if len(nodes) != 2:
             raise _fail(where, "nodes", f"{self.nodes!r}", "two node numbers (node1, node2)")
-        put("nodes", tuple(_node(v, where, f"node{k + 1}") for k, v in enumerate(nodes)))
+        nodes = tuple(_node(v, where, f"node{k + 1}") for k, v in enumerate(nodes))
+        if nodes[0] == nodes[1]:
+            raise _fail(where, "node2", f"{nodes[1]} is the same node as node1",
+                        "two different model nodes, one per measurement plane")
+        put("nodes", nodes)
         put("probe_angles_deg", _probe_angles(self.probe_angles_deg, where))
 
         if self.keyphasor is not None:
@@ -152,8 +208,29 @@ class Record:
                             "finite values")
             put("keyphasor", _frozen_copy(kp))
         if self.machine is not None:
-            put("machine", _text(self.machine, where, "machine", "a model file name"))
+            put("machine", _machine_name(self.machine, where))
+        if self.set_name is not None:
+            put("set_name", _text(self.set_name, where, "set", "a set name on one line"))
         put("metadata", _metadata(self.metadata, where))
+        put("warnings", _warnings(self.warnings, where))
+
+        if self.rest_position is not None:
+            rest = _frozen_copy(_rest_position(self.rest_position, where))
+            put("rest_position", rest)
+            mean, mean_std = _channel_means(self.displacement, self.speed_hz, self.sample_rate_hz)
+            offset = np.stack([self._resolve(k, mean[k] - rest[k]) for k in range(2)])
+            std = np.stack([self._resolve_std(k, mean_std[k]) for k in range(2)])
+            for k, xy in enumerate(offset):
+                big = np.flatnonzero(np.abs(xy) > MAX_VIBRATION_PTP)
+                if big.size:
+                    axis = "XY"[big[0]]
+                    raise _fail(where, f"rest_position (plane {k + 1})",
+                                f"static offset {axis} = mean reading - rest reading ="
+                                f" {xy[big[0]] * 1e3:.4g} mm, more than any journal moves in its"
+                                " bearing", f"at most {MAX_VIBRATION_PTP * 1e3:g} mm; check the"
+                                " 'units' field and that rest_position is in the same units")
+            put("static_offset", _frozen_copy(offset))
+            put("static_offset_std", _frozen_copy(std))
 
     # -- derived quantities ------------------------------------------------------------------
     @property
@@ -174,11 +251,18 @@ class Record:
     def revolutions(self) -> float:
         return self.duration * self.speed_hz
 
+    @property
+    def is_static(self) -> bool:
+        """True for `static: absolute` records (the readings keep the DC gap, `static_offset` is set)."""
+        return self.rest_position is not None
+
     def xy(self) -> np.ndarray:
         """(2, 2, n) shaft displacement along X and Y (SPEC §1 axes), from the probe readings.
 
         Each probe at angle a from +X reads s = x cos a + y sin a; the 2x2 system of a plane is
         solved exactly (for the default probes at 0° and 90° the result equals `displacement`).
+        A static record's readings keep their DC gap, so its `xy()` does too (the 1X features
+        fit and drop the mean).
         """
         return np.stack([self._plane_xy(k) for k in range(2)])
 
@@ -190,30 +274,85 @@ class Record:
         return x + 1j * y
 
     def _plane_xy(self, k: int) -> np.ndarray:
+        return self._resolve(k, self.displacement[k])
+
+    def _resolve(self, k: int, readings) -> np.ndarray:
+        """X, Y from the readings (s_a, s_b) of plane k's probes: s = x cos a + y sin a, solved."""
         (ca, sa), (cb, sb) = (_cos_sin_deg(a) for a in self.probe_angles_deg[k])
         det = ca * sb - sa * cb  # = sin(b - a); bounded away from 0 by construction
-        s_a, s_b = self.displacement[k]
+        s_a, s_b = readings
         return np.stack([(sb * s_a - sa * s_b) / det, (ca * s_b - cb * s_a) / det])
+
+    def _resolve_std(self, k: int, std) -> np.ndarray:
+        """Standard errors of `_resolve`'s X, Y for independent readings with standard errors `std`."""
+        (ca, sa), (cb, sb) = (_cos_sin_deg(a) for a in self.probe_angles_deg[k])
+        det = ca * sb - sa * cb
+        var_a, var_b = np.square(std)
+        return np.sqrt([(sb * sb * var_a + sa * sa * var_b), (cb * cb * var_a + ca * ca * var_b)]) / abs(det)
 
     # -- identity and display ----------------------------------------------------------------
     def __eq__(self, other):
-        """Same measurement: every field equal (arrays exactly), whatever file it came from."""
+        """Same measurement: every field equal (arrays exactly), whatever file it came from.
+
+        `source` and `warnings` (where the record came from and what its file also held) do not count.
+        """
         if not isinstance(other, Record):
             return NotImplemented
+
+        def same(a, b):
+            return (a is None) == (b is None) and (a is None or np.array_equal(a, b))
+
         return ((self.speed_hz, self.sample_rate_hz, self.nodes, self.probe_angles_deg, self.t0,
-                 self.machine, dict(self.metadata))
+                 self.machine, self.set_name, dict(self.metadata))
                 == (other.speed_hz, other.sample_rate_hz, other.nodes, other.probe_angles_deg,
-                    other.t0, other.machine, dict(other.metadata))
+                    other.t0, other.machine, other.set_name, dict(other.metadata))
                 and np.array_equal(self.displacement, other.displacement)
-                and (self.keyphasor is None) == (other.keyphasor is None)
-                and (self.keyphasor is None or np.array_equal(self.keyphasor, other.keyphasor)))
+                and same(self.keyphasor, other.keyphasor)
+                and same(self.rest_position, other.rest_position))
 
     __hash__ = None
 
     def __repr__(self):
         return (f"Record(speed_hz={self.speed_hz!r}, sample_rate_hz={self.sample_rate_hz!r},"
                 f" n_samples={self.n_samples}, nodes={self.nodes}, probe_angles_deg="
-                f"{self.probe_angles_deg}, machine={self.machine!r}, source={self.source!r})")
+                f"{self.probe_angles_deg}, machine={self.machine!r}, set_name={self.set_name!r},"
+                f" static={self.is_static}, warnings={len(self.warnings)}, source={self.source!r})")
+
+
+def journal_static_position(record: Record, clearances, *,
+                            tolerance: float = STATIC_TOLERANCE) -> np.ndarray:
+    """(2 planes, 2) journal centre X, Y relative to its bearing centre, metres (SPEC §6).
+
+    `static_offset` + (0, -c_k): at rest the journal lies at the bottom of its bearing, (0, -c).
+    `clearances` are the true radial clearances c_k (m) of the bearings at the record's two planes
+    (meaningful at a bearing's centre plane). A point farther from the centre than
+    c_k (1 + `tolerance`) + 3 standard errors cannot be a journal inside its bearing: refused.
+    """
+    where = record.source or "record"
+    if record.static_offset is None:
+        raise _fail(where, "static", "the record has no static shaft position",
+                    "'# static: absolute' with '# rest_position: X1, Y1, X2, Y2'")
+    try:
+        c = np.asarray(clearances, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise InputError(f"clearances {clearances!r}: expected two radial clearances in metres") from None
+    if c.size != 2 or not np.all(np.isfinite(c)) or not np.all(c > 0):
+        raise InputError(f"clearances {clearances!r}: expected two positive radial clearances in metres")
+    if not (math.isfinite(tolerance) and tolerance >= 0):
+        raise InputError(f"tolerance {tolerance!r}: expected a non-negative fraction of the clearance")
+    position = record.static_offset + np.stack([np.zeros(2), -c], axis=1)
+    for k in range(2):
+        r = float(np.hypot(*position[k]))
+        limit = c[k] * (1.0 + tolerance) + 3.0 * float(np.hypot(*record.static_offset_std[k]))
+        if r > limit:
+            raise _fail(where, f"static position, plane {k + 1} (node {record.nodes[k]})",
+                        f"the journal would lie {r * 1e6:.4g} µm from the bearing centre, outside"
+                        f" the clearance c = {c[k] * 1e6:.4g} µm (offset from rest"
+                        f" X = {record.static_offset[k, 0] * 1e6:.4g} µm,"
+                        f" Y = {record.static_offset[k, 1] * 1e6:.4g} µm)",
+                        f"at most {limit * 1e6:.4g} µm (c + {100 * tolerance:g} % + 3 std); check"
+                        " rest_position, units, probe_angles_deg and the nodes")
+    return position
 
 
 def check_speed(record: Record, machine_speed_hz: float, tolerance: float = 0.2) -> None:
@@ -234,11 +373,21 @@ def record_from_arrays(x1, y1, x2, y2, *, speed_hz: float, sample_rate_hz: float
                        probe_angles_deg=DEFAULT_PROBE_ANGLES_DEG, t0: float | None = None,
                        machine: str | None = None, keyphasor=None,
                        metadata: Mapping[str, str] | None = None,
-                       source: str | None = None) -> Record:
+                       source: str | None = None, rest_position=None, static_offset=None,
+                       set_name: str | None = None) -> Record:
     """A `Record` from probe readings in `units`, validated exactly as a file would be.
 
     Give `sample_rate_hz` or a time array `t` (or both, then they must agree); `t0` (s) only
-    without `t`.
+    without `t`. Record fields found in `metadata` (`set`, `static`, `rest_position`, ...) are read
+    as a file's would be; one given both as an argument and in `metadata` is refused.
+
+    Static shaft position (both in `units`, like the readings):
+    - `rest_position` alone (4 numbers X1, Y1, X2, Y2 or 2x2, along the probe directions): the
+      readings are absolute (they keep the DC gap), as in a `static: absolute` file.
+    - `static_offset` (2 planes x (X, Y), the journal's displacement from its rest position): the
+      readings are taken as the dynamic part; each channel's mean (as `Record` estimates it) is
+      replaced by rest reading + the offset seen along that probe, so the record's `static_offset`
+      equals the one given (to rounding). `rest_position` defaults to zero readings then.
     """
     where = str(source) if source is not None else "record"
     if np.ndim(nodes) != 1 or len(nodes) != 2:
@@ -246,10 +395,26 @@ def record_from_arrays(x1, y1, x2, y2, *, speed_hz: float, sample_rate_hz: float
     columns = {"x1": x1, "y1": y1, "x2": x2, "y2": y2, "t": t, "keyphasor": keyphasor}
     meta = {"speed_hz": speed_hz, "sample_rate_hz": sample_rate_hz, "units": units,
             "node1": nodes[0], "node2": nodes[1], "probe_angles_deg": probe_angles_deg,
-            "machine": machine, "t0_s": t0}
+            "machine": machine, "t0_s": t0, "set": set_name, "rest_position": rest_position,
+            "static": None if rest_position is None else STATIC_ABSOLUTE}
+    extra = {}
+    for key, value in dict(metadata or {}).items():  # file fields given as metadata act as in a file
+        low = key.lower() if isinstance(key, str) else None
+        if low in META_KEYS:
+            if meta[low] is not None:
+                raise _fail(where, f"metadata {key!r}", "also given as an argument (or by its default)",
+                            "each field once")
+            meta[low] = value
+        else:
+            extra[key] = value
+    if static_offset is not None and meta["rest_position"] is None:
+        meta["rest_position"], meta["static"] = np.zeros((2, 2)), STATIC_ABSOLUTE
     columns = {k: _column(v, where, k) for k, v in columns.items() if v is not None}
     meta = {k: v for k, v in meta.items() if v is not None}
-    return _assemble(columns, meta, dict(metadata or {}), _Origin(where), DEFAULT_NODES)
+    if static_offset is not None:
+        static_offset = _four_numbers(static_offset, where, "static_offset",
+                                      "X1, Y1, X2, Y2 (2 planes x 2) in the record's units")
+    return _assemble(columns, meta, extra, _Origin(where), DEFAULT_NODES, static_offset=static_offset)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -300,7 +465,8 @@ def read_record_bytes(content, filename: str, *, default_nodes=DEFAULT_NODES) ->
             rec = read_record(path, default_nodes=default_nodes)
         except DataFormatError as exc:
             raise DataFormatError(str(exc).replace(str(path), name)) from None
-    return dataclasses.replace(rec, source=name)
+    return dataclasses.replace(rec, source=name,
+                               warnings=tuple(w.replace(str(path), name) for w in rec.warnings))
 
 
 def write_record(record: Record, path, *, units: str = "m") -> Path:
@@ -324,6 +490,11 @@ def write_record(record: Record, path, *, units: str = "m") -> Path:
         meta["probe_angles_deg"] = record.probe_angles_deg
     if record.machine is not None:
         meta["machine"] = record.machine
+    if record.set_name is not None:
+        meta["set"] = record.set_name
+    if record.rest_position is not None:  # the readings keep their DC gap: say so, with the rest
+        meta["static"] = STATIC_ABSOLUTE
+        meta["rest_position"] = record.rest_position if scale == 1.0 else record.rest_position / scale
     try:
         if suffix == ".csv":
             _write_csv(path, columns, meta, record.metadata)
@@ -345,6 +516,74 @@ def write_record(record: Record, path, *, units: str = "m") -> Path:
     return path
 
 
+# ---------------------------------------------------------------------------------------------
+# Sets: records of one machine at several steady speeds (SPEC §6, `set: NAME`)
+# ---------------------------------------------------------------------------------------------
+
+def read_set(paths, *, default_nodes=DEFAULT_NODES) -> list[Record]:
+    """The records of one `set:`, read and checked together (`check_set`), sorted by speed."""
+    paths = [Path(p) for p in ([paths] if isinstance(paths, (str, Path)) else paths)]
+    return check_set([read_record(p, default_nodes=default_nodes) for p in paths])
+
+
+def check_set(records: Sequence[Record]) -> list[Record]:
+    """Records of one set, sorted by speed; refused unless they can be identified together.
+
+    A set needs at least two records, each naming the same `set:`, with the same machine, the same
+    nodes and the same probe angles, and no two at the same speed (within `SET_SPEED_RTOL`).
+    """
+    records = list(records)
+    names = ", ".join(_name(r) for r in records) or "no files"
+    if len(records) < 2:
+        raise DataFormatError(f"{names}: set: a set needs at least 2 records at different speeds;"
+                              f" got {len(records)}")
+    first = records[0]
+    for r in records:
+        if r.set_name is None:
+            raise _fail(_name(r), "set", "no '# set: NAME' line, so it is not part of a set",
+                        f"'# set: {first.set_name or 'NAME'}' in every record of the set")
+    for label, get in (("set", lambda r: r.set_name), ("machine", lambda r: r.machine),
+                       ("nodes (node1, node2)", lambda r: r.nodes),
+                       ("probe_angles_deg", lambda r: r.probe_angles_deg)):
+        for r in records[1:]:
+            if get(r) != get(first):
+                raise DataFormatError(
+                    f"{_name(r)}: {label}: {get(r)!r} disagrees with {get(first)!r} in {_name(first)};"
+                    f" expected the records of one set to share the set name, machine, nodes and"
+                    f" probe angles (set {first.set_name!r}: {names})")
+    ordered = sorted(records, key=lambda r: r.speed_hz)
+    for a, b in zip(ordered, ordered[1:]):
+        if b.speed_hz - a.speed_hz <= SET_SPEED_RTOL * b.speed_hz:
+            raise DataFormatError(
+                f"{_name(b)}: speed_hz: {b.speed_hz:g} Hz is the speed of {_name(a)}"
+                f" ({a.speed_hz:g} Hz, within {100 * SET_SPEED_RTOL:g} %); expected one record per"
+                f" speed in set {first.set_name!r}")
+    return ordered
+
+
+def group_records(records: Sequence[Record]) -> list[list[Record]]:
+    """Records grouped by `set_name`, groups in order of first appearance, records in input order.
+
+    A record without a set is a group of its own. Nothing is checked here: pass a group of several
+    records to `check_set`.
+    """
+    groups: list[list[Record]] = []
+    by_name: dict[str, list[Record]] = {}
+    for r in records:
+        if r.set_name is None:
+            groups.append([r])
+        elif r.set_name in by_name:
+            by_name[r.set_name].append(r)
+        else:
+            by_name[r.set_name] = [r]
+            groups.append(by_name[r.set_name])
+    return groups
+
+
+def _name(record: Record) -> str:
+    return record.source or "record"
+
+
 def _suffix(path: Path) -> str:
     suffix = path.suffix.lower()
     if suffix not in FORMATS:
@@ -360,15 +599,19 @@ class _Origin:
     where: str
     lines: np.ndarray | None = None  # CSV: the file line number of each data row
     names: tuple[str, ...] = ()  # the column / variable names the file holds, for messages
+    notes: tuple[str, ...] = ()  # the reader's warnings (ignored columns, arrays, comment lines)
 
     def at(self, name: str, i: int) -> str:
         return f"column {name!r}, line {self.lines[i]}" if self.lines is not None \
             else f"{name!r}, index {i}"
 
 
-def _assemble(columns: dict, meta: dict, extra: dict, origin: _Origin, default_nodes) -> Record:
+def _assemble(columns: dict, meta: dict, extra: dict, origin: _Origin, default_nodes,
+              static_offset: np.ndarray | None = None) -> Record:
     """The format-independent part: required fields, finiteness, time axis, units; then `Record`."""
     where = origin.where
+    warnings = list(origin.notes) + [_unknown_key_warning(where, key) for key in extra
+                                     if not _is_free_key(key)]
     for name in CHANNELS:
         if name not in columns:
             found = ", ".join(repr(c) for c in origin.names or columns) or "none"
@@ -409,13 +652,42 @@ def _assemble(columns: dict, meta: dict, extra: dict, origin: _Origin, default_n
     nodes = tuple(_node(meta[f"node{k + 1}"], where, f"node{k + 1}") if f"node{k + 1}" in meta
                   else default_nodes[k] for k in range(2))
     angles = meta.get("probe_angles_deg", DEFAULT_PROBE_ANGLES_DEG)
+    rest = _static_fields(meta, where)
     displacement = np.stack([columns[c] for c in CHANNELS]).reshape(2, 2, -1)
+    _check_vibration(displacement * scale, where, units)
     if scale != 1.0:
         displacement = displacement * scale
+    if rest is not None:
+        rest = rest * scale
+        if static_offset is not None:  # the readings were the dynamic part: give them this mean
+            angles = _probe_angles(angles, where)
+            probe_offset = np.array([[ca * x + sa * y for ca, sa in map(_cos_sin_deg, pair)]
+                                     for pair, (x, y) in zip(angles, static_offset * scale)])
+            mean, _ = _channel_means(displacement, speed, rate)
+            displacement = displacement - mean[..., None] + (rest + probe_offset)[..., None]
     return Record(speed_hz=speed, sample_rate_hz=rate, displacement=displacement, nodes=nodes,
                   probe_angles_deg=angles, t0=0.0 if t0 is None else t0,
                   machine=meta.get("machine"), keyphasor=columns.get("keyphasor"),
-                  metadata=extra, source=where)
+                  metadata=extra, source=where, rest_position=rest, set_name=meta.get("set"),
+                  warnings=tuple(warnings))
+
+
+def _static_fields(meta: dict, where: str) -> np.ndarray | None:
+    """The rest readings (2 planes, 2 probes, record units) of a `static: absolute` record, else None."""
+    has_static, has_rest = "static" in meta, "rest_position" in meta
+    if has_static:
+        value = _text(meta["static"], where, "static", f"'{STATIC_ABSOLUTE}'")
+        if value.lower() != STATIC_ABSOLUTE:
+            raise _fail(where, "static", f"{value!r} is not a known static convention",
+                        f"'{STATIC_ABSOLUTE}' (the columns keep the probes' DC gap), or no 'static'"
+                        " key (the mean of each channel is then ignored)")
+    if has_static and not has_rest:
+        raise _fail(where, "rest_position", "missing metadata, although 'static: absolute' is given",
+                    "'# rest_position: X1, Y1, X2, Y2', each probe's reading with the machine at rest")
+    if has_rest and not has_static:
+        raise _fail(where, "static", "missing metadata, although 'rest_position' is given",
+                    "'# static: absolute' (the columns keep the probes' DC gap), or no rest_position")
+    return _rest_position(meta["rest_position"], where) if has_rest else None
 
 
 def _time_axis(t: np.ndarray, rate: float | None, origin: _Origin) -> tuple[float, float]:
@@ -456,14 +728,20 @@ def _read_csv(path: Path, where: str):
     except OSError as exc:
         raise _fail(where, "file", f"cannot be read ({exc.strerror or exc})") from None
     lines = text.splitlines()
-    meta, extra, seen = {}, {}, {}
+    meta, extra, seen, notes = {}, {}, {}, []
     i = 0
     while i < len(lines):
         s = lines[i].strip()
         if s and not s.startswith("#"):
             break
         body = s[1:].strip()
-        if ":" in body:  # '# key: value'; a comment line without a colon is a free comment
+        if ":" not in body:  # a free comment, unless it looks like a known key without its colon
+            word = re.split(r"[\s=]+", body, maxsplit=1)[0].lower()
+            close = difflib.get_close_matches(word, META_KEYS, n=1, cutoff=0.8) if word else []
+            if close:
+                notes.append(f"{where}: line {i + 1}: '{s}' has no ':' and is read as a free"
+                             f" comment; did you mean '# {close[0]}: ...'?")
+        else:  # '# key: value'
             key, value = (p.strip() for p in body.split(":", 1))
             low = key.lower()
             if low in seen:
@@ -493,6 +771,8 @@ def _read_csv(path: Path, where: str):
             if name in positions:
                 raise _fail(where, f"column {name!r}", "appears twice in the header", "each column once")
             positions[name] = j
+        elif name and not name.startswith(FREE_PREFIXES):
+            notes.append(_ignored_warning(where, f"column {name!r}", name, COLUMNS))
 
     body = lines[i + 1:]
     line_numbers = np.arange(header_line + 1, header_line + 1 + len(body))
@@ -526,7 +806,7 @@ def _read_csv(path: Path, where: str):
             table = np.array([[_cell(r[j], where, name, n) for name, j in positions.items()]
                               for r, n in zip(rows, line_numbers)])
         columns = dict(zip(positions, table.T))
-    return columns, meta, extra, _Origin(where, line_numbers, tuple(n for n in names if n))
+    return columns, meta, extra, _Origin(where, line_numbers, tuple(n for n in names if n), tuple(notes))
 
 
 def _write_csv(path: Path, columns: dict, meta: dict, extra: Mapping[str, str]) -> None:
@@ -535,6 +815,8 @@ def _write_csv(path: Path, columns: dict, meta: dict, extra: Mapping[str, str]) 
         if key == "probe_angles_deg":
             flat = value[0] if value[0] == value[1] else (*value[0], *value[1])
             value = ", ".join(repr(float(a)) for a in flat)
+        elif key == "rest_position":
+            value = ", ".join(repr(float(a)) for a in np.ravel(value))
         elif isinstance(value, float):
             value = repr(value)
         head.append(f"# {key}: {value}")
@@ -578,13 +860,20 @@ def _read_npz(path: Path, where: str):
         if not isinstance(archive, np.lib.npyio.NpzFile):  # a .npy file named .npz
             raise _fail(where, "file", "holds a single array", "an .npz archive of named arrays")
         with archive:
+            unpacked = sum(info.file_size for info in archive.zip.infolist())
+            if unpacked > MAX_RECORD_BYTES:  # a small archive may inflate to anything: ask first
+                raise _fail(where, "file", f"unpacks to {unpacked / 1e6:.1f} MB",
+                            f"at most {MAX_RECORD_BYTES / 1e6:g} MB (lubeviz.signals.records.MAX_RECORD_BYTES)")
             for key in archive.files:
                 try:
                     entries[key] = archive[key]
-                except ValueError:
+                except ValueError as exc:
+                    if "pickle" not in str(exc):
+                        raise
                     raise _fail(where, repr(key), "holds Python objects (pickled data)",
                                 "numbers or text") from None
-    except (ValueError, OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile, zlib.error,
+            NotImplementedError, RuntimeError) as exc:  # zipfile: unknown versions, encryption
         if isinstance(exc, DataFormatError):
             raise
         raise _fail(where, "file", f"is not a readable .npz archive ({exc})") from None
@@ -593,19 +882,160 @@ def _read_npz(path: Path, where: str):
 
 def _read_mat(path: Path, where: str):
     try:
-        entries = scipy.io.loadmat(path, squeeze_me=True, chars_as_strings=True)
+        data = path.read_bytes()
+    except OSError as exc:
+        raise _fail(where, "file", f"cannot be read ({exc.strerror or exc})") from None
+    readable, notes = _check_mat5(data, where)
+    try:
+        entries = scipy.io.loadmat(io.BytesIO(data), squeeze_me=True, chars_as_strings=True,
+                                   variable_names=readable)
     except NotImplementedError:
         raise _fail(where, "file", "is a MATLAB v7.3 (HDF5) file",
                     "a v5/v7 MAT-file (save(..., '-v7'))") from None
     except (MatReadError, ValueError, TypeError, OSError, EOFError, IndexError, KeyError,
             zlib.error) as exc:
         raise _fail(where, "file", f"is not a readable MAT-file ({exc})") from None
-    return _split_entries({k: v for k, v in entries.items() if not k.startswith("__")}, where)
+    columns, meta, extra, origin = _split_entries({k: v for k, v in entries.items()
+                                                   if not k.startswith("__")}, where)
+    return columns, meta, extra, dataclasses.replace(origin, notes=tuple(notes) + origin.notes)
+
+
+class _MatUnsupported(Exception):
+    """A MAT-file variable of a class a record cannot hold (sparse, object, function handle)."""
+
+
+# MAT v5 data types: bytes per value of the numeric and text ones (miINT8 ... miUTF32)
+_MAT_VALUE_BYTES = {1: 1, 2: 1, 3: 2, 4: 2, 5: 4, 6: 4, 7: 4, 9: 8, 12: 8, 13: 8, 16: 1, 17: 2, 18: 4}
+_MI_INT32, _MI_UINT32, _MI_MATRIX, _MI_COMPRESSED, _MI_UTF8 = 5, 6, 14, 15, 16
+_MAT_ARRAYS = {4: "char", **{c: "numeric" for c in range(6, 16)}}  # mxCHAR, mxDOUBLE ... mxUINT64
+_MAT_CLASS_NAMES = {3: "object", 5: "sparse", 16: "function handle", 17: "opaque"}  # not read
+
+
+def _check_mat5(data: bytes, where: str) -> tuple[list[str] | None, list[str]]:
+    """Walk the data elements of a MAT v5 (v6/v7) file before scipy reads it.
+
+    scipy's v5 reader is not hardened against corrupt files (its `loadmat` docs say so): an element
+    type code out of range is used as an index into a C array and crashes the whole process (scipy
+    PR #25349), which a record upload must never do. So every element is checked here first: a
+    known type code, a size that fits its container, dimensions that agree with the number of
+    values. Returns the names of the variables scipy may read (None: all, for other MAT versions,
+    v4 and v7.3, which are left to scipy) and a warning for each variable skipped because a record
+    cannot hold it (sparse, object, function handle; scipy then never parses it).
+    """
+    if len(data) < 128 or data[126:128] not in (b"IM", b"MI") or 0 in data[:4]:
+        return None, []  # not a v5 header: scipy decides (v4, v7.3 or not a MAT-file)
+    order = "<" if data[126:128] == b"IM" else ">"
+    budget = [MAX_RECORD_BYTES]  # decompressed bytes allowed over the whole file
+
+    def bad(problem: str):
+        return _fail(where, "file", f"is not a readable MAT-file ({problem})",
+                     "a MAT-file of numeric arrays and text, saved with save(..., '-v7')")
+
+    def tag(buf: bytes, pos: int, limit: int):
+        """(type, byte count, data start, data end, next element) of the element at `pos`."""
+        if pos + 8 > limit:
+            raise bad(f"element cut short at byte {pos}")
+        first, second = struct.unpack_from(order + "II", buf, pos)
+        if first >> 16:  # small data element: type, size and up to 4 bytes in 8
+            mdtype, nbytes = first & 0xFFFF, first >> 16
+            if nbytes > 4:
+                raise bad(f"small element of {nbytes} bytes at byte {pos}")
+            return mdtype, nbytes, pos + 4, pos + 4 + nbytes, pos + 8
+        end = pos + 8 + second
+        if end > limit:
+            raise bad(f"element at byte {pos} ({second} bytes) runs past its end")
+        return first, second, pos + 8, end, pos + 8 + second + (-second) % 8
+
+    def values(buf: bytes, pos: int, limit: int, count: int | None) -> int:
+        mdtype, nbytes, _, _, after = tag(buf, pos, limit)
+        size = _MAT_VALUE_BYTES.get(mdtype)
+        if size is None:
+            raise bad(f"unknown data type code {mdtype} at byte {pos}")
+        if nbytes % size or (count is not None and nbytes // size != count):
+            raise bad(f"{nbytes} bytes of type {mdtype} at byte {pos} where {count} values are declared")
+        return after
+
+    def matrix(buf: bytes, pos: int, limit: int, names: list[str] | None = None, depth: int = 0) -> int:
+        if depth > 32:
+            raise _MatUnsupported("cells or structs nested more than 32 deep")
+        mdtype, nbytes, start, end, after = tag(buf, pos, limit)
+        if mdtype != _MI_MATRIX:
+            raise bad(f"array expected at byte {pos}, found type code {mdtype}")
+        if nbytes == 0:  # an empty cell element
+            return after
+        fmd, fn, fs, _, p = tag(buf, start, end)
+        if fmd != _MI_UINT32 or fn != 8:
+            raise bad(f"array flags at byte {start}")
+        flags, = struct.unpack_from(order + "I", buf, fs)
+        cls, is_complex = flags & 0xFF, bool(flags & 0x0800)
+        dmd, dn, ds, _, p = tag(buf, p, end)
+        if dmd not in (_MI_INT32, _MI_UINT32) or dn % 4 or dn < 8:
+            raise bad(f"array dimensions at byte {ds - 8}")
+        dims = struct.unpack_from(order + f"{dn // 4}i", buf, ds)
+        if min(dims) < 0 or math.prod(dims) > MAX_RECORD_BYTES:
+            raise bad(f"array dimensions {dims} at byte {ds - 8}")
+        count = math.prod(dims)
+        nmd, nn, ns, ne, p = tag(buf, p, end)
+        if nmd not in (1, 2, _MI_UTF8):
+            raise bad(f"array name at byte {ns - 8}")
+        name = bytes(buf[ns:ne]).decode("latin-1")
+        if names is not None:
+            names.append(name)
+        if cls in _MAT_ARRAYS:  # text may be stored in fewer values (UTF-8, empty): count not checked
+            p = values(buf, p, end, count if _MAT_ARRAYS[cls] == "numeric" else None)
+            if is_complex:
+                p = values(buf, p, end, count)
+        elif cls == 1:
+            for _ in range(count):
+                p = matrix(buf, p, end, depth=depth + 1)
+        elif cls == 2:
+            lmd, ln, ls, _, p = tag(buf, p, end)
+            if lmd != _MI_INT32 or ln != 4:
+                raise bad(f"struct field name length at byte {ls - 8}")
+            field_len, = struct.unpack_from(order + "i", buf, ls)
+            _, names_bytes, _, _, p = tag(buf, p, end)
+            if field_len <= 0 or names_bytes % field_len:
+                raise bad(f"struct field names at byte {p}")
+            for _ in range(count * (names_bytes // field_len)):
+                p = matrix(buf, p, end, depth=depth + 1)
+        elif cls in _MAT_CLASS_NAMES:
+            raise _MatUnsupported(f"a MATLAB {_MAT_CLASS_NAMES[cls]} array")
+        else:
+            raise bad(f"unknown array class code {cls} at byte {start}")
+        if p > after:
+            raise bad(f"array {name!r} overruns its element")
+        return after
+
+    readable, notes = [], []
+    pos = 128
+    while pos < len(data):
+        mdtype, _, start, end, _ = tag(data, pos, len(data))
+        names: list[str] = []
+        try:
+            if mdtype == _MI_COMPRESSED:
+                inflate = zlib.decompressobj()
+                try:
+                    raw = inflate.decompress(data[start:end], budget[0] + 1)
+                except zlib.error as exc:
+                    raise bad(f"compressed variable at byte {pos}: {exc}") from None
+                if len(raw) > budget[0]:
+                    raise bad(f"decompresses to more than {MAX_RECORD_BYTES / 1e6:g} MB")
+                budget[0] -= len(raw)
+                matrix(raw, 0, len(raw), names)
+            elif mdtype == _MI_MATRIX:
+                matrix(data, pos, len(data), names)
+            else:
+                raise bad(f"unexpected element type code {mdtype} at byte {pos}")
+            readable.append(names[0])
+        except _MatUnsupported as exc:
+            notes.append(f"{where}: variable {names[0]!r} ignored; {exc}, which a record cannot hold")
+        pos = end
+    return readable, notes
 
 
 def _split_entries(entries: dict, where: str):
     """Sort named arrays into columns, known metadata and other (string) metadata."""
-    columns, meta, extra, seen = {}, {}, {}, {}
+    columns, meta, extra, seen, notes = {}, {}, {}, {}, []
     for key, value in entries.items():
         low = key.lower()
         if low in seen:
@@ -622,8 +1052,9 @@ def _split_entries(entries: dict, where: str):
                 extra[key] = str(v.reshape(-1)[0]) if v.size else ""
             elif v.dtype.kind in "biuf" and v.size == 1:
                 extra[key] = str(v.reshape(-1)[0].item())
-            # other arrays: not part of the record format, ignored like unknown CSV columns
-    return columns, meta, extra, _Origin(where, names=tuple(entries))
+            elif not low.startswith(FREE_PREFIXES):  # not part of the record format: ignored, said
+                notes.append(_ignored_warning(where, f"variable {key!r}", low, COLUMNS + META_KEYS))
+    return columns, meta, extra, _Origin(where, names=tuple(entries), notes=tuple(notes))
 
 
 def _column(value, where: str, name: str) -> np.ndarray:
@@ -690,23 +1121,52 @@ def _text(value, where: str, name: str, expected: str) -> str:
     v = v.strip()
     if not v or v.splitlines() != [v]:
         raise _fail(where, name, f"{v!r} is empty or spans lines", expected)
+    if not v.isprintable():
+        raise _fail(where, name, f"{v!r} holds control characters", expected)
     return v
+
+
+def _machine_name(value, where: str) -> str:
+    """A plain model file name (`lubeviz.model.machine.model_name_problem`), never a path."""
+    expected = "a model file name under models/, e.g. 'paper_machine.toml' or 'paper_machine'"
+    name = _text(value, where, "machine", expected)
+    problem = model_name_problem(name)
+    if problem:
+        raise _fail(where, "machine", f"{name!r} {problem}", expected)
+    return name
+
+
+def _numbers(value, where: str, name: str, expected: str) -> list[float]:
+    """Finite numbers from text ('45, 135', '[1; 2]') or an array of any shape (row-major)."""
+    if isinstance(value, np.ndarray) and value.dtype.kind == "U" and value.size == 1:
+        value = str(value.reshape(-1)[0])
+    if isinstance(value, str):
+        cells = [c for c in re.split(r"[,;\s]+", value.strip().strip("[]()")) if c]
+        return [_finite(c, where, name, expected) for c in cells]
+    try:
+        a = np.asarray(value, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise _fail(where, name, f"{value!r} is not a list of numbers", expected) from None
+    return [_finite(x, where, name, expected) for x in a]
+
+
+def _four_numbers(value, where: str, name: str, expected: str) -> np.ndarray:
+    flat = _numbers(value, where, name, expected)
+    if len(flat) != 4:
+        raise _fail(where, name, f"{len(flat)} values", expected)
+    return np.array(flat, dtype=np.float64).reshape(2, 2)
+
+
+def _rest_position(value, where: str) -> np.ndarray:
+    return _four_numbers(value, where, "rest_position",
+                         "4 finite numbers X1, Y1, X2, Y2: each probe's reading at rest, in the"
+                         " record's units, along the probe directions")
 
 
 def _probe_angles(value, where: str) -> tuple[tuple[float, float], tuple[float, float]]:
     name = "probe_angles_deg"
     expected = "2 angles (both planes) or 4 (plane 1 a, b, plane 2 a, b) in degrees from +X"
-    if isinstance(value, np.ndarray) and value.dtype.kind == "U" and value.size == 1:
-        value = str(value.reshape(-1)[0])
-    if isinstance(value, str):
-        cells = [c for c in re.split(r"[,;\s]+", value.strip().strip("[]()")) if c]
-        flat = [_finite(c, where, name, expected) for c in cells]
-    else:
-        try:
-            a = np.asarray(value, dtype=np.float64).reshape(-1)
-        except (TypeError, ValueError):
-            raise _fail(where, name, f"{value!r} is not a list of numbers", expected) from None
-        flat = [_finite(x, where, name, expected) for x in a]
+    flat = _numbers(value, where, name, expected)
     if len(flat) == 2:
         flat = flat * 2
     if len(flat) != 4:
@@ -742,6 +1202,101 @@ def _metadata(value, where: str) -> Mapping[str, str]:
             raise _fail(where, f"metadata {k!r}", "spans several lines", "a one-line value")
         out[k] = v
     return MappingProxyType(out)
+
+
+def _warnings(value, where: str) -> tuple[str, ...]:
+    if isinstance(value, str) or not all(isinstance(w, str) for w in value):
+        raise _fail(where, "warnings", f"{value!r}", "a sequence of messages (str)")
+    return tuple(value)
+
+
+def _is_free_key(key: str) -> bool:
+    low = key.lower()
+    return low in INFO_KEYS or low in FREE_TEXT_KEYS or low.startswith(FREE_PREFIXES)
+
+
+def _unknown_key_warning(where: str, key: str) -> str:
+    return _ignored_warning(where, f"unknown key {key!r}", key.lower(),
+                            META_KEYS + COLUMNS + INFO_KEYS + FREE_TEXT_KEYS)
+
+
+def _ignored_warning(where: str, what: str, name: str, known) -> str:
+    """'<file>: <what> ignored; did you mean '<closest>'?' (difflib), or how to silence it."""
+    close = difflib.get_close_matches(name, known, n=1, cutoff=0.6)
+    hint = f"did you mean {close[0]!r}?" if close else \
+        "not a record field (start a name with 'x_' to keep it silently)"
+    return f"{where}: {what} ignored; {hint}"
+
+
+def _check_vibration(displacement: np.ndarray, where: str, units: str | None = None) -> None:
+    """Refuse a channel that does not move (dead probe) or moves more than a shaft can (wrong units).
+
+    `displacement` in metres; `units` is the file's units field, named in the message when known.
+    The peak-to-peak does not see the DC gap, so this holds for `static: absolute` records too.
+    """
+    if displacement.shape[-1] < MIN_SAMPLES:
+        return  # too short to judge; refused for its length where that is checked
+    ptp = np.ptp(displacement, axis=-1)
+    for k, a in np.ndindex(2, 2):
+        name = CHANNELS[2 * k + a]
+        if ptp[k, a] < MIN_VIBRATION_PTP:
+            raise _fail(where, name, f"no vibration: the channel is constant"
+                        f" ({float(displacement[k, a, 0])!r} m throughout)",
+                        "a probe signal that moves (a disconnected, saturated or unpowered probe"
+                        " reads a constant)")
+        if ptp[k, a] > MAX_VIBRATION_PTP:
+            said = f"the file says units: {units}" if units else "the readings' units"
+            raise _fail(where, name, f"peak-to-peak {ptp[k, a] * 1e3:.4g} mm is far more than a"
+                        " shaft vibrates in journal bearings",
+                        f"at most {MAX_VIBRATION_PTP * 1e3:g} mm; check the units ({said};"
+                        " m, mm, um or mils)")
+
+
+def _channel_means(displacement: np.ndarray, speed_hz: float, sample_rate_hz: float
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Mean reading of each channel and its standard error, (2, 2) each, units of `displacement`.
+
+    Mean: the constant of a least-squares fit of the mean plus the 1X..3X lines (those below 0.45 of
+    the sample rate), so a non-whole number of revolutions leaks no 1X into it; for whole
+    revolutions it is the plain mean. Standard error, by batch means (the "blocking" of Flyvbjerg &
+    Petersen 1989, sized by a lag-1 correlation test as sequential batch-means procedures do): the
+    residual of that fit (noise, sub- and non-synchronous motion) is averaged over batches of whole
+    revolutions, and
+    std(batch means, ddof=1) / sqrt(n_batches) estimates the standard error of the mean. Batches
+    start at one revolution and double while the batch means stay correlated (lag-1
+    autocorrelation >= 2/sqrt(n_batches)) and at least `MIN_BATCHES` remain. Unlike
+    std(residual)/sqrt(n), which only holds for white noise, this keeps slow wander (low-frequency
+    noise correlated over many samples), which is what moves a mean: checked against the scatter of
+    repeated records for white and AR(1) noise (tests/signals/test_static_and_sets.py). Noise slower
+    than about a tenth of the record cannot be told from the mean and is under-counted. The rest
+    reading is taken as exact (the record gives no uncertainty for it).
+    """
+    d = displacement.reshape(4, -1)
+    n = d.shape[1]
+    omega = 2.0 * math.pi * speed_hz / sample_rate_hz  # rad per sample
+    harmonics = [h for h in (1, 2, 3) if h * speed_hz < 0.45 * sample_rate_hz] or [1]
+    i = np.arange(n, dtype=np.float64)
+    design = np.column_stack([np.ones(n)] + [f(h * omega * i) for h in harmonics
+                                             for f in (np.cos, np.sin)])
+    # normal equations: over >= 10 revolutions the columns are nearly orthogonal, well conditioned
+    coef, *_ = np.linalg.lstsq(design.T @ design, design.T @ d.T, rcond=None)
+    residual = d - (design @ coef).T
+    per_rev = sample_rate_hz / speed_hz
+    n_rev = int(math.floor(n / per_rev + 1e-9))
+    std = np.full(4, np.inf)  # too short to tell (such a record is refused for its length anyway)
+    for c in range(4):
+        revs = 1
+        while n_rev // revs >= MIN_BATCHES:
+            n_batch = n_rev // revs
+            edges = np.minimum(np.round(np.arange(n_batch + 1) * revs * per_rev).astype(np.int64), n)
+            means = np.add.reduceat(residual[c, :edges[-1]], edges[:-1]) / np.diff(edges)
+            std[c] = np.std(means, ddof=1) / math.sqrt(n_batch)
+            dev = means - means.mean()
+            lag1 = float(dev[1:] @ dev[:-1]) / max(float(dev @ dev), np.finfo(float).tiny)
+            if lag1 < 2.0 / math.sqrt(n_batch):  # batches longer than the noise's memory: done
+                break
+            revs *= 2
+    return coef[0].reshape(2, 2), std.reshape(2, 2)
 
 
 def _numeric_array(value, where: str, name: str) -> np.ndarray:

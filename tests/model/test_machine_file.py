@@ -6,7 +6,7 @@ import pytest
 
 from lubeviz.errors import InputError, ModelFileError
 from lubeviz.model.bearing import Bearing
-from lubeviz.model.machine import DEFAULT_MACHINE, load_machine
+from lubeviz.model.machine import DEFAULT_MACHINE, MODELS_DIR, load_machine, resolve_machine_name
 
 
 def test_paper_machine_has_the_papers_geometry(machine):
@@ -75,3 +75,28 @@ def test_groove_refinement_is_optional_and_defaults_to_the_bearings(tmp_path):
                     .replace("mesh_groove_refinement = 4", ""))
     b1, b2 = load_machine(path).bearings
     assert b1.groove_refinement == 1 and b2.groove_refinement == Bearing.param.groove_refinement.default
+
+
+@pytest.mark.parametrize("name", ["paper_machine.toml", "paper_machine"])
+def test_a_records_machine_name_resolves_under_models(name):
+    path = resolve_machine_name(name, "run7.csv")
+    assert path == DEFAULT_MACHINE and path.parent == MODELS_DIR and path.is_file()
+
+
+def test_an_unknown_machine_name_names_the_record_the_value_and_the_models():
+    with pytest.raises(ModelFileError) as err:
+        resolve_machine_name("rig_b.toml", "data/run7.csv")
+    message = str(err.value)
+    assert message.startswith("data/run7.csv: machine: 'rig_b.toml' is not a model under")
+    assert "available: paper_machine" in message
+
+
+@pytest.mark.parametrize("name,phrase", [
+    ("../paper_machine.toml", "is a path"), ("/etc/passwd", "is a path"), ("models\\paper_machine", "is a path"),
+    ("..", "'..'"), ("paper_machine.py", "ends in '.py'"), ("", "empty"),
+])
+def test_a_machine_name_that_is_a_path_is_refused(name, phrase):
+    with pytest.raises(ModelFileError) as err:
+        resolve_machine_name(name, "run7.csv")
+    assert str(err.value).startswith(f"run7.csv: machine: {name!r}") and phrase in str(err.value)
+    assert "paper_machine" in str(err.value)

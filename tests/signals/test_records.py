@@ -74,21 +74,25 @@ def test_round_trip_is_exact(tmp_path, suffix):
 @pytest.mark.parametrize("suffix", [".csv", ".npz", ".mat"])
 def test_round_trip_with_defaults_and_no_keyphasor(tmp_path, suffix):
     c = channels()
-    rec = record_from_arrays(c["x1"], c["y1"], c["x2"], c["y2"], speed_hz=SPEED, sample_rate_hz=RATE)
+    rec = record_from_arrays(c["x1"], c["y1"], c["x2"], c["y2"], speed_hz=SPEED, sample_rate_hz=RATE,
+                             units="um")
     back = read_record(write_record(rec, tmp_path / f"rec{suffix}"))
     assert back == rec and back.keyphasor is None and back.nodes == (6, 20)
     assert back.probe_angles_deg == ((0.0, 90.0), (0.0, 90.0)) and back.machine is None
 
 
-@pytest.mark.parametrize("units,factor", [("m", 1.0), ("mm", 1e-3), ("um", 1e-6), ("mils", 25.4e-6)])
-def test_units_convert_to_metres(tmp_path, units, factor):
-    c = channels()
-    c["x1"][0], c["y2"][3] = 1.5, -2.0
+@pytest.mark.parametrize("units,factor,value,hand", [
+    ("m", 1.0, 1.5e-5, 1.5e-5), ("mm", 1e-3, 0.015, 1.5e-5), ("um", 1e-6, 15.0, 1.5e-5),
+    ("mils", 25.4e-6, 1.5, 3.81e-5),  # 1 mil = 25.4 µm
+])
+def test_units_convert_to_metres(tmp_path, units, factor, value, hand):
+    c = {k: [v * 1e-6 / factor for v in col] if k != "t" else col for k, col in channels().items()}
+    c["x1"][0], c["y2"][3] = value, -2.0 * value  # the other readings: the same µm orbit in `units`
     rec = read_record(write_csv(tmp_path / "r.csv", {**META, "units": units}, c))
-    assert rec.displacement[0, 0, 0] == pytest.approx(1.5 * factor, rel=1e-15)
-    assert rec.displacement[1, 1, 3] == pytest.approx(-2.0 * factor, rel=1e-15)
-    hand = {"m": 1.5, "mm": 0.0015, "um": 1.5e-6, "mils": 3.81e-5}[units]  # 1 mil = 25.4 µm
+    assert rec.displacement[0, 0, 0] == pytest.approx(value * factor, rel=1e-15)
+    assert rec.displacement[1, 1, 3] == pytest.approx(-2.0 * value * factor, rel=1e-15)
     assert rec.displacement[0, 0, 0] == pytest.approx(hand, rel=1e-14)
+    np.testing.assert_allclose(rec.displacement[0, 1], np.array(channels()["y1"]) * 1e-6, rtol=1e-14)
 
 
 def test_writing_in_micrometres_reads_back_to_rounding(tmp_path):
@@ -417,7 +421,7 @@ def test_arrays_are_validated_like_files():
                            source="sim.npz")
     with pytest.raises(DataFormatError, match="sample_rate_hz: missing"):
         record_from_arrays(c["x1"], c["y1"], c["y1"], c["y2"], speed_hz=SPEED)
-    rec = record_from_arrays(c["x1"], c["y1"], c["y1"], c["y2"], speed_hz=SPEED, t=c["t"] + 1.0)
+    rec = record_from_arrays(c["x1"], c["y1"], c["y1"], c["y2"], speed_hz=SPEED, t=c["t"] + 1.0, units="um")
     assert rec.t0 == 1.0 and rec.sample_rate_hz == pytest.approx(RATE)
     with pytest.raises(DataFormatError, match="displacement: shape"):
         Record(SPEED, RATE, np.zeros((3, 2, N)))
@@ -431,3 +435,178 @@ def test_check_speed_refuses_a_record_far_from_the_model_speed():
     assert "run7.csv" in message and "speed_hz" in message and "95" in message and "75" in message
     check_speed(dataclasses.replace(rec, speed_hz=80.0), 75.0)  # 6.7 % off: accepted
     check_speed(rec, 75.0, tolerance=0.3)
+
+
+# --- no silent wrong answers: unknown names warn, implausible records are refused ---------------
+
+@pytest.mark.parametrize("key,value,suggestion", [
+    ("node_1", "5", "node1"),
+    ("Node 2", "21", "node2"),
+    ("probe_angle_deg", "45, 135", "probe_angles_deg"),
+    ("probe_angles", "45, 135", "probe_angles_deg"),
+    ("machne", "paper_machine.toml", "machine"),
+    ("rest_positon", "1, 2, 3, 4", "rest_position"),
+    ("sets", "coast", "set"),
+])
+def test_misspelled_optional_key_warns_naming_the_closest_known_key(tmp_path, key, value, suggestion):
+    path = write_csv(tmp_path / "typo.csv", {**META, key: value})
+    rec = read_record(path)
+    assert rec.warnings == (f"{path}: unknown key {key!r} ignored; did you mean {suggestion!r}?",)
+    assert rec.nodes == (6, 20) and rec.probe_angles_deg == ((0.0, 90.0), (0.0, 90.0))  # not used
+    assert rec.metadata[key] == value  # kept as text, for the user to see
+
+
+def test_unknown_key_far_from_any_known_key_says_how_to_keep_it_silently(tmp_path):
+    rec = read_record(write_csv(tmp_path / "r.csv", {**META, "temperature_c": "41"}))
+    assert len(rec.warnings) == 1 and "'temperature_c' ignored; not a record field" in rec.warnings[0]
+    assert "'x_'" in rec.warnings[0]
+
+
+def test_informational_and_free_text_keys_are_kept_silently(tmp_path):
+    # what `lubeviz simulate` writes (lubeviz/signals/synthesize.py, lubeviz/cli/rotor_cmd.py) and free text
+    info = {"q1_mlmin": "450", "q2_mlmin": "600", "snr_db": "12", "synthetic": "lubeviz simulate",
+            "seed": "3", "effects": "viscosity:factor=1.2", "method": "time", "truth_viscosity.factor": "1.2",
+            "note": "warm", "Comment": "after overhaul", "operator": "A. Lab", "x_rig": "B", "X_Temp_C": "41"}
+    rec = read_record(write_csv(tmp_path / "r.csv", {**META, **info}))
+    assert rec.warnings == ()
+    assert dict(rec.metadata) == info
+
+
+def test_key_missing_its_colon_warns_instead_of_becoming_a_comment(tmp_path):
+    path = write_csv(tmp_path / "r.csv", {**META})
+    path.write_text("# node1 5\n# node2 = 21\n# a free comment about the run\n" + path.read_text())
+    rec = read_record(path)
+    assert rec.nodes == (6, 20)
+    assert rec.warnings == (f"{path}: line 1: '# node1 5' has no ':' and is read as a free comment;"
+                            " did you mean '# node1: ...'?",
+                            f"{path}: line 2: '# node2 = 21' has no ':' and is read as a free comment;"
+                            " did you mean '# node2: ...'?")
+
+
+def test_unknown_columns_warn_unless_marked_free(tmp_path):
+    c = channels()
+    c["keyphaser"] = [0.0] * N
+    c["x_temperature"] = [20.0] * N
+    path = write_csv(tmp_path / "r.csv", META, c)
+    rec = read_record(path)
+    assert rec.keyphasor is None
+    assert rec.warnings == (f"{path}: column 'keyphaser' ignored; did you mean 'keyphasor'?",)
+
+
+def test_unknown_npz_and_mat_variables_warn(tmp_path):
+    c = {k: np.array(v) for k, v in channels().items()}
+    np.savez(tmp_path / "r.npz", **c, speed_hz=75.0, units="um", node_1=5, keyphaser=np.zeros(N),
+             x_gain=2.0, q1_mlmin=450.0)
+    rec = read_record(tmp_path / "r.npz")
+    where = str(tmp_path / "r.npz")
+    assert sorted(rec.warnings) == [f"{where}: unknown key 'node_1' ignored; did you mean 'node1'?",
+                                    f"{where}: variable 'keyphaser' ignored; did you mean 'keyphasor'?"]
+    assert rec.nodes == (6, 20) and dict(rec.metadata) == {"node_1": "5", "x_gain": "2.0", "q1_mlmin": "450.0"}
+    scipy.io.savemat(tmp_path / "r.mat", {**c, "speed_hz": 75.0, "units": "um", "probe_angle_deg": [45, 135]})
+    rec = read_record(tmp_path / "r.mat")
+    assert rec.warnings == (f"{tmp_path / 'r.mat'}: variable 'probe_angle_deg' ignored;"
+                            " did you mean 'probe_angles_deg'?",)
+
+
+def test_uploaded_bytes_warn_under_the_upload_name(tmp_path):
+    text = write_csv(tmp_path / "r.csv", {**META, "node_1": "5"}).read_text()
+    rec = records.read_record_bytes(text, "run 7.csv")
+    assert rec.warnings == ("run 7.csv: unknown key 'node_1' ignored; did you mean 'node1'?",)
+
+
+def test_a_record_round_trips_its_warnings_away_but_not_its_notes(tmp_path):
+    rec = read_record(write_csv(tmp_path / "r.csv", {**META, "node_1": "5"}))
+    back = read_record(write_record(rec, tmp_path / "back.csv"))
+    assert back == rec and dict(back.metadata) == {"node_1": "5"} and len(back.warnings) == 1
+
+
+def test_equal_nodes_are_refused(tmp_path):
+    path = write_csv(tmp_path / "r.csv", {**META, "node1": "6", "node2": "6"})
+    with pytest.raises(DataFormatError, match=r"node2: 6 is the same node as node1") as err:
+        read_record(path)
+    assert str(path) in str(err.value)
+    with pytest.raises(DataFormatError, match="same node"):
+        dataclasses.replace(rich_record(), nodes=(5, 5))
+
+
+@pytest.mark.parametrize("value", [0.0, 3.25])
+def test_a_channel_that_does_not_move_is_refused_as_no_vibration(tmp_path, value):
+    c = channels()
+    c["y2"] = [value] * N
+    path = write_csv(tmp_path / "r.csv", META, c)
+    with pytest.raises(DataFormatError) as err:
+        read_record(path)
+    message = str(err.value)
+    assert f"{path}: y2: no vibration: the channel is constant" in message
+
+
+@pytest.mark.parametrize("units", ["m", "mm"])
+def test_micrometre_readings_declared_in_metres_or_millimetres_are_refused_naming_the_units(tmp_path, units):
+    path = write_csv(tmp_path / "r.csv", {**META, "units": units})  # a 20 µm p-p orbit written in µm
+    with pytest.raises(DataFormatError) as err:
+        read_record(path)
+    message = str(err.value)
+    assert str(path) in message and "x1: peak-to-peak" in message and f"units: {units}" in message
+    assert "at most 5 mm" in message
+
+
+def test_large_but_possible_vibration_is_accepted(tmp_path):
+    c = {k: [v * 240.0 if k != "t" else v for v in col] for k, col in channels().items()}  # 4.8 mm p-p
+    assert read_record(write_csv(tmp_path / "r.csv", META, c)).displacement.max() == pytest.approx(2.4e-3)
+
+
+@pytest.mark.parametrize("name,phrase", [
+    ("../models/paper_machine.toml", "is a path"),
+    ("/etc/passwd", "is a path"),
+    ("models/paper_machine.toml", "is a path"),
+    ("C:paper.toml", "is a path"),
+    ("..", "'..'"),
+    (".hidden.toml", "starts with '.'"),
+    ("paper_machine.txt", "ends in '.txt'"),
+])
+def test_machine_must_be_a_plain_model_file_name(tmp_path, name, phrase):
+    path = write_csv(tmp_path / "r.csv", {**META, "machine": name})
+    with pytest.raises(DataFormatError) as err:
+        read_record(path)
+    assert f"{path}: machine: {name!r}" in str(err.value) and phrase in str(err.value)
+
+
+@pytest.mark.parametrize("name", ["paper_machine.toml", "paper_machine", "rig-B 2.toml"])
+def test_plain_machine_names_are_kept(tmp_path, name):
+    assert read_record(write_csv(tmp_path / "r.csv", {**META, "machine": name})).machine == name
+
+
+def test_a_mat_file_with_an_out_of_range_type_code_is_refused_not_a_crash(tmp_path):
+    # scipy's reader used such a code as an index into a C array and crashed the process (scipy PR #25349)
+    c = {k: np.array(v) for k, v in channels().items()}
+    path = tmp_path / "r.mat"
+    scipy.io.savemat(path, {**c, "speed_hz": 75.0, "units": "um"})
+    data = bytearray(path.read_bytes())
+    at = data.index(b"x1\x00\x00") + 4
+    data[at:at + 4] = (8).to_bytes(4, "little")
+    path.write_bytes(bytes(data))
+    with pytest.raises(DataFormatError, match="unknown data type code 8") as err:
+        read_record(path)
+    assert str(path) in str(err.value)
+
+
+def test_mat_variables_a_record_cannot_hold_are_skipped_with_a_warning(tmp_path):
+    import scipy.sparse
+
+    c = {k: np.array(v) for k, v in channels().items()}
+    scipy.io.savemat(tmp_path / "r.mat", {**c, "speed_hz": 75.0, "units": "um", "x_daq": {"gain": 2.0},
+                                         "adjacency": scipy.sparse.eye(3, format="csc")}, do_compression=True)
+    rec = read_record(tmp_path / "r.mat")
+    assert rec.warnings == (f"{tmp_path / 'r.mat'}: variable 'adjacency' ignored; a MATLAB sparse array,"
+                            " which a record cannot hold",)
+    assert rec.displacement[0, 0, 3] == pytest.approx(channels()["x1"][3] * 1e-6)
+
+
+def test_an_npz_that_unpacks_beyond_the_limit_is_refused_before_unpacking(tmp_path, monkeypatch):
+    path = _npz(tmp_path / "r.npz")
+    monkeypatch.setattr(records, "MAX_RECORD_BYTES", path.stat().st_size + 100)
+    np.savez_compressed(path, **{k: np.zeros(N) for k in ("x1", "y1", "x2", "y2")}, pad=np.zeros(10**5))
+    assert path.stat().st_size < records.MAX_RECORD_BYTES  # small on disk, 0.8 MB unpacked
+    with pytest.raises(DataFormatError, match="unpacks to") as err:
+        read_record(path)
+    assert str(path) in str(err.value)
