@@ -1,0 +1,171 @@
+"""The effects of the independent record source, declared here on their own (SPEC §7 names).
+
+Deliberately NOT `lubeviz.effects`: a test record whose effect were built by the code the diagnosis
+uses would only test that code against itself. Each effect is a name and a parameter table; the
+physics lives where the record is built (`independent.py`), each hook a few lines long:
+
+- `viscosity` (factor = true/declared viscosity, bearing both|1|2): the film is solved at mu * factor.
+- `clearance` (clearance_um, bearing both|1|2): the film is solved with that radial clearance; the
+  rest reading of the static position is then (0, -c_true).
+- `unbalance2` (node, ratio, phase_deg): a second unbalance at `node`, moment ratio * m_u, phase =
+  main phase + phase_deg.
+- `pedestals` (mass_kg, stiffness_n_m, damping_ns_m, bearing both|1|2): each chosen housing is a point
+  mass on an isotropic spring and damper to ground (x, y DOFs); the film K, C act between journal and
+  housing, and the probes of plane k read the shaft relative to housing k.
+- `probe_rotation` (plane 1|2, angle_deg, + from +X to +Y): that probe pair is turned by the angle but
+  declared at its nominal angles, so the resolved reading is R(-angle) d.
+- `probe_gain` (channel x1|y1|x2|y2, gain): that probe's raw reading (gap included) times gain.
+- `bow` (node, amplitude_um, phase_deg): a residual bow sin(pi (z - z_b1)/(z_b2 - z_b1)) between the
+  bearing centres, |bow(node)| = amplitude, turning with the shaft at phase_deg from the unbalance;
+  it loads the rotor with the rotating force K_shaft q_bow(t).
+- `seal` (node, kxy_n_m): an effect NOT in the diagnosis library (for "unexplained" tests): a
+  cross-coupled stiffness K[x, y] += kxy, K[y, x] -= kxy at the node.
+
+Nodes are given in the machine's own numbering (the paper's 1..21), whatever the independent rotor's
+finer mesh. Effects compose: a list of them is applied in order (gains multiply, rotations add,
+unbalances and bows add; a bearing's pedestal can be given once).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from types import MappingProxyType
+
+from ..errors import InputError
+
+REQUIRED = object()
+
+# name -> {parameter: default (REQUIRED when it must be given)}
+EFFECTS: dict[str, dict[str, object]] = {
+    "viscosity": {"factor": REQUIRED, "bearing": "both"},
+    "clearance": {"clearance_um": REQUIRED, "bearing": "both"},
+    "unbalance2": {"node": REQUIRED, "ratio": REQUIRED, "phase_deg": 0.0},
+    "pedestals": {"mass_kg": REQUIRED, "stiffness_n_m": REQUIRED, "damping_ns_m": 0.0, "bearing": "both"},
+    "probe_rotation": {"plane": REQUIRED, "angle_deg": REQUIRED},
+    "probe_gain": {"channel": REQUIRED, "gain": REQUIRED},
+    "bow": {"node": REQUIRED, "amplitude_um": REQUIRED, "phase_deg": 0.0},
+    "seal": {"node": REQUIRED, "kxy_n_m": REQUIRED},
+}
+CHANNELS = ("x1", "y1", "x2", "y2")
+
+
+def _number(name, key, value, *, positive=False, non_negative=False) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"effect {name}: {key} = {value!r} is not a number") from None
+    if isinstance(value, bool) or not math.isfinite(v):
+        raise InputError(f"effect {name}: {key} = {value!r}; expected a finite number")
+    if positive and v <= 0.0:
+        raise InputError(f"effect {name}: {key} = {value!r}; expected a positive number")
+    if non_negative and v < 0.0:
+        raise InputError(f"effect {name}: {key} = {value!r}; expected a non-negative number")
+    return v
+
+
+def _integer(name, key, value) -> int:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = math.nan
+    if isinstance(value, bool) or not (math.isfinite(v) and v == int(v)):
+        raise InputError(f"effect {name}: {key} = {value!r}; expected an integer")
+    return int(v)
+
+
+def _bearing(name, value):
+    if isinstance(value, str) and value.strip().lower() == "both":
+        return "both"
+    v = _integer(name, "bearing", value)
+    if v not in (1, 2):
+        raise InputError(f"effect {name}: bearing = {value!r}; expected both, 1 or 2")
+    return v
+
+
+def _check(name: str, p: dict) -> dict:
+    """Typed, range-checked parameters of one effect."""
+    if name == "viscosity":
+        p["factor"] = _number(name, "factor", p["factor"], positive=True)
+        p["bearing"] = _bearing(name, p["bearing"])
+    elif name == "clearance":
+        p["clearance_um"] = _number(name, "clearance_um", p["clearance_um"], positive=True)
+        p["bearing"] = _bearing(name, p["bearing"])
+    elif name in ("unbalance2", "bow", "seal"):
+        p["node"] = _integer(name, "node", p["node"])
+        if name == "unbalance2":
+            p["ratio"] = _number(name, "ratio", p["ratio"], non_negative=True)
+        if name == "bow":
+            p["amplitude_um"] = _number(name, "amplitude_um", p["amplitude_um"], non_negative=True)
+        if name == "seal":
+            p["kxy_n_m"] = _number(name, "kxy_n_m", p["kxy_n_m"])
+        if "phase_deg" in p:
+            p["phase_deg"] = _number(name, "phase_deg", p["phase_deg"])
+    elif name == "pedestals":
+        p["mass_kg"] = _number(name, "mass_kg", p["mass_kg"], positive=True)
+        p["stiffness_n_m"] = _number(name, "stiffness_n_m", p["stiffness_n_m"], positive=True)
+        p["damping_ns_m"] = _number(name, "damping_ns_m", p["damping_ns_m"], non_negative=True)
+        p["bearing"] = _bearing(name, p["bearing"])
+    elif name == "probe_rotation":
+        p["plane"] = _integer(name, "plane", p["plane"])
+        if p["plane"] not in (1, 2):
+            raise InputError(f"effect {name}: plane = {p['plane']!r}; expected 1 or 2")
+        p["angle_deg"] = _number(name, "angle_deg", p["angle_deg"])
+    elif name == "probe_gain":
+        ch = str(p["channel"]).strip().lower()
+        if ch not in CHANNELS:
+            raise InputError(f"effect {name}: channel = {p['channel']!r}; expected one of {', '.join(CHANNELS)}")
+        p["channel"] = ch
+        p["gain"] = _number(name, "gain", p["gain"], positive=True)
+    return p
+
+
+def effect(name: str, params: Mapping | None = None) -> tuple[str, Mapping]:
+    """One validated effect (name, read-only params with defaults filled in)."""
+    if not isinstance(name, str) or name.strip().lower() not in EFFECTS:
+        raise InputError(f"unknown effect {name!r}; expected one of {', '.join(EFFECTS)}")
+    name = name.strip().lower()
+    table = EFFECTS[name]
+    params = dict(params or {})
+    unknown = sorted(set(params) - set(table))
+    if unknown:
+        raise InputError(f"effect {name}: unknown parameter(s) {unknown}; allowed: {', '.join(table)}")
+    missing = [k for k, v in table.items() if v is REQUIRED and k not in params]
+    if missing:
+        raise InputError(f"effect {name}: missing parameter(s) {missing}; allowed: {', '.join(table)}")
+    full = {k: params.get(k, v) for k, v in table.items()}
+    return name, MappingProxyType(_check(name, full))
+
+
+def parse_effect(text: str) -> tuple[str, Mapping]:
+    """'NAME:key=value,key=value' (SPEC §7) -> a validated effect."""
+    if not isinstance(text, str):
+        raise InputError(f"effect {text!r}; expected 'NAME:key=value,...'")
+    name, _, rest = text.partition(":")
+    params = {}
+    for item in filter(None, (s.strip() for s in rest.split(","))):
+        key, eq, value = item.partition("=")
+        if not eq or not key.strip():
+            raise InputError(f"effect {text!r}: {item!r} is not key=value")
+        params[key.strip()] = value.strip()
+    return effect(name, params)
+
+
+def normalize_effects(effects) -> tuple[tuple[str, Mapping], ...]:
+    """A tuple of validated effects from (name, params) pairs, 'NAME:k=v' strings, or a mix."""
+    out = []
+    for e in effects or ():
+        if isinstance(e, str):
+            out.append(parse_effect(e))
+        else:
+            try:
+                name, params = e
+            except (TypeError, ValueError):
+                raise InputError(f"effect {e!r}; expected (name, {{params}}) or 'NAME:key=value,...'") from None
+            out.append(effect(name, params))
+    return tuple(out)
+
+
+def bearings_of(params: Mapping) -> tuple[int, ...]:
+    """0-based bearing indices an effect with a `bearing` parameter applies to."""
+    return (0, 1) if params["bearing"] == "both" else (params["bearing"] - 1,)

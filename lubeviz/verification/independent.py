@@ -1,0 +1,519 @@
+"""Test records made along another path than the identification's model (issue 11, item 5).
+
+`make_record(IndependentSpec(...))` builds one measured record (SPEC §6) of the machine with
+supply flows Q1, Q2 and optional effects, and returns it with the truth it was made from. How the
+path differs from the identification's model (a list also in `lubeviz.verification`):
+
+| stage    | identification's model                         | this source                                        |
+|----------|------------------------------------------------|----------------------------------------------------|
+| film     | 100 x 100, groove refinement 4, sub-cell K, C, | 200 x 200, groove refinement 1, fixed-pattern K, C, |
+|          | tables interpolated in the supply             | solved directly at the exact supply (equilibria.py) |
+| rotor    | 20 Timoshenko elements, beta = 2e-5 s          | every element split in two (40), beta = 3e-5 s      |
+| response | steady complex solve                           | Newmark integration from rest (newmark.py), 15 s at |
+|          |                                                | 1e-4 s, last 5 s kept, noise at 12 dB (seeded)      |
+| effects  | lubeviz.effects                                | declared and applied here (effects.py)              |
+
+Node numbers (record planes, effect nodes) are the machine's own (paper 1..21); on the split rotor
+node n is node 2n - 1.
+
+Static position (`static=True`, SPEC §6 `static: absolute`): each probe reads
+    s = gain * (GAP + u(theta + rotation) . (p_static + d(t)))
+with u(a) = (cos a, sin a), GAP = 1 mm, p_static the shaft's static position at the plane, d(t) the
+dynamic motion; the rest reading is gain * (GAP + u . p_rest). p_static solves the shaft's static
+bending under gravity with each journal held at its film equilibrium (so at a bearing centre it is
+that equilibrium, relative to the bearing centre); p_rest likewise with the journals at (0, -c_true).
+Probes on a pedestal ride the housing, which sags equally at rest and running: not modelled in the
+DC. With `static=False` the readings carry the dynamic motion only.
+
+Start-up transient. `truth["transient_residual"]` is the largest distance of the kept samples from
+the steady state, relative to the steady 1X (its floor, ~8e-4, is the trapezoidal rule's own error
+on the 1X line); a warning is raised above 1 %. `truth["transient_factor"]` is the bound |z|^n_skip
+of the slowest discrete mode. With the default 15 s (10 s skipped) the paper's machine at 75 Hz and
+Q_T leaves ~1e-54 of the transient. The slowest mode is the oil-whirl mode near 0.65 X: it decays at
+12 1/s at 75 Hz and Q_T, but only at 0.2 1/s at 75 Hz and 300 ml/min (8.7 % left after 10 s), and
+part of the 50-100 Hz x 30-180 % Q_T range is unstable (90 Hz at 0.5 and 1.5 Q_T; in the model too),
+where `make_record` raises (`max_growth_rate` tells beforehand). The fast option total_s = 6,
+duration_s = 5 (1 s skipped) suits well-damped points (75 Hz near Q_T: e^-12); check the residual.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import time
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import scipy.linalg
+
+from ..errors import InputError
+from ..model.machine import DEFAULT_MACHINE, load_machine
+from ..rotor.assembly import Rotor, assemble
+from ..rotor.elements import DOF_PER_NODE, RigidDisc, TimoshenkoBeam
+from ..rotor.statics import gravity_load, simple_support_reactions
+from ..signals.noise import add_noise
+from ..signals.records import Record, record_from_arrays, write_record
+from . import equilibria
+from .effects import bearings_of, normalize_effects
+from .newmark import amplification, integrate_harmonic
+
+SHAFT_DAMPING_BETA = 3e-5  # s; the model's is 2e-5
+GAP = 1.0e-3  # m, the probes' DC gap reading with the shaft at the bearing centre
+TRANSIENT_TOLERANCE = 1e-2  # warn when the transient left exceeds 1 % of the steady 1X
+X_Y = ((0.0, 90.0), (0.0, 90.0))
+
+
+def fine_node(node: int) -> int:
+    """The split rotor's node of machine node `node` (each element split in two)."""
+    return 2 * int(node) - 1
+
+
+@dataclass(frozen=True)
+class IndependentSpec:
+    """What to record: speed (Hz), supply flows (ml/min), planes, probes, effects, noise, seed.
+
+    `effects`: (name, {params}) pairs or 'NAME:key=value,...' strings (SPEC §7 names, see
+    `lubeviz.verification.effects`). `snr_db=None`: no noise. `static`: keep the DC gap (SPEC §6
+    `static: absolute`). `total_s` is integrated from rest, the last `duration_s` kept.
+    `machine`: a model file (default the paper's machine).
+    """
+
+    speed_hz: float
+    q1_mlmin: float
+    q2_mlmin: float
+    nodes: tuple[int, int] = (6, 20)
+    probe_angles_deg: tuple[tuple[float, float], tuple[float, float]] = X_Y
+    effects: tuple = ()
+    snr_db: float | None = 12.0
+    duration_s: float = 5.0
+    total_s: float = 15.0
+    static: bool = False
+    seed: int = 0
+    sample_rate_hz: float = 1.0e4
+    machine: str | None = None
+
+    def __post_init__(self):
+        put = functools.partial(object.__setattr__, self)
+        for name in ("speed_hz", "q1_mlmin", "q2_mlmin", "duration_s", "total_s", "sample_rate_hz"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) \
+                    or not (math.isfinite(v) and v > 0):
+                raise InputError(f"IndependentSpec.{name} = {v!r}; expected a positive number")
+            put(name, float(v))
+        if self.duration_s > self.total_s:
+            raise InputError(f"duration_s = {self.duration_s} s is longer than total_s = {self.total_s} s")
+        if self.snr_db is not None:
+            if not math.isfinite(float(self.snr_db)):
+                raise InputError(f"IndependentSpec.snr_db = {self.snr_db!r}; expected a finite number or None")
+            put("snr_db", float(self.snr_db))
+        if len(tuple(self.nodes)) != 2:
+            raise InputError(f"IndependentSpec.nodes = {self.nodes!r}; expected two node numbers")
+        put("nodes", tuple(int(n) for n in self.nodes))
+        try:
+            angles = tuple(tuple(float(a) for a in pair) for pair in self.probe_angles_deg)
+        except (TypeError, ValueError):
+            angles = ()
+        if len(angles) != 2 or any(len(p) != 2 for p in angles):
+            raise InputError(f"IndependentSpec.probe_angles_deg = {self.probe_angles_deg!r}; expected "
+                             "two (angle_a, angle_b) pairs in degrees")
+        put("probe_angles_deg", angles)
+        put("effects", normalize_effects(self.effects))
+        put("static", bool(self.static))
+        put("seed", int(self.seed))
+
+    def effects_text(self) -> list[str]:
+        """The effects in SPEC §7 'NAME:key=value' form."""
+        return [name + ":" + ",".join(f"{k}={v}" for k, v in p.items()) for name, p in self.effects]
+
+
+@dataclass(frozen=True)
+class IndependentRecord:
+    """A record made by the independent source and the truth behind it (flows, effects, positions)."""
+
+    record: Record
+    truth: dict = field(repr=False)
+    spec: IndependentSpec | None = None
+
+
+@functools.lru_cache(maxsize=4)
+def _machine(path: str | None):
+    return load_machine(None if path is None else Path(path))
+
+
+@functools.lru_cache(maxsize=4)
+def split_rotor(path: str | None = None, shaft_damping_beta: float = SHAFT_DAMPING_BETA) -> Rotor:
+    """The machine's rotor with every shaft element split into two equal halves (40 elements)."""
+    m = _machine(path)
+    beams = []
+    for e in m.elements:
+        for _ in range(2):
+            beams.append(TimoshenkoBeam(len(beams) + 1, 0.5 * e.length, e.diameter, m.young_modulus,
+                                        m.poisson_ratio, m.density))
+    discs = [RigidDisc.annular(fine_node(d.node), d.width, d.outer_diameter, d.bore_diameter, m.density)
+             for d in m.discs]
+    return assemble(beams, discs, bearing_nodes=[fine_node(b.node) for b in m.bearings],
+                    shaft_damping_beta=shaft_damping_beta)
+
+
+def _xy(node: int) -> np.ndarray:
+    """Global x, y DOFs of a split-rotor node."""
+    return DOF_PER_NODE * (node - 1) + np.array([0, 1])
+
+
+def _static_shape(rotor: Rotor, gravity: float, journal_positions) -> np.ndarray:
+    """Static shaft (all DOFs) under gravity with each journal's x, y held at the given position."""
+    fixed = np.concatenate([_xy(b) for b in rotor.bearing_nodes])
+    free = np.setdiff1d(np.arange(rotor.n_dof), fixed)
+    q = np.zeros(rotor.n_dof)
+    q[fixed] = np.ravel(journal_positions)
+    F = gravity_load(rotor, gravity) - rotor.K[:, fixed] @ q[fixed]
+    q[free] = np.linalg.solve(rotor.K[np.ix_(free, free)], F[free])
+    return q
+
+
+def _bow_shape(rotor: Rotor, node: int) -> tuple[np.ndarray, np.ndarray]:
+    """s(z) = sin(pi (z - z1)/(z2 - z1)) between the bearing centres (0 outside) and its slope."""
+    z = rotor.node_z
+    z1, z2 = (z[b - 1] for b in rotor.bearing_nodes[:2])
+    inside = (z >= z1) & (z <= z2)
+    arg = math.pi * (z - z1) / (z2 - z1)
+    s = np.where(inside, np.sin(arg), 0.0)
+    ds = np.where(inside, math.pi / (z2 - z1) * np.cos(arg), 0.0)
+    ref = s[fine_node(node) - 1]
+    if not abs(ref) > 1e-9:
+        raise InputError(f"effect bow: node {node} is not between the bearing centres; the bow "
+                         "(zero at and outside the bearings) cannot be scaled there")
+    return s / ref, ds / ref
+
+
+@dataclass
+class _Build:
+    """The linear system of one record: matrices, force, DOFs of the probes' shaft and housings."""
+
+    M: np.ndarray
+    C: np.ndarray
+    K: np.ndarray
+    F: np.ndarray
+    housing: dict  # bearing index -> global (x, y) DOFs of its pedestal
+
+
+def _system(spec: IndependentSpec, rotor: Rotor, machine, omega: float, films) -> _Build:
+    peds = {}
+    for name, p in spec.effects:
+        if name == "pedestals":
+            for k in bearings_of(p):
+                if k in peds:
+                    raise InputError(f"effect pedestals: bearing {k + 1} is given a pedestal twice")
+                peds[k] = p
+    n_r = rotor.n_dof
+    n = n_r + 2 * len(peds)
+    M, K, C = (np.zeros((n, n)) for _ in range(3))
+    M[:n_r, :n_r] = rotor.M
+    K[:n_r, :n_r] = rotor.K
+    C[:n_r, :n_r] = rotor.C + omega * rotor.G  # shaft damping beta K + gyroscopic
+    housing = {}
+    for j, k in enumerate(sorted(peds)):
+        h = n_r + 2 * j + np.array([0, 1])
+        housing[k] = h
+        p = peds[k]
+        M[h, h] += p["mass_kg"]
+        K[h, h] += p["stiffness_n_m"]
+        C[h, h] += p["damping_ns_m"]
+    for k, (b, film) in enumerate(zip(rotor.bearing_nodes, films)):
+        j = _xy(b)
+        # SPEC §1: the film's K, C enter with + sign, acting on the journal's motion relative to
+        # its housing (the ground without a pedestal).
+        pairs = [(j, j, 1.0)]
+        if k in housing:
+            h = housing[k]
+            pairs += [(j, h, -1.0), (h, j, -1.0), (h, h, 1.0)]
+        for a, c, sign in pairs:
+            K[np.ix_(a, c)] += sign * film.K
+            C[np.ix_(a, c)] += sign * film.C
+    # Eq. 9: the unbalance turns with the shaft, f = Re(m Omega^2 e^{i p} (1, -i) e^{i Omega t}).
+    F = np.zeros(n, dtype=complex)
+    main = machine.unbalance_moment * omega**2 * np.exp(1j * machine.unbalance_phase)
+
+    def add_unbalance(node, amp):
+        i = _xy(fine_node(node))
+        F[i[0]] += amp
+        F[i[1]] += -1j * amp
+
+    add_unbalance(machine.unbalance_node, main)
+    for name, p in spec.effects:
+        if name == "unbalance2":
+            rotor.check_node(fine_node(p["node"]), "unbalance2 node")
+            add_unbalance(p["node"], p["ratio"] * main * np.exp(1j * math.radians(p["phase_deg"])))
+        elif name == "seal":
+            i = _xy(rotor.check_node(fine_node(p["node"]), "seal node"))
+            K[i[0], i[1]] += p["kxy_n_m"]
+            K[i[1], i[0]] -= p["kxy_n_m"]
+        elif name == "bow":
+            rotor.check_node(fine_node(p["node"]), "bow node")
+            s, ds = _bow_shape(rotor, p["node"])
+            a = 1e-6 * p["amplitude_um"] * np.exp(1j * (machine.unbalance_phase + math.radians(p["phase_deg"])))
+            qb = np.zeros(rotor.n_dof, dtype=complex)
+            qb[0::DOF_PER_NODE] = a * s  # x = Re(a s e^{i Omega t})
+            qb[1::DOF_PER_NODE] = -1j * a * s  # y = Re(-i a s e^{i Omega t}): turning with the shaft
+            qb[3::DOF_PER_NODE] = a * ds  # theta_y = dx/dz
+            qb[2::DOF_PER_NODE] = 1j * a * ds  # theta_x = -dy/dz
+            F[:n_r] += rotor.K @ qb  # K_shaft (q - q_bow): the bow's rotating force
+    return _Build(M=M, C=C, K=K, F=F, housing=housing)
+
+
+def _films(spec: IndependentSpec, machine, rotor: Rotor, omega: float, use_cache: bool):
+    """Each bearing on the fine mesh with the effects' viscosity/clearance, solved at its supply."""
+    reactions = simple_support_reactions(rotor, machine.gravity).forces
+    changes = [{"viscosity": b.viscosity, "clearance": b.clearance} for b in machine.bearings]
+    for name, p in spec.effects:
+        for k in bearings_of(p) if name in ("viscosity", "clearance") else ():
+            if name == "viscosity":
+                changes[k]["viscosity"] *= p["factor"]
+            else:
+                changes[k]["clearance"] = 1e-6 * p["clearance_um"]
+    flows = (spec.q1_mlmin / 6e7, spec.q2_mlmin / 6e7)
+    films = [equilibria.film_point(equilibria.fine_bearing(b, **ch), omega, (0.0, -w), q, use_cache=use_cache)
+             for b, ch, w, q in zip(machine.bearings, changes, reactions, flows)]
+    return films, changes, reactions
+
+
+def _probes(spec: IndependentSpec):
+    """Actual probe angles (rad, declared + rotation) and gains, (plane, probe)."""
+    rot = [0.0, 0.0]
+    gain = np.ones((2, 2))
+    for name, p in spec.effects:
+        if name == "probe_rotation":
+            rot[p["plane"] - 1] += p["angle_deg"]
+        elif name == "probe_gain":
+            i = ("x1", "y1", "x2", "y2").index(p["channel"])
+            gain[i // 2, i % 2] *= p["gain"]
+    angles = np.radians([[a + rot[k] for a in spec.probe_angles_deg[k]] for k in range(2)])
+    return angles, gain
+
+
+def _resolve(readings, declared_deg):
+    """x, y from the readings of a probe pair at its declared angles (as Record.xy does)."""
+    (a, b) = np.radians(declared_deg)
+    A = np.array([[math.cos(a), math.sin(a)], [math.cos(b), math.sin(b)]])
+    return np.linalg.solve(A, readings)
+
+
+def _prepare(spec: IndependentSpec, use_cache: bool):
+    """Films, the linear system and its eigenvalues (first-order form) of one spec."""
+    machine = _machine(spec.machine)
+    rotor = split_rotor(spec.machine)
+    for node in spec.nodes:
+        rotor.check_node(fine_node(node), "record node")
+    omega = 2.0 * math.pi * spec.speed_hz
+    films, changes, reactions = _films(spec, machine, rotor, omega, use_cache)
+    sys = _system(spec, rotor, machine, omega, films)
+    n = len(sys.M)
+    lam = scipy.linalg.eigvals(np.block([[np.zeros((n, n)), np.eye(n)],
+                                         [-np.linalg.solve(sys.M, sys.K), -np.linalg.solve(sys.M, sys.C)]]))
+    return machine, rotor, omega, films, changes, reactions, sys, lam
+
+
+def max_growth_rate(spec: IndependentSpec, *, use_cache: bool = True) -> float:
+    """Largest real part (1/s) of the source's modes for `spec`: < 0 stable; -1/(its value) the slowest
+    decay time. Costs the film equilibria (cached) and one eigenvalue problem, no integration."""
+    return float(_prepare(spec, use_cache)[-1].real.max())
+
+
+def _truth(spec: IndependentSpec, prepared) -> dict:
+    """Everything about `spec` that needs no time integration: films, static readings, steady 1X."""
+    machine, rotor, omega, films, changes, reactions, sys, lam = prepared
+    shaft = [_xy(fine_node(n)) for n in spec.nodes]
+    ref = [sys.housing.get(k) for k in range(2)]
+    Qs = np.linalg.solve(sys.K - omega**2 * sys.M + 1j * omega * sys.C, sys.F)  # steady state, all DOFs
+    D = np.array([Qs[s] - (Qs[r] if r is not None else 0.0) for s, r in zip(shaft, ref)])  # (plane, xy)
+
+    # static positions (relative to the bearing centres' line) at the planes, running and at rest
+    pos = np.array([f.position for f in films])
+    clear = [ch["clearance"] for ch in changes]
+    p_run = _static_shape(rotor, machine.gravity, pos)[np.array(shaft)]
+    p_rest = _static_shape(rotor, machine.gravity, [(0.0, -c) for c in clear])[np.array(shaft)]
+
+    angles, gain = _probes(spec)
+    u = np.stack([np.cos(angles), np.sin(angles)], axis=-1)  # (plane, probe, xy): where each probe points
+    steady = gain * np.einsum("kpj,kj->kp", u, D)
+    xy = np.array([_resolve(steady[k], spec.probe_angles_deg[k]) for k in range(2)])  # as the probes say
+    zf, zb = 0.5 * (xy[:, 0] + 1j * xy[:, 1]), np.conj(0.5 * (xy[:, 0] - 1j * xy[:, 1]))
+    phi = 0.5 * (np.angle(zf) + np.angle(zb))
+    phi = phi - np.pi * np.round(phi / np.pi)
+    phi = np.where(phi <= -0.5 * np.pi, phi + np.pi, phi)
+    return {
+        "speed_hz": spec.speed_hz, "q1_mlmin": spec.q1_mlmin, "q2_mlmin": spec.q2_mlmin,
+        "effects": [(name, dict(p)) for name, p in spec.effects],
+        "journal_positions_m": pos, "static_positions_m": p_run, "rest_positions_m": p_rest,
+        "static_readings_m": gain * (GAP + np.einsum("kpj,kj->kp", u, p_run)),
+        "rest_readings_m": gain * (GAP + np.einsum("kpj,kj->kp", u, p_rest)), "gap_m": GAP,
+        "clearance_m": clear, "viscosity_pa_s": [ch["viscosity"] for ch in changes],
+        "bearing_loads_n": np.asarray(reactions, float),
+        "K": np.array([f.K for f in films]), "C": np.array([f.C for f in films]),
+        "side_leakage_mlmin": [f.side_leakage * 6e7 for f in films],
+        "steady_xy_m": xy, "steady_true_xy_m": D, "zf": zf, "zb": zb, "fb": np.abs(zf) / np.abs(zb),
+        "phi_rad": phi, "max_growth_rate": float(lam.real.max()),
+        "film_cached": [f.cached for f in films],
+        "_probe_directions": u, "_gain": gain, "_shaft": shaft, "_ref": ref, "_Qs": Qs,
+    }
+
+
+def steady_truth(spec: IndependentSpec, *, use_cache: bool = True) -> dict:
+    """The truth `make_record` returns, without integrating: film equilibria, K, C, static and rest
+    readings, and the steady 1X (x, y as the declared probes resolve them, zf, zb, fb, phi) of the
+    source. Also for unstable operating points (`max_growth_rate` >= 0), where no record exists."""
+    truth = _truth(spec, _prepare(spec, use_cache))
+    return {k: v for k, v in truth.items() if not k.startswith("_")}
+
+
+def make_record(spec: IndependentSpec, *, set_name: str | None = None, use_cache: bool = True) -> IndependentRecord:
+    """One record of the independent source (see the module docstring) and its truth."""
+    t_start = time.perf_counter()
+    prepared = _prepare(spec, use_cache)
+    lam, sys, omega = prepared[-1], prepared[-2], prepared[2]
+    t_film = time.perf_counter()
+    if lam.real.max() >= 0.0:
+        raise InputError(f"the machine is unstable at {spec.speed_hz:g} Hz with Q = ({spec.q1_mlmin:g}, "
+                         f"{spec.q2_mlmin:g}) ml/min and effects {spec.effects_text()} (a mode grows at "
+                         f"{lam.real.max():.3g} 1/s): no steady record exists")
+    truth = _truth(spec, prepared)
+    shaft, ref, Qs = truth.pop("_shaft"), truth.pop("_ref"), truth.pop("_Qs")
+    u, gain = truth.pop("_probe_directions"), truth.pop("_gain")
+    dt = 1.0 / spec.sample_rate_hz
+    n_steps = int(round(spec.total_s * spec.sample_rate_hz)) + 1
+    n_keep = int(round(spec.duration_s * spec.sample_rate_hz))
+    keep_from = n_steps - n_keep
+
+    # outputs: shaft x, y at each plane, and the housing of the plane's bearing when it has a pedestal
+    out = np.concatenate(shaft + [r for r in ref if r is not None])
+    q = integrate_harmonic(sys.M, sys.C, sys.K, sys.F, omega, dt, n_steps, keep_from, out)
+    t_int = time.perf_counter()
+    # what is left of the start-up transient: distance from the steady state, relative to its size
+    steady_out = (Qs[out][:, None] * np.exp(1j * omega * dt * np.arange(keep_from, n_steps))).real
+    residual = float(np.max(np.abs(q - steady_out)) / np.max(np.abs(steady_out)))
+    if residual > TRANSIENT_TOLERANCE:
+        warnings.warn(f"independent record at {spec.speed_hz:g} Hz, Q = ({spec.q1_mlmin:g}, {spec.q2_mlmin:g}) "
+                      f"ml/min: the start-up transient is still {100 * residual:.2g} % of the steady 1X in the "
+                      f"kept window (slowest mode decays at {-lam.real.max():.3g} 1/s); lengthen total_s",
+                      stacklevel=2)
+    d = q[:4].reshape(2, 2, -1)
+    row = 4
+    for k in range(2):
+        if ref[k] is not None:  # probes on a pedestal read the shaft relative to its housing
+            d[k] -= q[row:row + 2]
+            row += 2
+
+    readings = gain[..., None] * np.einsum("kpj,kjn->kpn", u, d)
+    if spec.static:
+        readings = readings + truth["static_readings_m"][..., None]
+    if spec.snr_db is not None:
+        readings = add_noise(readings, spec.snr_db, np.random.default_rng(spec.seed))
+
+    meta = {"q1_mlmin": f"{spec.q1_mlmin:.10g}", "q2_mlmin": f"{spec.q2_mlmin:.10g}", "seed": str(spec.seed),
+            "snr_db": "none" if spec.snr_db is None else f"{spec.snr_db:g}", "synthetic": "independent"}
+    if spec.effects:
+        meta["effects"] = "; ".join(spec.effects_text())
+    record = record_from_arrays(*readings.reshape(4, -1), speed_hz=spec.speed_hz,
+                                sample_rate_hz=spec.sample_rate_hz, units="m", nodes=spec.nodes,
+                                probe_angles_deg=spec.probe_angles_deg, t0=keep_from * dt,
+                                machine=Path(spec.machine or DEFAULT_MACHINE).name, metadata=meta,
+                                rest_position=truth["rest_readings_m"] if spec.static else None,
+                                set_name=set_name, source=f"independent({spec.speed_hz:g} Hz, seed {spec.seed})")
+    truth.update({"transient_factor": float(amplification(lam, dt).max() ** keep_from),
+                  "transient_residual": residual,
+                  "seconds": {"film": t_film - t_start, "integration": t_int - t_film,
+                              "total": time.perf_counter() - t_start}})
+    return IndependentRecord(record=record, truth=truth, spec=spec)
+
+
+def make_set(specs: Sequence[IndependentSpec], set_name: str, *, use_cache: bool = True) -> list[IndependentRecord]:
+    """Records of one machine, supply and condition at several speeds, linked by `set: set_name`."""
+    specs = list(specs)
+    if not specs:
+        raise InputError("make_set needs at least one IndependentSpec")
+    if not isinstance(set_name, str) or not set_name.strip() or set_name.strip() != set_name \
+            or "\n" in set_name:
+        raise InputError(f"set name {set_name!r}; expected one line of text without surrounding spaces")
+    same = ("q1_mlmin", "q2_mlmin", "effects", "machine")
+    first = specs[0]
+    for s in specs[1:]:
+        for f in same:
+            if getattr(s, f) != getattr(first, f):
+                raise InputError(f"set {set_name!r}: {f} differs between records ({getattr(first, f)!r} vs "
+                                 f"{getattr(s, f)!r}); a set is one machine, supply and condition")
+    speeds = [s.speed_hz for s in specs]
+    if len(set(speeds)) != len(speeds):
+        raise InputError(f"set {set_name!r}: speeds {speeds} repeat; expected one record per speed")
+    return [make_record(s, set_name=set_name, use_cache=use_cache) for s in specs]
+
+
+def write_record_csv(rec: IndependentRecord | Record, path, *, units: str = "m") -> Path:
+    """Write the record as a SPEC §6 CSV: q1/q2_mlmin, seed, snr_db, `synthetic: independent`,
+    `effects`, and `set:`, `static: absolute`, `rest_position:` (in `units`) when the record has them."""
+    record = rec.record if isinstance(rec, IndependentRecord) else rec
+    if Path(path).suffix.lower() != ".csv":
+        raise InputError(f"{path}: write_record_csv writes .csv files; use lubeviz.signals.records.write_record "
+                         "for .npz or .mat")
+    return write_record(record, path, units=units)
+
+
+def thresholds_mlmin(speed_hz: float, machine: str | None = None) -> np.ndarray:
+    """Q_T (ml/min) of each bearing at `speed_hz`: `flooded_thresholds`' computation, cached on disk."""
+    from ..rotor.statics import bearing_static_loads
+
+    m = _machine(machine)
+    loads = bearing_static_loads(m)
+    omega = 2.0 * math.pi * float(speed_hz)
+    return np.array([equilibria.threshold(b, omega, w) * 6e7 for b, w in zip(m.bearings, loads)])
+
+
+def clean_corpus(n: int, rng: np.random.Generator, *, machine: str | None = None, speed_step_hz: float = 2.5,
+                 require_decay: bool = True, max_draws: int = 50, **spec_options) -> list[IndependentSpec]:
+    """`n` effect-free specs for rate benchmarks.
+
+    Each draw: speed 50-100 Hz on a `speed_step_hz` grid (Q_T is solved once per grid speed and cached),
+    each flow uniform in 30-180 % of that bearing's Q_T at that speed (`thresholds_mlmin`, the model's
+    `flooded_thresholds` computation), planes at the bearing centres (6, 20) or outside them (5, 21),
+    probes X/Y or (45, 135), one seed. `spec_options` go to every IndependentSpec (e.g. total_s=6.0).
+
+    Part of that range is unstable or barely stable (the oil-whirl mode near 0.65 X: e.g. 90 Hz at
+    0.5 Q_T grows; 75 Hz at 0.55 Q_T decays at only 0.2 1/s), where no steady record exists. With
+    `require_decay` (default) a draw is kept only if its slowest mode decays by e^-5 before the kept
+    window (growth rate < -5/(total_s - duration_s)); otherwise the flows are drawn again (at most
+    `max_draws` times per spec). This costs the film equilibria of every draw (cached on disk, and
+    reused by `make_record`), and it biases the corpus away from the instability, as a real test
+    campaign would be.
+    """
+    if not isinstance(rng, np.random.Generator):
+        raise InputError("clean_corpus needs a numpy.random.Generator (e.g. np.random.default_rng(1))")
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+        raise InputError(f"n = {n!r}; expected a non-negative integer")
+    m = _machine(machine)
+    grid = np.arange(50.0, 100.0 + 1e-9, speed_step_hz)
+    planes = (tuple(m.center_nodes), tuple(m.outside_nodes))
+    probes = (X_Y, ((45.0, 135.0), (45.0, 135.0)))
+    specs = []
+    for _ in range(int(n)):
+        speed = float(rng.choice(grid))
+        qt = thresholds_mlmin(speed, machine)
+        nodes = planes[int(rng.integers(2))]
+        angles = probes[int(rng.integers(2))]
+        seed = int(rng.integers(0, 2**31 - 1))
+        for _attempt in range(max_draws):
+            frac = rng.uniform(0.3, 1.8, size=2)
+            s = IndependentSpec(speed_hz=speed, q1_mlmin=float(frac[0] * qt[0]), q2_mlmin=float(frac[1] * qt[1]),
+                                nodes=nodes, probe_angles_deg=angles, seed=seed, machine=machine, **spec_options)
+            if not require_decay or max_growth_rate(s) < -5.0 / (s.total_s - s.duration_s):
+                break
+        else:
+            raise InputError(f"clean_corpus: no decaying operating point at {speed:g} Hz in {max_draws} draws")
+        specs.append(s)
+    return specs
+
+
+__all__ = ["GAP", "SHAFT_DAMPING_BETA", "IndependentRecord", "IndependentSpec", "clean_corpus", "fine_node",
+           "make_record", "make_set", "max_growth_rate", "split_rotor", "steady_truth", "thresholds_mlmin",
+           "write_record_csv"]
