@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 
 from ..errors import LubevizError
-from . import bench_cmd, figures_cmd, film_cmd, identify_cmd, rotor_cmd
+from . import bench_cmd, diagnose_cmd, figures_cmd, film_cmd, identify_cmd, rotor_cmd
 from .common import EXIT_BAD_INPUT, Parser, emit
 
 
@@ -15,6 +15,7 @@ def build_parser() -> Parser:
     film_cmd.register(sub)
     rotor_cmd.register(sub)
     identify_cmd.register(sub)
+    diagnose_cmd.register(sub)
     bench_cmd.register(sub)
     figures_cmd.register(sub)
     return parser

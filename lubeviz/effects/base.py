@@ -35,6 +35,8 @@ class Effect(param.Parameterized):
     placement: ClassVar[tuple[str, ...]] = ()  # discrete parameters (which bearing/plane/channel/node)
     neutral: ClassVar[dict] = {}  # continuous values at which the effect changes nothing
     step: ClassVar[dict] = {}  # finite-difference step of each continuous parameter (its own unit)
+    diagnose_free: ClassVar[tuple[str, ...]] = ()  # what a diagnosis fits (the others held at defaults)
+    separated_by: ClassVar[str] = ""  # the measurement that tells this effect from look-alikes
 
     def __init__(self, **params):
         super().__init__(**params)
@@ -89,6 +91,12 @@ class Effect(param.Parameterized):
     def unit(self, pname: str) -> str:
         p = self.param[pname]
         return getattr(p, "unit", "") or ""
+
+    def candidate(self) -> "Effect":
+        """This effect as a diagnosis tries it: `diagnose_free` free, everything else held."""
+        new = self.copy()
+        new._free = tuple(p for p in self.continuous if p in self.diagnose_free)
+        return new
 
     def placements(self) -> list["Effect"]:
         """Every placement of this effect (each bearing, plane, channel...): the candidates to try."""

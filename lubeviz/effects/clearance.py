@@ -21,6 +21,8 @@ class Clearance(Effect):
     continuous = ("clearance_um",)
     placement = ("bearing",)
     step = {"clearance_um": 0.05}
+    diagnose_free = ("clearance_um",)
+    separated_by = "the static shaft position (a worn bearing sits lower), or a record at a second speed"
 
     bearing = param.Selector(default=1, objects=[1, 2, "both"], doc="Bearing whose clearance differs: 1, 2 or both")
     clearance_um = param.Number(None, allow_None=True, bounds=(20.0, 1000.0),

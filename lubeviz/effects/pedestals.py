@@ -27,6 +27,8 @@ class Pedestals(Effect):
     continuous = ("mass_kg", "stiffness_n_m", "damping_ns_m")
     placement = ("bearing",)
     step = {"mass_kg": 0.01, "stiffness_n_m": 1e4, "damping_ns_m": 10.0}
+    diagnose_free = ("stiffness_n_m",)
+    separated_by = "a housing vibration measurement (seismic probe) or records at several speeds"
 
     bearing = param.Selector(default="both", objects=BEARINGS, doc="Bearing(s) on soft pedestals: both, 1 or 2")
     mass_kg = param.Number(50.0, bounds=(0.0, 5000.0), doc="Housing mass (kg)")

@@ -24,6 +24,8 @@ class ProbeGain(Effect):
     placement = ("channel",)
     neutral = {"gain": 1.0}
     step = {"gain": 1e-4}
+    diagnose_free = ("gain",)
+    separated_by = "a probe calibration check, or a record at a second speed (a probe error does not move with the machine)"
 
     channel = param.Selector(default="x1", objects=CHANNELS, doc="Probe channel: x1, y1, x2 or y2")
     gain = param.Number(1.1, bounds=(0.3, 3.0), doc="Actual over declared sensitivity")

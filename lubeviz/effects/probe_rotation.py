@@ -27,6 +27,8 @@ class ProbeRotation(Effect):
     placement = ("plane",)
     neutral = {"angle_deg": 0.0}
     step = {"angle_deg": 0.01}
+    diagnose_free = ("angle_deg",)
+    separated_by = "checking the probes' mounting angles, or a record at a second speed (a probe error does not move with the machine)"
 
     plane = param.Selector(default=1, objects=[1, 2], doc="Measurement plane of the rotated pair")
     angle_deg = param.Number(5.0, bounds=(-45.0, 45.0), doc="Rotation of the pair, + from +X towards +Y (deg)")

@@ -27,6 +27,8 @@ class Viscosity(Effect):
     placement = ("bearing",)
     neutral = {"factor": 1.0}
     step = {"factor": 1e-3}
+    diagnose_free = ("factor",)
+    separated_by = "the static shaft position, a record at a second speed, or an oil temperature reading"
 
     bearing = param.Selector(default="both", objects=BEARINGS, doc="Bearing(s) whose oil differs: both, 1 or 2")
     factor = Quantity(1.0, bounds=(0.4, 2.5), unit="", doc="True / declared viscosity")

@@ -5,7 +5,9 @@ from __future__ import annotations
 import math
 import os
 import time
+from pathlib import Path
 from concurrent.futures import ProcessPoolExecutor, as_completed
+import dataclasses
 from dataclasses import dataclass
 
 from ..errors import InputError, LubevizError
@@ -28,6 +30,8 @@ class RecordIdentification:
     nodes: tuple[int, int]
     speed_hz: float
     warnings: tuple[str, ...] = ()  # the record reader's (e.g. an unknown metadata key)
+    speeds_hz: tuple[float, ...] = ()  # a set: every record's speed
+    set_name: str | None = None
 
 
 def check_model_speed(machine, speed_hz: float) -> None:
@@ -88,6 +92,11 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
     check_record(_NodesSpeed(chain), measured, settings)
     res = fit(chain, measured, names=tuple(settings.features), budget=budget, lower=settings.lower,
               upper=settings.upper)
+    return _identification(res, chain)
+
+
+def _identification(res, chain) -> Identification:
+    """The `Identification` (the app's and the JSON's shape) of a `fit.Fit`."""
     q = res.values[:2]
     effect_values = {}
     for j, name in enumerate(res.names[2:], start=2):
@@ -117,15 +126,68 @@ class _NodesSpeed:
         self.omega, self.nodes = chain.omega, chain.nodes
 
 
+def machine_for(record, machine_path=None):
+    """The machine model of a record: --machine when given (a warning if the record names another),
+    else the model file the record names (`machine: NAME`, resolved under models/), else the default."""
+    from ..model.machine import resolve_machine_name
+
+    where = str(record.source or "record")
+    named = getattr(record, "machine", None)
+    warnings = []
+    if machine_path is not None:
+        if named and Path(named).name != Path(machine_path).name:
+            warnings.append(f"{where}: the record names machine {named!r}; using --machine {machine_path}")
+        return load_machine(machine_path), tuple(warnings)
+    if named:
+        return load_machine(resolve_machine_name(named, where)), ()
+    return load_machine(), ()
+
+
+def identify_group(records, machine=None, settings: IdentificationSettings | None = None, *,
+                   progress: ProgressFn = silent, effects=(), budget=None) -> RecordIdentification:
+    """One identification from the records of one `set:` (SPEC §6): the same flows (and free effect
+    parameters) at every speed, one forward chain per record, residuals stacked (`fit.fit`)."""
+    from ..signals.records import check_set
+    from .chain import ForwardChain
+    from .fit import fit
+    from .newton import check_record
+
+    records = check_set(list(records))
+    machine = load_machine() if machine is None else machine
+    settings = settings or IdentificationSettings()
+    if settings.mode == "paper":
+        raise InputError("paper mode identifies one record; a set is identified in best mode")
+    chains, meas = [], []
+    for n, rec in enumerate(records, start=1):
+        speed = model_speed(machine, rec)
+        check_model_speed(machine, speed)
+        chain = ForwardChain(machine, speed, rec.nodes, effects, probe_angles_deg=rec.probe_angles_deg,
+                             progress=progress)
+        m = measure(rec, ALL_FEATURES)
+        check_record(_NodesSpeed(chain), m, settings)
+        chains.append(chain)
+        meas.append(m)
+    res = fit(chains, meas, names=tuple(settings.features), budget=budget, lower=settings.lower,
+              upper=settings.upper)
+    result = _identification(res, chains[0])
+    files = "+".join(str(r.source or "record") for r in records)
+    warnings = tuple(w for r in records for w in getattr(r, "warnings", ()))
+    return RecordIdentification(file=files, result=result, nodes=tuple(records[0].nodes),
+                                speed_hz=records[0].speed_hz, warnings=warnings,
+                                speeds_hz=tuple(r.speed_hz for r in records), set_name=records[0].set_name)
+
+
 def identify_file(path, machine=None, settings: IdentificationSettings | None = None, *,
                   progress: ProgressFn = silent, model: ForwardModel | None = None,
                   effects=()) -> RecordIdentification:
     """Read a record (SPEC §6) and identify Q1, Q2. The model is built at the record's speed."""
-    machine = load_machine() if machine is None else machine
-    rec = read_record(path, default_nodes=tuple(machine.center_nodes))
+    rec = read_record(path, default_nodes=tuple((machine or load_machine()).center_nodes))
+    notes = ()
+    if machine is None:
+        machine, notes = machine_for(rec)
     out = identify_record(rec, machine, settings, progress=progress, model=model, effects=effects)
     return RecordIdentification(file=str(path), result=out.result, nodes=out.nodes, speed_hz=out.speed_hz,
-                                warnings=out.warnings)
+                                warnings=notes + out.warnings)
 
 
 def result_dict(item: RecordIdentification) -> dict:
@@ -144,6 +206,7 @@ def result_dict(item: RecordIdentification) -> dict:
         "features_model": dict(zip(names, r.features_model.tolist())),
         "residual": r.residual.tolist(), "total_error": r.total_error, "mode": r.mode,
         "model_evaluations": r.evaluations, "nodes": list(item.nodes), "speed_hz": item.speed_hz,
+        "set": item.set_name, "speeds_hz": list(item.speeds_hz) or [item.speed_hz],
         "unique": r.unique, "alternatives_mlmin": [(a * 6e7).tolist() for a in r.alternatives],
         "alternatives": [{"q1_mlmin": a[0] * 6e7, "q2_mlmin": a[1] * 6e7,
                           "chi2": r.alternatives_chi2[j] if j < len(r.alternatives_chi2) else None}
@@ -182,7 +245,8 @@ def _worker(path, machine_path, mode, effect_specs=()):
     from ..effects import parse_effects
 
     try:
-        return identify_file(path, load_machine(machine_path), IdentificationSettings(mode=mode),
+        return identify_file(path, None if machine_path is None else load_machine(machine_path),
+                             IdentificationSettings(mode=mode),
                              effects=parse_effects(effect_specs)), None
     except LubevizError as exc:
         return None, str(exc)
@@ -196,6 +260,9 @@ def identify_files(paths, machine_path=None, mode: str = "best", *, workers: int
     Tables are built (or loaded) once, up front, then records run on `workers` processes.
     """
     paths = [str(p) for p in paths]
+    grouped = _set_groups(paths)
+    if grouped is not None:
+        return _identify_groups(grouped, machine_path, mode, progress, effect_specs)
     machine = load_machine(machine_path)
     machine_tables(machine, progress=progress)  # warm the cache before fanning out
     workers = min(len(paths), os.cpu_count() or 1) if workers is None else max(1, int(workers))
@@ -209,7 +276,11 @@ def identify_files(paths, machine_path=None, mode: str = "best", *, workers: int
         model = None
         for n, p in enumerate(paths, start=1):
             try:
-                r = identify_file(p, machine, settings, model=model, effects=effects)
+                rec = read_record(p, default_nodes=tuple(machine.center_nodes))
+                mach, notes = machine_for(rec, machine_path)
+                r = identify_record(rec, mach, settings, model=model, effects=effects)
+                r = RecordIdentification(file=p, result=r.result, nodes=r.nodes, speed_hz=r.speed_hz,
+                                         warnings=notes + r.warnings)
                 model = None
                 out[p] = (r, None)
             except LubevizError as exc:
@@ -222,3 +293,37 @@ def identify_files(paths, machine_path=None, mode: str = "best", *, workers: int
                 out[futures[f]] = f.result()
                 progress(n, len(paths), f"{os.path.basename(futures[f])} ({time.perf_counter() - t0:.1f} s)")
     return [(p, *out[p]) for p in paths]
+
+
+def _set_groups(paths):
+    """Records read and grouped by `set:` when any of them belongs to one; None otherwise (or on a read
+    error, which the per-file path reports)."""
+    from ..signals.records import group_records
+
+    try:
+        records = [read_record(p) for p in paths]
+    except LubevizError:
+        return None
+    if not any(r.set_name for r in records):
+        return None
+    return group_records(records)
+
+
+def _identify_groups(groups, machine_path, mode, progress, effect_specs):
+    from ..effects import parse_effects
+
+    settings = IdentificationSettings(mode=mode)
+    effects = parse_effects(effect_specs)
+    out = []
+    for group in groups:
+        label = "+".join(str(r.source) for r in group)
+        try:
+            machine, notes = machine_for(group[0], machine_path)
+            if len(group) == 1:
+                item = identify_record(group[0], machine, settings, effects=effects, progress=progress)
+            else:
+                item = identify_group(group, machine, settings, effects=effects, progress=progress)
+            out.append((label, dataclasses.replace(item, warnings=notes + item.warnings), None))
+        except LubevizError as exc:
+            out.append((label, None, str(exc)))
+    return out

@@ -43,14 +43,25 @@ class ModelBudget(param.Parameterized):
                          doc="Each bearing's radial clearance, relative: the declared manufacturing tolerance "
                              "(0: taken as known; wear is an effect to fit)")
 
+    static_position = Quantity(0.005, bounds=(0.0, 1.0), unit="",
+                               doc="Static journal position from the film equilibrium, each component, relative "
+                                   "to the clearance (mesh)")
+    rest_reading = Quantity(1e-6, bounds=(0.0, 1e-3), unit="m", display_unit="um", display_scale=1e6,
+                            doc="Repeatability of each probe's rest reading (SPEC §6 rest_position)")
+
     @classmethod
     def none(cls) -> "ModelBudget":
         """No model uncertainty: the noise alone (what the old identification used)."""
-        return cls(coefficient_k=0.0, coefficient_c=0.0, shaft_damping=0.0, viscosity=0.0, clearance=0.0)
+        return cls(coefficient_k=0.0, coefficient_c=0.0, shaft_damping=0.0, viscosity=0.0, clearance=0.0,
+                   static_position=0.0, rest_reading=0.0)
 
 
-def _coefficient_perturbations(chain, theta, budget: ModelBudget) -> list[tuple[np.ndarray, float]]:
-    """(dB (4, 4) complex, sigma) pairs: each a unit perturbation of the bearings' dynamic stiffness."""
+N_TERMS = 2 * (10 + 2) + 1 + 8  # per bearing: K, C scale and entries, viscosity, clearance; beta; static
+
+
+def _dynamic_perturbations(chain, theta, budget: ModelBudget) -> list[np.ndarray]:
+    """Unit perturbations dB (4, 4) of the bearings' dynamic stiffness, each scaled to its 1-sigma size, in
+    a fixed order (the same physical term at every speed, so joint fits over a set correlate them)."""
     out = []
     w = chain.omega
     for k, src in enumerate(chain.sources):
@@ -58,58 +69,74 @@ def _coefficient_perturbations(chain, theta, budget: ModelBudget) -> list[tuple[
         K, C, _ = src.evaluate(theta[k], factor, clearance)
         sl = slice(2 * k, 2 * k + 2)
         for M, s, scale in ((K, budget.coefficient_k, 1.0), (C, budget.coefficient_c, 1j * w)):
-            if s == 0:
-                continue
             d = np.zeros((4, 4), dtype=complex)
-            d[sl, sl] = scale * M
-            out.append((d, s))  # common scale error
+            d[sl, sl] = s * scale * M
+            out.append(d)  # common scale error (the mesh moves all entries together)
             big = np.abs(M).max()
             for i in range(2):
                 for j in range(2):
                     d = np.zeros((4, 4), dtype=complex)
-                    d[2 * k + i, 2 * k + j] = scale * big
-                    out.append((d, s / np.sqrt(2.0)))  # entrywise, half the variance each way
+                    d[2 * k + i, 2 * k + j] = s / np.sqrt(2.0) * scale * big
+                    out.append(d)  # entrywise, the other half of the variance
         for change, s in (("viscosity", budget.viscosity), ("clearance", budget.clearance)):
-            if s == 0:
-                continue
-            try:
-                if change == "viscosity":
-                    Kp, Cp, _ = src.evaluate(theta[k], factor * (1 + s), clearance)
-                    Km, Cm, _ = src.evaluate(theta[k], factor * (1 - s), clearance)
-                else:
-                    Kp, Cp, _ = src.evaluate(theta[k], factor, clearance * (1 + s))
-                    Km, Cm, _ = src.evaluate(theta[k], factor, clearance * (1 - s))
-            except InputError as exc:  # outside the tables' range: say so rather than drop the term silently
-                raise InputError(f"model budget: the {change} tolerance of bearing {k + 1} reaches outside the "
-                                 f"coefficient tables ({exc})") from None
             d = np.zeros((4, 4), dtype=complex)
-            d[sl, sl] = 0.5 * ((Kp - Km) + 1j * w * (Cp - Cm))
-            out.append((d, 1.0))
+            if s > 0:
+                try:
+                    if change == "viscosity":
+                        Kp, Cp, _ = src.evaluate(theta[k], factor * (1 + s), clearance)
+                        Km, Cm, _ = src.evaluate(theta[k], factor * (1 - s), clearance)
+                    else:
+                        Kp, Cp, _ = src.evaluate(theta[k], factor, clearance * (1 + s))
+                        Km, Cm, _ = src.evaluate(theta[k], factor, clearance * (1 - s))
+                except InputError as exc:  # outside the tables: say so rather than drop the term silently
+                    raise InputError(f"model budget: the {change} tolerance of bearing {k + 1} reaches outside "
+                                     f"the coefficient tables ({exc})") from None
+                d[sl, sl] = 0.5 * ((Kp - Km) + 1j * w * (Cp - Cm))
+            out.append(d)
     return out
+
+
+def model_sensitivity(chain, theta, names, budget: ModelBudget | None = None) -> np.ndarray:
+    """S (n_features, N_TERMS): each column a budget term's 1-sigma effect on the features; cov = S S^T.
+
+    Columns are the same physical terms for every chain of a machine, so stacking the S of records at
+    several speeds gives their joint covariance, correlations across speeds included."""
+    from .chain import STATIC_FEATURES
+
+    budget = budget or ModelBudget()
+    names = tuple(names)
+    theta = np.asarray(theta, dtype=float)
+    dyn = [j for j, n in enumerate(names) if n not in STATIC_FEATURES]
+    S = np.zeros((len(names), N_TERMS))
+    perts = np.stack(_dynamic_perturbations(chain, theta, budget))
+    n_dyn = perts.shape[0]
+    if dyn:
+        dyn_names = tuple(names[j] for j in dyn)
+        pts = np.broadcast_to(theta, (n_dyn, theta.size))
+        h = 1e-3
+        gp = chain.features(pts, dyn_names, dB_extra=h * perts)
+        gm = chain.features(pts, dyn_names, dB_extra=-h * perts)
+        S[dyn, :n_dyn] = (wrap_difference(gp - gm, dyn_names) / (2.0 * h)).T  # linear in each term
+        if budget.shaft_damping > 0:
+            S[dyn, n_dyn] = _shaft_damping_column(chain, theta, dyn_names, budget.shaft_damping)
+    col = n_dyn + 1
+    for j, n in enumerate(names):
+        if n in STATIC_FEATURES:
+            k = int(n[-1]) - 1
+            c = chain.sources[k].bearing.clearance
+            # position from the film (mesh) and the rest reading, each its own column
+            S[j, col + 2 * k + (0 if n[1] == "x" else 1)] = budget.static_position * c
+            S[j, col + 4 + 2 * k + (0 if n[1] == "x" else 1)] = budget.rest_reading
+    return S
 
 
 def model_covariance(chain, theta, names, budget: ModelBudget | None = None) -> np.ndarray:
     """Covariance (n_features, n_features) of the features' model error at parameters `theta`."""
-    budget = budget or ModelBudget()
-    names = tuple(names)
-    theta = np.asarray(theta, dtype=float)
-    cov = np.zeros((len(names), len(names)))
-    perts = _coefficient_perturbations(chain, theta, budget)
-    if perts:
-        h = 1e-3
-        dB = np.stack([p for p, _ in perts])
-        sig = np.array([s for _, s in perts])
-        pts = np.broadcast_to(theta, (len(perts), theta.size))
-        gp = chain.features(pts, names, dB_extra=h * dB)
-        gm = chain.features(pts, names, dB_extra=-h * dB)
-        J = wrap_difference(gp - gm, names) / (2 * h)  # per unit perturbation
-        cov += (J * sig[:, None]).T @ (J * sig[:, None])
-    if budget.shaft_damping > 0:
-        cov += _shaft_damping_cov(chain, theta, names, budget.shaft_damping)
-    return cov
+    S = model_sensitivity(chain, theta, names, budget)
+    return S @ S.T
 
 
-def _shaft_damping_cov(chain, theta, names, rel: float) -> np.ndarray:
+def _shaft_damping_column(chain, theta, names, rel: float) -> np.ndarray:
     from .chain import ForwardChain
 
     key = ("beta", rel)
@@ -120,9 +147,8 @@ def _shaft_damping_cov(chain, theta, names, rel: float) -> np.ndarray:
         cache[key] = [ForwardChain(chain.machine, chain.speed_hz, chain.nodes, chain.effects,
                                    probe_angles_deg=chain.probe_angles_deg, tables=tables,
                                    shaft_damping_beta=beta * (1 + s * rel)) for s in (1, -1)]
-        for c, ref in zip(cache[key], (chain, chain)):
-            for s_new, s_old in zip(c.sources, ref.sources):
+        for c in cache[key]:
+            for s_new, s_old in zip(c.sources, chain.sources):
                 s_new._views = s_old._views  # share the bearing views
     up, down = cache[key]
-    d = wrap_difference(up.features(theta, names) - down.features(theta, names), names) / 2.0
-    return np.outer(d, d)
+    return wrap_difference(up.features(theta, names) - down.features(theta, names), names) / 2.0

@@ -91,9 +91,14 @@ class BearingSource:
     def evaluate(self, q, factor=1.0, clearance=None):
         """K, C (... 2, 2) and journal position (..., 2) at flows q (m^3/s) with the given bearing changes."""
         q = np.asarray(q, dtype=float)
-        factor = np.broadcast_to(np.asarray(factor, dtype=float), q.shape)
-        clearance = np.broadcast_to(np.asarray(self.bearing.clearance if clearance is None else clearance,
-                                               dtype=float), q.shape)
+        factor = np.asarray(factor, dtype=float)
+        clearance = np.asarray(self.bearing.clearance if clearance is None else clearance, dtype=float)
+        if factor.ndim == 0 and clearance.ndim == 0:  # one bearing for the whole batch: one table read
+            t = self.view(float(factor), float(clearance))
+            v = t._values(np.clip(q, t.q_min, t.q_max))
+            return (v[..., 0:4].reshape(q.shape + (2, 2)), v[..., 4:8].reshape(q.shape + (2, 2)), v[..., 8:10])
+        factor = np.broadcast_to(factor, q.shape)
+        clearance = np.broadcast_to(clearance, q.shape)
         K = np.empty(q.shape + (2, 2))
         C = np.empty(q.shape + (2, 2))
         pos = np.empty(q.shape + (2,))
@@ -165,6 +170,14 @@ class ForwardChain:
         self._slots = [(e, p) for e in self.effects for p in e.free]
         self._build_reference()
         self.evaluations = 0
+
+    def with_effects(self, effects) -> "ForwardChain":
+        """The same machine, speed, planes and tables with other effects (tables and bearing views shared)."""
+        new = ForwardChain(self.machine, self.speed_hz, self.nodes, effects, probe_angles_deg=self.probe_angles_deg,
+                           tables=[s.nominal for s in self.sources], rotor=self.rotor)
+        for s_new, s_old in zip(new.sources, self.sources):
+            s_new._views = s_old._views
+        return new
 
     # --- parameters -------------------------------------------------------------------------------
     def _prefix(self, effect) -> str:

@@ -31,7 +31,7 @@ import numpy as np
 from scipy import stats
 
 from ..errors import InputError
-from .budget import ModelBudget, model_covariance
+from .budget import ModelBudget, model_sensitivity
 from .forward import wrap_difference
 
 STATUS = {
@@ -124,26 +124,42 @@ class Fit:
 
 
 class _Problem:
-    """Whitened residuals of the chain against measured features, for a fixed total covariance."""
+    """Whitened residuals of one or more chains (records of one set) against their measured features."""
 
-    def __init__(self, chain, measured_values, names, cov_total, free):
-        self.chain, self.names, self.free = chain, tuple(names), np.asarray(free)
-        self.fm = np.asarray(measured_values, dtype=float)
+    def __init__(self, parts, cov_total, free):
+        self.parts = parts  # [(chain, names, measured values)]
+        self.free = np.asarray(free)
         self.L = np.linalg.cholesky(cov_total)
+        self.names = tuple(n for _, names, _ in parts for n in names)
+
+    def with_free(self, free) -> "_Problem":
+        new = object.__new__(_Problem)
+        new.parts, new.L, new.names, new.free = self.parts, self.L, self.names, np.asarray(free)
+        return new
 
     def residual_jacobian(self, theta):
-        g, J = self.chain.jacobian(theta, self.names, free=self.free)
-        d = wrap_difference(g - self.fm, self.names)
-        return np.linalg.solve(self.L, d), np.linalg.solve(self.L, J)
+        ds, Js = [], []
+        for chain, names, fm in self.parts:
+            g, J = chain.jacobian(theta, names, free=self.free)
+            ds.append(wrap_difference(g - fm, names))
+            Js.append(J)
+        return np.linalg.solve(self.L, np.concatenate(ds)), np.linalg.solve(self.L, np.concatenate(Js))
+
+    def difference(self, thetas):
+        return np.concatenate([wrap_difference(chain.features(thetas, names) - fm, names)
+                               for chain, names, fm in self.parts], axis=-1)
 
     def cost_many(self, thetas):
-        g = self.chain.features(thetas, self.names)
-        d = wrap_difference(g - self.fm, self.names)
-        w = np.linalg.solve(self.L, np.moveaxis(d, -1, 0).reshape(len(self.names), -1))
+        d = self.difference(thetas)
+        w = np.linalg.solve(self.L, np.moveaxis(d, -1, 0).reshape(d.shape[-1], -1))
         return np.sum(w**2, axis=0).reshape(d.shape[:-1])
 
+    def model_cov(self, theta, budget, noise):
+        S = np.concatenate([model_sensitivity(chain, theta, names, budget) for chain, names, _ in self.parts])
+        return noise + S @ S.T
 
-def _lm(problem: _Problem, theta0, lo, hi, scale, max_iter=40, step_tol=1e-7):
+
+def _lm(problem: _Problem, theta0, lo, hi, scale, max_iter=100, step_tol=1e-7):
     """Bounded Levenberg-Marquardt on the free parameters; returns (theta, r, J, iterations, status, path)."""
     free = problem.free
     theta = theta0.copy()
@@ -188,10 +204,9 @@ def _scales(chain) -> np.ndarray:
     return np.minimum(sc, np.where(np.isfinite(width), width, sc))
 
 
-def _grid_starts(chain, lower, upper, n):
+def _grid_starts(chain, start, lower, upper, n):
     s = np.linspace(math.sqrt(lower), math.sqrt(upper), n) ** 2
     a, b = np.meshgrid(s * chain.q_threshold[0], s * chain.q_threshold[1], indexing="ij")
-    start = chain.start()
     pts = np.repeat(start[None, None, :], n, axis=0).repeat(n, axis=1)
     pts[..., 0], pts[..., 1] = a, b
     return pts
@@ -211,35 +226,68 @@ def _basins(cost: np.ndarray, limit: float, most: int) -> list[tuple[int, int]]:
     return idx[:most] or [tuple(np.unravel_index(np.argmin(cost), cost.shape))]
 
 
+def _parts(chains, measured, names):
+    """[(chain, feature names, measured values)] and the block-diagonal noise covariance."""
+    parts, blocks = [], []
+    for chain, meas in zip(chains, measured):
+        use = tuple(n for n in (meas.names if names is None else names) if n in meas.names)
+        static = tuple(n for n in getattr(meas, "static_names", ()) if int(n[-1]) - 1 in chain.static_planes)
+        use = tuple(n for n in use if n not in meas.static_names or n in static)
+        use = use + tuple(n for n in static if n not in use)
+        idx = [meas.names.index(n) for n in use]
+        parts.append((chain, use, np.asarray(meas.values)[idx]))
+        blocks.append(np.asarray(meas.cov)[np.ix_(idx, idx)])
+    n = sum(b.shape[0] for b in blocks)
+    noise = np.zeros((n, n))
+    i = 0
+    for b in blocks:
+        noise[i:i + b.shape[0], i:i + b.shape[0]] = b
+        i += b.shape[0]
+    return parts, noise
+
+
 def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBudget | None = None,
-        level: float = 0.01, lower: float = 0.25, upper: float = 2.0, grid: int = 21, most_basins: int = 4,
+        level: float = 0.01, lower: float = 0.25, upper: float = 2.0, grid: int = 41, most_basins: int = 4,
         intervals: bool = True, hold_flows=None) -> Fit:
-    """Fit the chain's named parameters to `measured` (MeasuredFeatures-like: names, values, cov)."""
+    """Fit the chain's named parameters to `measured` (MeasuredFeatures-like: names, values, cov).
+
+    `chain` and `measured` may be sequences (records of one `set:` at several speeds, one chain each, with
+    the same effects): the parameters are shared, the residuals stacked, the model budget's terms
+    correlated across the speeds. `names`: the features to use (default all the record holds).
+    """
     t0 = time.perf_counter()
-    names = tuple(measured.names if names is None else names)
-    idx = [measured.names.index(n) for n in names]
-    fm = np.asarray(measured.values)[idx]
-    cov_noise = np.asarray(measured.cov)[np.ix_(idx, idx)]
+    chains = list(chain) if isinstance(chain, (list, tuple)) else [chain]
+    meas_list = list(measured) if isinstance(measured, (list, tuple)) else [measured]
+    if len(chains) != len(meas_list):
+        raise InputError(f"{len(chains)} chains for {len(meas_list)} records")
+    ref = chains[0]
+    if any(c.names != ref.names for c in chains):
+        raise InputError("the records of one set must be fitted with the same effects")
     budget = budget or ModelBudget()
-    ev0 = chain.evaluations
-    lo, hi = chain.bounds(lower, upper)
-    scale = _scales(chain)
-    free = np.arange(chain.n_params)
+    parts, noise = _parts(chains, meas_list, names)
+    all_names = tuple(n for _, ns, _ in parts for n in ns)
+    fm = np.concatenate([f for _, _, f in parts])
+    ev0 = [c.evaluations for c in chains]
+    bounds = [c.bounds(lower, upper) for c in chains]
+    lo = np.max([b[0] for b in bounds], axis=0)
+    hi = np.min([b[1] for b in bounds], axis=0)
+    scale = _scales(ref)
+    free = np.arange(ref.n_params)
     if hold_flows is not None:
         free = free[2:]
     n_free = free.size
-    dof = len(names) - n_free
+    dof = len(all_names) - n_free
     if dof < 0:
-        raise InputError(f"{n_free} free parameters {tuple(chain.names[i] for i in free)} for {len(names)} "
+        raise InputError(f"{n_free} free parameters {tuple(ref.names[i] for i in free)} for {len(all_names)} "
                          "features: the record cannot determine them; hold some (give their values)")
-    start = chain.start()
+    start = ref.start()
     if hold_flows is not None:
         start[:2] = hold_flows
-    cov_model = model_covariance(chain, start, names, budget)
-    problem = _Problem(chain, fm, names, cov_noise + cov_model, free)
+    problem = _Problem(parts, _Problem(parts, np.eye(len(all_names)), free).model_cov(start, budget, noise), free)
     # 1. global scan over the flow box
     if hold_flows is None:
-        pts = _grid_starts(chain, lower, upper, grid)
+        pts = _grid_starts(ref, start, lower, upper, grid)
+        pts[..., :2] = np.clip(pts[..., :2], lo[:2], hi[:2])
         cost = problem.cost_many(pts)
         limit = float(np.min(cost)) + max(stats.chi2.ppf(1 - level, max(dof, 1)) * 4.0, 25.0)
         starts = [pts[ij] for ij in _basins(cost, limit, most_basins)]
@@ -254,28 +302,23 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     runs.sort(key=lambda t: t[0])
     refined = []
     for chi2_0, theta, status, path in runs:
-        cov_m = model_covariance(chain, theta, names, budget)
-        prob = _Problem(chain, fm, names, cov_noise + cov_m, free)
+        prob = _Problem(parts, problem.model_cov(theta, budget, noise), free)
         theta2, r, J, it, status, path2 = _lm(prob, theta, lo, hi, scale)
         iterations += it
-        refined.append((float(r @ r), theta2, r, J, status, np.concatenate([path, path2[1:]]), prob, cov_m))
+        refined.append((float(r @ r), theta2, r, J, status, np.concatenate([path, path2[1:]]), prob))
     refined.sort(key=lambda t: t[0])
-    chi2, theta, r, J, status, path, prob, cov_m = refined[0]
+    chi2, theta, r, J, status, path, prob = refined[0]
     p = float(stats.chi2.sf(chi2, dof)) if dof > 0 else None
     explained = p is None or p > level
     inflation = 1.0 if (explained or dof == 0) else chi2 / dof
     warnings = []
-    try:
-        cov = np.linalg.pinv(J.T @ J) * inflation
-    except np.linalg.LinAlgError:
-        cov = np.full((n_free, n_free), np.inf)
-    full_cov = np.zeros((chain.n_params, chain.n_params))
-    full_cov[np.ix_(free, free)] = cov
-    std = np.sqrt(np.maximum(np.diag(full_cov), 0.0))
+    Js = J * scale[free]  # scaled columns: flows (m^3/s) and e.g. a stiffness (N/m) differ by 1e15
+    cov = scale[free][:, None] * np.linalg.pinv(Js.T @ Js) * scale[free][None, :] * inflation
+    std = np.sqrt(np.maximum(np.diag(cov), 0.0))
     if not explained:
         warnings.append(f"the model does not explain the record (chi2 = {chi2:.1f} for {dof} dof, p = {p:.2g} "
                         f"< {level:g}): uncertainties inflated x{math.sqrt(inflation):.1f}; run a diagnosis")
-    at_bound = tuple(chain.names[i] for i in free if np.isclose(theta[i], lo[i], rtol=1e-6, atol=0)
+    at_bound = tuple(ref.names[i] for i in free if np.isclose(theta[i], lo[i], rtol=1e-6, atol=0)
                      or np.isclose(theta[i], hi[i], rtol=1e-6, atol=0))
     if at_bound and status == 0:
         status = 3
@@ -283,8 +326,8 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     crit = stats.chi2.ppf(1 - level, dof) if dof > 0 else np.inf
     alternatives = []
     for c2, th, *_ in refined[1:]:
-        sep = np.max(np.abs(th[:2] - theta[:2]) / chain.q_threshold) > 0.03
-        dup = any(np.max(np.abs(th[:2] - a[:2]) / chain.q_threshold) < 0.03 for a, _ in alternatives)
+        sep = np.max(np.abs(th[:2] - theta[:2]) / ref.q_threshold) > 0.03
+        dup = any(np.max(np.abs(th[:2] - a[:2]) / ref.q_threshold) < 0.03 for a, _ in alternatives)
         if sep and not dup and (c2 <= crit or c2 - chi2 < CHI2_95_1DOF * inflation):
             alternatives.append((th, c2))
     if alternatives:
@@ -294,31 +337,29 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     # 4. profile intervals of the flows
     ivals = {}
     if intervals and hold_flows is None:
+        q_std = np.sqrt(np.maximum(np.diag(cov)[:2], 0.0))
         for k in (0, 1):
-            ivals[chain.names[k]] = _profile(prob, theta, chi2, k, lo, hi, scale, std[k],
-                                             CHI2_95_1DOF * inflation, chain.q_threshold[k])
-            if ivals[chain.names[k]][1] is None:
+            ivals[ref.names[k]] = _profile(prob, theta, chi2, k, lo, hi, scale, q_std[k],
+                                           CHI2_95_1DOF * inflation, ref.q_threshold[k])
+            if ivals[ref.names[k]][1] is None:
                 warnings.append(f"Q{k + 1} is not bounded from above by this record (the film is flooded: "
                                 "more oil barely changes the vibration)")
-    fs = chain.features(theta, names)
-    n = len(names)
-    aic = chi2 + 2 * n_free
-    bic = chi2 + n_free * math.log(max(n, 1))
-    vals = theta[free] if hold_flows is not None else theta
-    return Fit(names=tuple(chain.names[i] for i in free), values=vals, std=std[free], cov=full_cov[np.ix_(free, free)],
-               chi2=chi2, dof=dof, p_value=p, level=level, aic=aic, bic=bic, status=status, at_bound=at_bound,
-               evaluations=chain.evaluations - ev0, iterations=iterations, seconds=time.perf_counter() - t0,
-               features_names=names, features_measured=fm, features_model=fs, residual=r, intervals=ivals,
-               alternatives=tuple(alternatives), paths=tuple(x[5] for x in reversed(refined)),
-               inflation=inflation, warnings=tuple(warnings), q_threshold=chain.q_threshold.copy())
+    fs = prob.difference(theta) + fm
+    n = len(all_names)
+    return Fit(names=tuple(ref.names[i] for i in free), values=theta[free], std=std, cov=cov,
+               chi2=chi2, dof=dof, p_value=p, level=level, aic=chi2 + 2 * n_free,
+               bic=chi2 + n_free * math.log(max(n, 1)), status=status, at_bound=at_bound,
+               evaluations=sum(c.evaluations - e for c, e in zip(chains, ev0)), iterations=iterations,
+               seconds=time.perf_counter() - t0, features_names=all_names, features_measured=fm,
+               features_model=fs, residual=r, intervals=ivals, alternatives=tuple(alternatives),
+               paths=tuple(x[5] for x in reversed(refined)), inflation=inflation, warnings=tuple(warnings),
+               q_threshold=ref.q_threshold.copy())
 
 
 def _profile(problem: _Problem, theta, chi2_min, k, lo, hi, scale, sigma, threshold, q_t):
     """95 % profile-likelihood interval of parameter k: (low, high); None for a side open at the box edge."""
     others = np.array([i for i in problem.free if i != k])
-    sub = _Problem(problem.chain, problem.fm, problem.names, np.eye(1), others) if others.size else None
-    if sub is not None:
-        sub.L = problem.L
+    sub = problem.with_free(others) if others.size else None
     step0 = max(0.5 * sigma, 1e-3 * q_t) if np.isfinite(sigma) else 0.02 * q_t
     bounds = []
     for direction in (-1, 1):
@@ -326,15 +367,29 @@ def _profile(problem: _Problem, theta, chi2_min, k, lo, hi, scale, sigma, thresh
         th = theta.copy()
         prev_v, prev_d = theta[k], 0.0
         step = step0
+        history = [(theta[k], theta.copy())]
         found = None
-        for _ in range(40):
+        for _ in range(60):
             v = prev_v + direction * step
             if (v - edge) * direction >= 0:
                 v = edge
             th[k] = v
             if sub is not None:
-                th, r, *_ = _lm(sub, th, lo, hi, scale, max_iter=8, step_tol=1e-5)
-                d = float(r @ r) - chi2_min
+                # the other parameters re-fitted from the previous point and from the optimum's values:
+                # near a critical speed the valley is long, curved and bumpy, and one warm start can stall
+                trials = []
+                seeds = [th, np.where(np.arange(th.size) == k, v, theta)]
+                if len(history) >= 2:  # continuation: the others extrapolated along the valley
+                    (v0, t0), (v1, t1) = history[-2], history[-1]
+                    seeds.append(t1 + (t1 - t0) * (v - v1) / (v1 - v0))
+                for seed in seeds:
+                    seed = seed.copy()
+                    seed[k] = v
+                    t_new, r, *_ = _lm(sub, seed, lo, hi, scale, max_iter=25, step_tol=1e-6)
+                    trials.append((float(r @ r), t_new))
+                c_min, th = min(trials, key=lambda t: t[0])
+                history.append((v, th.copy()))
+                d = c_min - chi2_min
             else:
                 d = float(problem.cost_many(th[None, :])[0]) - chi2_min
             if d > threshold:
@@ -344,7 +399,7 @@ def _profile(problem: _Problem, theta, chi2_min, k, lo, hi, scale, sigma, thresh
             if v == edge:
                 break
             prev_v, prev_d = v, max(d, 0.0)
-            step *= 1.5
+            step = min(step * 1.5, 2.0 * step0)
         bounds.append(found)
     low = bounds[0] if bounds[0] is not None else float(lo[k])
     return (float(low), None if bounds[1] is None else float(bounds[1]))

@@ -30,6 +30,7 @@ class MeasuredFeatures:
     nodes: tuple[int, int]
     speed_hz: float
     line_snr: np.ndarray  # |Zf|, |Zb| of each plane over their noise std: (2 planes, 2)
+    static_names: tuple[str, ...] = ()  # static offsets the record holds (SPEC §6 `static: absolute`)
 
     @property
     def std(self) -> np.ndarray:
@@ -39,7 +40,8 @@ class MeasuredFeatures:
         idx = [self.names.index(n) for n in names]
         return MeasuredFeatures(names=tuple(names), values=self.values[idx], cov=self.cov[np.ix_(idx, idx)],
                                 x=self.x, y=self.y, nodes=self.nodes, speed_hz=self.speed_hz,
-                                line_snr=self.line_snr)
+                                line_snr=self.line_snr,
+                                static_names=tuple(n for n in self.static_names if n in names))
 
 
 def measure(record, names: Sequence[str] = ALL_FEATURES, *, harmonics: int = 3) -> MeasuredFeatures:
@@ -71,5 +73,18 @@ def measure(record, names: Sequence[str] = ALL_FEATURES, *, harmonics: int = 3) 
     zf, zb = 0.5 * (x + 1j * y), np.conj(0.5 * (x - 1j * y))
     z_std = 0.5 * np.sqrt(np.array([np.trace(fits[2 * k].cov) + np.trace(fits[2 * k + 1].cov) for k in range(2)]))
     snr = np.stack([np.abs(zf) / z_std, np.abs(zb) / z_std], axis=1)
+    static_names: tuple[str, ...] = ()
+    offset = getattr(record, "static_offset", None)
+    if offset is not None:  # the static journal offsets from the rest reading (SPEC §6), metres
+        from .chain import STATIC_FEATURES
+
+        std = np.asarray(record.static_offset_std, dtype=float).reshape(4)
+        static_names = STATIC_FEATURES
+        values = np.concatenate([values, np.asarray(offset, dtype=float).reshape(4)])
+        full = np.zeros((len(names) + 4, len(names) + 4))
+        full[:len(names), :len(names)] = cov
+        full[len(names):, len(names):] = np.diag(std**2)
+        cov = full
+        names = names + STATIC_FEATURES
     return MeasuredFeatures(names=names, values=values, cov=cov, x=x, y=y, nodes=tuple(int(n) for n in record.nodes),
-                            speed_hz=float(record.speed_hz), line_snr=snr)
+                            speed_hz=float(record.speed_hz), line_snr=snr, static_names=static_names)

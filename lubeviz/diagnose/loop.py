@@ -1,0 +1,237 @@
+"""Residual -> candidate effects -> the effect added -> the flows re-identified, with honest outcomes.
+
+1. Residual and its significance: the plain fit (flows only) on every feature the record(s) hold,
+   whitened by noise + the model budget (`identify.budget`); chi^2 at the stated `level` (1 %) decides
+   "explained" or "something is missing".
+2. Trace: every candidate effect in every placement (`Effect.placements`) is fitted jointly with the
+   flows (`Effect.candidate`: its main parameters free, the rest at typical values; phases from three
+   starts), scored by AIC = chi^2 + 2 k (k free parameters: the penalty for what an effect adds) and by
+   whether what it leaves is noise (p > level). Ranked by AIC.
+3. Outcomes, never forced:
+   - the plain model passes: explained, nothing added;
+   - one passing candidate is better than every other by more than `ambiguity_aic` (4, "considerably
+     more support" in Burnham & Anderson's terms): it is named and added;
+   - several pass within `ambiguity_aic`: ambiguous; the set, the flows each implies and the
+     measurements that would separate them are reported, and the best is shown as "added" only
+     provisionally (`ambiguous` non-empty);
+   - none passes: unexplained, with the best candidate and what is left.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import LubevizError
+from ..identify.fit import Fit, fit
+from ..progress import ProgressFn, silent
+
+AMBIGUITY_AIC = 4.0
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One effect in one placement, fitted with the flows."""
+
+    label: str
+    effect: object  # the Effect, its fitted values set
+    fit: Fit | None
+    error: str = ""
+
+    @property
+    def aic(self) -> float:
+        return math.inf if self.fit is None else self.fit.aic
+
+    @property
+    def passes(self) -> bool:
+        return self.fit is not None and bool(self.fit.explained)
+
+    def parameters(self) -> dict:
+        if self.fit is None:
+            return {}
+        out = {}
+        for n, v, s in zip(self.fit.names[2:], self.fit.values[2:], self.fit.std[2:]):
+            p = n.rpartition(".")[2]
+            out[p] = float(v)
+            out[p + "_std"] = float(s)
+        for p, v in self.effect.values().items():
+            out.setdefault(p, v)
+        return out
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    before: Fit
+    candidates: tuple[Candidate, ...]  # ranked, best first
+    added: Candidate | None
+    after: Fit | None
+    explained: bool
+    ambiguous: tuple[str, ...]
+    verdict: str
+    separated_by: tuple[str, ...] = ()
+    seconds: float = 0.0
+    truth: dict = field(default_factory=dict)
+
+    @property
+    def final(self) -> Fit:
+        return self.after if self.after is not None else self.before
+
+
+def _fit_candidate(base_chain, measured, effect, names, budget, level, starts_phase) -> Candidate:
+    cand = effect.candidate()
+    label = cand.label()
+    chains = [c.with_effects((cand,)) for c in base_chain]
+    best = None
+    phases = [p for p in cand.free if p.endswith("phase_deg")]
+    trials = [0.0, 120.0, 240.0] if (phases and starts_phase) else [None]
+    try:
+        for ph in trials:
+            trial = cand if ph is None else cand.copy(**{phases[0]: ph})
+            if ph is not None:
+                trial._free = cand.free
+                chains = [c.with_effects((trial,)) for c in base_chain]
+            res = fit(chains, measured, names=names, budget=budget, level=level, intervals=False)
+            if best is None or res.chi2 < best[1].chi2:
+                best = (trial, res)
+    except LubevizError as exc:
+        return Candidate(label=label, effect=cand, fit=None, error=str(exc))
+    trial, res = best
+    fitted = trial.copy(**{n.rpartition(".")[2]: float(v) for n, v in zip(res.names[2:], res.values[2:])})
+    return Candidate(label=label, effect=fitted, fit=res)
+
+
+def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level: float = 0.01,
+             ambiguity_aic: float = AMBIGUITY_AIC, progress: ProgressFn = silent, truth: dict | None = None,
+             phase_starts: bool = True) -> Diagnosis:
+    """Diagnose a record (or the records of one set: sequences of chains and measured features).
+
+    `chain`: the plain forward chain(s) (no effects); `candidates`: Effect instances or classes to try in
+    every placement (default: the whole library)."""
+    from ..effects import EFFECTS
+
+    t0 = time.perf_counter()
+    chains = list(chain) if isinstance(chain, (list, tuple)) else [chain]
+    meas = list(measured) if isinstance(measured, (list, tuple)) else [measured]
+    before = fit(chains, meas, names=names, budget=budget, level=level)
+    pool = []
+    for c in (EFFECTS.values() if candidates is None else candidates):
+        e = c() if isinstance(c, type) else c
+        pool.extend(e.placements())
+    tried = []
+    for n, e in enumerate(pool, start=1):
+        progress(n, len(pool), e.label())
+        tried.append(_fit_candidate(chains, meas, e, names, budget, level, phase_starts))
+    tried.sort(key=lambda c: c.aic)
+    passing = [c for c in tried if c.passes]
+    if before.explained:
+        added, after, explained, ambiguous = None, None, True, ()
+        verdict = (f"Explained: the model fits the record within noise and model uncertainty "
+                   f"(chi2 = {before.chi2:.1f} for {before.dof} dof); no effect is needed.")
+        separated = ()
+    elif passing:
+        best = passing[0]
+        close = [c for c in passing[1:] if c.aic - best.aic < ambiguity_aic]
+        added = best
+        # the winner added: its parameters free again (started at their fitted values), with intervals
+        after = fit([c.with_effects((best.effect.candidate(),)) for c in chains], meas, names=names,
+                    budget=budget, level=level)
+        explained = bool(after.explained)
+        ambiguous = tuple(c.label for c in close)
+        separated = tuple(dict.fromkeys(type(c.effect).separated_by for c in [best, *close]
+                                         if type(c.effect).separated_by))
+        if close:
+            flows = "; ".join(f"{c.label}: Q1, Q2 = {c.fit.values[0] * 6e7:.0f}, {c.fit.values[1] * 6e7:.0f} ml/min"
+                              for c in [best, *close])
+            verdict = (f"Ambiguous: {len(close) + 1} effects explain the record equally well ({flows}). "
+                       f"To tell them apart: {'; or '.join(separated)}.")
+        else:
+            verdict = (f"{_story(best)} explains the record (chi2 {before.chi2:.1f} -> {after.chi2:.1f} for "
+                       f"{after.dof} dof). Flows re-identified with it: Q1 = {after.values[0] * 6e7:.0f}, "
+                       f"Q2 = {after.values[1] * 6e7:.0f} ml/min (plain model: {before.values[0] * 6e7:.0f}, "
+                       f"{before.values[1] * 6e7:.0f}).")
+    else:
+        best = tried[0] if tried and tried[0].fit is not None else None
+        added, after, explained, ambiguous = None, None, False, ()
+        separated = ()
+        left = "" if best is None else (f" The closest candidate, {best.label}, still leaves chi2 = "
+                                        f"{best.fit.chi2:.1f} for {best.fit.dof} dof.")
+        verdict = ("Unexplained: the model does not fit the record and no effect in the library brings the "
+                   f"residual back to noise (plain chi2 = {before.chi2:.1f} for {before.dof} dof)." + left +
+                   " Do not trust the flows; check the machine and the measurement.")
+    return Diagnosis(before=before, candidates=tuple(tried), added=added, after=after, explained=explained,
+                     ambiguous=ambiguous, verdict=verdict, separated_by=separated,
+                     seconds=time.perf_counter() - t0, truth=dict(truth or {}))
+
+
+def _story(c: Candidate) -> str:
+    p = c.parameters()
+    main = ", ".join(f"{k} = {p[k]:.4g} +/- {p.get(k + '_std', float('nan')):.2g}" for k in c.effect.diagnose_free
+                     if k in p)
+    return f"{c.label} ({main})"
+
+
+def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
+    """The JSON form (SPEC §7 keys: before, effects, added, after, explained, ambiguous, verdict)."""
+    def fit_dict(f: Fit | None):
+        if f is None:
+            return None
+        out = {"q1_mlmin": f.values[0] * 6e7, "q2_mlmin": f.values[1] * 6e7,
+               "q1_std_mlmin": f.std[0] * 6e7, "q2_std_mlmin": f.std[1] * 6e7,
+               "chi2": f.chi2, "dof": f.dof, "p_value": f.p_value, "model_explains_data": f.explained,
+               "aic": f.aic, "features": list(f.features_names),
+               "residual_sigma": f.residual.tolist(),
+               "parameters": {n: {"value": float(v), "std": float(s)} for n, v, s in
+                              zip(f.names[2:], f.values[2:], f.std[2:])},
+               "warnings": list(f.warnings)}
+        for k, n in enumerate(("q1", "q2")):
+            iv = f.intervals.get(n)
+            out[f"{n}_interval_mlmin"] = None if iv is None else [iv[0] * 6e7, None if iv[1] is None else iv[1] * 6e7]
+        return out
+
+    effects = [{"name": c.effect.effect_name, "label": c.label, "parameters": c.parameters(),
+                "residual_after": None if c.fit is None else c.fit.chi2,
+                "evidence": None if c.fit is None else {"aic": c.fit.aic, "delta_aic": c.aic - d.candidates[0].aic,
+                                                         "dof": c.fit.dof, "p_value": c.fit.p_value,
+                                                         "passes": c.passes,
+                                                         "q1_mlmin": c.fit.values[0] * 6e7,
+                                                         "q2_mlmin": c.fit.values[1] * 6e7},
+                "error": c.error or None} for c in d.candidates]
+    out = {"before": fit_dict(d.before), "effects": effects,
+           "added": None if d.added is None else d.added.label,
+           "after": fit_dict(d.after), "explained": d.explained, "ambiguous": list(d.ambiguous),
+           "separated_by": list(d.separated_by), "verdict": d.verdict, "seconds": d.seconds}
+    if file is not None:
+        out["file"] = file
+    if d.truth:
+        out["truth"] = d.truth
+        q = d.truth.get("q_mlmin")
+        if q is not None:
+            out["flow_error_pct_before"] = [100 * (d.before.values[k] * 6e7 / q[k] - 1) for k in range(2)]
+            out["flow_error_pct_after"] = [100 * (d.final.values[k] * 6e7 / q[k] - 1) for k in range(2)]
+    return out
+
+
+def cost_map(chain, measured, *, effect=None, names=None, budget=None, n: int = 60, lower: float = 0.25,
+             upper: float = 2.0):
+    """chi^2 over the Q1 x Q2 box (the other parameters at `effect`'s values), for drawing the search:
+    returns (q1 (n,), q2 (n,), chi2 (n, n)), flows in m^3/s; the same whitening as the fit at Q_T."""
+    from ..identify.fit import _parts, _Problem
+
+    chains = list(chain) if isinstance(chain, (list, tuple)) else [chain]
+    meas = list(measured) if isinstance(measured, (list, tuple)) else [measured]
+    if effect is not None:
+        chains = [c.with_effects((effect.hold(),)) for c in chains]
+    parts, noise = _parts(chains, meas, names)
+    ref = chains[0]
+    start = ref.start()
+    free = np.arange(ref.n_params)
+    prob = _Problem(parts, np.eye(len(noise)), free)
+    prob = _Problem(parts, prob.model_cov(start, budget, noise), free)
+    s = np.linspace(math.sqrt(lower), math.sqrt(upper), n) ** 2
+    q1, q2 = s * ref.q_threshold[0], s * ref.q_threshold[1]
+    pts = np.repeat(start[None, None, :], n, axis=0).repeat(n, axis=1)
+    pts[..., 0], pts[..., 1] = np.meshgrid(q1, q2, indexing="ij")
+    return q1, q2, prob.cost_many(pts)
