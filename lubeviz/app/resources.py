@@ -16,6 +16,7 @@ import numpy as np
 from ..film.equilibrium import flooded_threshold
 from ..film.explore import SupplyFrame, supply_frames
 from ..identify.cache import machine_tables
+from ..identify.chain import DEFAULT_PROBE_ANGLES, ForwardChain, bearing_table_view
 from ..identify.forward import ForwardModel
 from ..model.machine import Machine, load_machine
 from ..progress import ProgressFn, silent
@@ -31,6 +32,8 @@ _MODELS: OrderedDict = OrderedDict()
 _ROTORS: dict = {}
 _THRESHOLDS: dict = {}
 _FRAMES: dict = {}
+_CHAINS: OrderedDict = OrderedDict()
+_VIEWS: dict = {}  # (machine source, speed, bearing index) -> {(viscosity factor, clearance): table}, all chains
 _MEMO: OrderedDict = OrderedDict()  # other deterministic results (Campbell diagrams, maps), least recent dropped  # (machine source, bearing index, speed) -> {q: SupplyFrame}
 
 FRAME_STEP_MLMIN = 10.0  # the Bearing page's supply slider moves on this grid, so frames can be reused
@@ -75,6 +78,58 @@ def forward_model(m: Machine, speed_hz: float, nodes, progress: ProgressFn = sil
             while len(_MODELS) > 16:
                 _MODELS.popitem(last=False)
         return _MODELS[key]
+
+
+def chain(m: Machine, speed_hz: float, nodes, probe_angles_deg=DEFAULT_PROBE_ANGLES,
+          progress: ProgressFn = silent) -> ForwardChain:
+    """The plain forward chain (no effects) at `speed_hz` and planes `nodes`; add effects with
+    `.with_effects(...)`. Every chain of one machine and speed shares its bearings' coefficient views (a
+    viscosity or clearance change is built once per server, whatever the planes)."""
+    angles = tuple(tuple(float(a) for a in p) for p in probe_angles_deg)
+    key = (m.source, round(float(speed_hz), 9), tuple(int(n) for n in nodes), angles)
+    t = tables(m, speed_hz, progress)
+    with _key_lock(("chain",) + key):
+        if key not in _CHAINS:
+            c = ForwardChain(m, speed_hz, key[2], probe_angles_deg=angles, tables=t, rotor=rotor(m))
+            with _LOCK:
+                for k, src in enumerate(c.sources):
+                    # shared views (BearingSource keeps them in `_views`; no public setter yet)
+                    shared = _VIEWS.setdefault((m.source, key[1], k), {})
+                    for vk, table in src._views.items():
+                        shared.setdefault(vk, table)
+                    src._views = shared
+            _CHAINS[key] = c
+            while len(_CHAINS) > 32:
+                _CHAINS.popitem(last=False)
+        return _CHAINS[key]
+
+
+def bearing_changes(effects, k: int, declared_clearance: float) -> tuple[float, float]:
+    """(viscosity factor, clearance m) of bearing k (0-based) after the bearings-stage `effects`, at their
+    current values (the chain's own rule: factors multiply, the last clearance wins)."""
+    factor, clearance = 1.0, declared_clearance
+    for e in effects:
+        if e.stage == "bearings":
+            change = e.bearing_change(k, {}, ())
+            factor = factor * float(change.get("viscosity_factor", 1.0))
+            clearance = float(change.get("clearance", clearance))
+    return factor, clearance
+
+
+def prepare_views(c: ForwardChain, effects, progress: ProgressFn = silent) -> None:
+    """Build (with progress) the coefficient views a chain with `effects` will need: a viscosity or
+    clearance change needs the film's tables at another Sommerfeld number (seconds the first time, then
+    cached on disk and here)."""
+    for k, src in enumerate(c.sources):
+        factor, clearance = bearing_changes(effects, k, src.bearing.clearance)
+        vk = src._key(factor, clearance)
+        with _key_lock(("view", c.machine.source, round(c.speed_hz, 9), k, vk)):
+            if vk in src._views:
+                continue
+            bearing = src.bearing.copy(viscosity=src.bearing.viscosity * factor, clearance=clearance)
+            view = bearing_table_view(bearing, src.load, src.omega, index=k, progress=progress)
+            with _LOCK:
+                src._views.setdefault(vk, view)
 
 
 def bearing_load(m: Machine, index: int) -> np.ndarray:

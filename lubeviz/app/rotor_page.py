@@ -1,8 +1,14 @@
 """Rotor page: the machine to scale, orbits and probe signals at any node, the full spectrum, the mode
 shapes and the Campbell diagram on the film bearings at the chosen supply flows.
 
+Teaching (issue 11): a student switches on an effect of the library (hotter oil, a worn bearing, a
+second unbalance, soft pedestals, probe errors, a bow), set with widgets made from the effect's own
+parameter declarations, and watches the orbit, the full spectrum and the shaft centreline (the static
+journal position in its clearance circle) move against the machine without it.
+
 Display only: responses come from `identify.forward.tabled_response` (bearing K, C from the cached
-coefficient tables), modes from `rotor.modal`, the Campbell diagram from `rotor.stability`.
+coefficient tables) and, with an effect, from `identify.chain.ForwardChain` (the same chain the
+identification fits); modes from `rotor.modal`, the Campbell diagram from `rotor.stability`.
 """
 
 from __future__ import annotations
@@ -14,20 +20,21 @@ import numpy as np
 import panel as pn
 import param
 
+from ..effects import EFFECTS
 from ..identify.forward import tabled_response
 from ..model.machine import Machine
 from ..model.operating import OperatingPoint
 from ..progress import Cancelled
 from ..rotor.elements import DOF_PER_NODE, X, Y
 from ..rotor.modal import modal_analysis
-from ..rotor.directional import forward_backward_ratio, orbit_angle
+from ..rotor.directional import directional_components, forward_backward_ratio, orbit_angle
 from ..signals.noise import add_noise
 from ..signals.spectrum import full_spectrum
 from ..signals.synthesize import steady_signals
 from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
-from .widgets import quantity_slider
+from .widgets import parameter_widgets, quantity_slider
 
 hv.extension("bokeh", logo=False)
 
@@ -46,6 +53,14 @@ Starving a bearing changes its film (see the Bearing page), which moves the mode
 diagram** shows the damped natural frequencies against the shaft speed, the 1X line, the first critical
 speed (where a forward mode crosses 1X) and the **instability threshold** (oil whip) at the chosen
 fractions of Q_T.
+
+**A real machine** is more than its bearings' supply. Switch an effect on (left) and see what it does:
+hotter oil (viscosity factor below 1) thins the film, so the journal sinks and the orbit turns; a worn
+bearing (larger clearance) sits lower in a larger circle; a second unbalance or a bow changes the
+orbit's shape although the bearings have not; soft pedestals eat damping; a turned or miscalibrated
+probe changes only what is *read*. The **shaft centreline** plots show each journal's static position in
+its clearance circle (grey: without the effect) — what condition-monitoring systems call the
+centreline. The identification must tell these apart from a change of supply: the Diagnose page does.
 """
 
 PLOT = dict(tools=["hover"], framewise=True)
@@ -57,6 +72,8 @@ class RotorPage(pn.viewable.Viewer):
     node = param.Integer(6, bounds=(1, 21), doc="Node (paper numbering) whose orbit, signals and spectrum are shown")
     snr_db = param.Number(12.0, bounds=(-5.0, 60.0), doc="Signal-to-noise ratio of the simulated probes (dB)")
     revolutions = param.Integer(5, bounds=(1, 50), doc="Revolutions shown in the time signals")
+    effect_name = param.Selector(default="none", objects=["none", *EFFECTS],
+                                 doc="An effect of a real machine, switched on to see what it does")
 
     def __init__(self, machine: Machine, operating: OperatingPoint, **params):
         super().__init__(**params)
@@ -74,8 +91,13 @@ class RotorPage(pn.viewable.Viewer):
         self._campbell_button = pn.widgets.Button(name="Compute Campbell diagram (film at each speed)",
                                                   button_type="primary", css_classes=["lubeviz-campbell"])
         self._campbell_button.on_click(self._on_campbell)
+        self.effect = None
+        self._effect_story = pn.pane.Markdown("", sizing_mode="stretch_width", styles={"font-size": "0.9em"},
+                                              css_classes=["lubeviz-rotor-effect-story"])
+        self._effect_widgets = pn.Column(sizing_mode="stretch_width")
         self._ready = False
         self._layout = self._build()
+        self.param.watch(self._on_effect, "effect_name")
         self.param.watch(self._refresh, ["node", "snr_db", "revolutions"])
         self.op.param.watch(self._refresh, ["q1", "q2"])
 
@@ -85,7 +107,11 @@ class RotorPage(pn.viewable.Viewer):
                                     "snr_db": {"type": pn.widgets.FloatSlider, "name": "Probe SNR (dB)"},
                                     "revolutions": {"type": pn.widgets.IntSlider,
                                                     "name": "Revolutions shown"}})
-        controls = pn.Column("### Operating point", self._sliders, widgets, self._summary, self.jobs, width=330)
+        effect = pn.Param(self.param, parameters=["effect_name"], show_name=False,
+                          widgets={"effect_name": {"type": pn.widgets.Select, "name": "Effect switched on",
+                                                   "css_classes": ["lubeviz-rotor-effect"]}})
+        controls = pn.Column("### Operating point", self._sliders, widgets, "### A real machine", effect,
+                             self._effect_story, self._effect_widgets, self._summary, self.jobs, width=330)
         pane = dict(sizing_mode="stretch_width", linked_axes=False)
         drawing = pn.pane.HoloViews(hv.DynamicMap(self._drawing, streams=[self._pipe]),
                                     css_classes=["lubeviz-machine"], linked_axes=False)
@@ -95,6 +121,9 @@ class RotorPage(pn.viewable.Viewer):
         spectrum = pn.pane.HoloViews(hv.DynamicMap(self._spectrum, streams=[self._pipe]),
                                      css_classes=["lubeviz-spectrum"], **pane)
         modes = pn.pane.HoloViews(hv.DynamicMap(self._modes, streams=[self._pipe]), **pane)
+        centreline = [pn.pane.HoloViews(hv.DynamicMap(lambda data, k=k: self._centreline(data, k), streams=[self._pipe]),
+                                        linked_axes=False, css_classes=[f"lubeviz-centreline{k + 1}"])
+                      for k in range(2)]
         # Replaced whole when computed (the number of tracked modes varies): no DynamicMap here.
         self._campbell_pane = campbell = pn.pane.HoloViews(self._campbell(None), css_classes=["lubeviz-campbell-plot"],
                                                            **pane)
@@ -103,6 +132,7 @@ class RotorPage(pn.viewable.Viewer):
             pn.Row(controls, pn.Column(drawing, pn.Row(orbit, signals, sizing_mode="stretch_width"),
                                        sizing_mode="stretch_width"), sizing_mode="stretch_width"),
             pn.Row(spectrum, modes, sizing_mode="stretch_width"),
+            pn.Row(*centreline, sizing_mode="stretch_width"),
             pn.Row(pn.Column(self._campbell_button, self.campbell_jobs, campbell, sizing_mode="stretch_width"),
                    sizing_mode="stretch_width"),
             pn.pane.Markdown(EXPLAIN, sizing_mode="stretch_width"),
@@ -130,33 +160,63 @@ class RotorPage(pn.viewable.Viewer):
             for k, (name, t) in enumerate(zip(("q1", "q2"), self._tables))]
         await self._refresh()
 
-    def _state(self) -> dict:
-        """Everything the plots show, for the current flows and node (a few milliseconds)."""
-        m, op = self.machine, self.op
+    def _state(self, node: int, flows, effect, progress=None) -> dict:
+        """Everything the plots show, for the flows, node and effect given (a few milliseconds; seconds
+        the first time an effect changes a bearing's viscosity or clearance: new coefficient views)."""
+        m = self.machine
         rotor = resources.rotor(m)
-        flows = (op.q1, op.q2)
         resp = tabled_response(m, self._tables, flows, rotor=rotor)
         omega = self._tables[0].omega
-        k = self.node - 1
-        x, y = resp.x[k], resp.y[k]
+        k = node - 1
+        x, y = base_x, base_y = resp.x[k], resp.y[k]
+        theta = np.array(flows, dtype=float)
+        planes = resources.chain(m, self.op.speed, rotor.bearing_nodes[:2])  # the bearing centres: statics
+        clearance = [b.clearance for b in m.bearings[:2]]
+        static0 = planes.output(theta).static - np.stack([np.zeros(2), clearance], -1)
+        static, clearance_eff, coefs = static0, clearance, None
+        if effect is not None:
+            effects = (effect,)
+            resources.prepare_views(planes, effects, progress=progress or (lambda *a: None))
+            out = planes.with_effects(effects).output(theta)
+            changes = [resources.bearing_changes(effects, j, clearance[j]) for j in range(2)]
+            clearance_eff = [c for _, c in changes]
+            static = out.static - np.stack([np.zeros(2), clearance_eff], -1)
+            if node in rotor.bearing_nodes[:2]:
+                j = rotor.bearing_nodes.index(node)
+                x, y = out.x[j], out.y[j]
+            else:  # probes are on the measurement planes only: away from them the shaft's own motion
+                shown = effects if effect.stage != "probes" else ()
+                other = resources.chain(m, self.op.speed, (node, rotor.bearing_nodes[1])).with_effects(shown)
+                o = other.output(theta)
+                x, y = o.x[0], o.y[0]
+            coefs = [planes.sources[j].evaluate(theta[j], *changes[j])[:2] for j in range(2)]
         speed = omega / (2 * math.pi)
         fs = 64 * speed  # 64 samples per revolution
         n = int(round(fs / speed * 64))  # 64 revolutions for the spectrum
         t = np.arange(n) / fs
         clean = steady_signals(np.array([x]), np.array([y]), omega, t)
-        noisy = add_noise(clean, self.snr_db, np.random.default_rng(self._rng_seed + self.node))
+        noisy = add_noise(clean, self.snr_db, np.random.default_rng(self._rng_seed + node))
         spec = full_spectrum(noisy[0, 0] + 1j * noisy[0, 1], fs, speed)
-        coefs = [tab.coefficients(q) for tab, q in zip(self._tables, flows)]
+        if coefs is None:
+            coefs = [tab.coefficients(q) for tab, q in zip(self._tables, flows)]
         modal = modal_analysis(rotor, omega, coefs, n_modes=6)
-        return dict(resp=resp, node=self.node, x=x, y=y, t=t, clean=clean[0], noisy=noisy[0], fs=fs,
-                    speed=speed, spectrum=spec, modal=modal, flows=flows,
-                    q_threshold=[tab.q_threshold for tab in self._tables])
+        zf, zb = directional_components(x, y)
+        zf0, zb0 = directional_components(base_x, base_y)
+        return dict(resp=resp, node=node, x=x, y=y, base_x=base_x, base_y=base_y, t=t, clean=clean[0],
+                    noisy=noisy[0], fs=fs, speed=speed, spectrum=spec, modal=modal, flows=flows,
+                    q_threshold=[tab.q_threshold for tab in self._tables], effect=effect,
+                    zf=complex(zf), zb=complex(zb), phi=float(orbit_angle(zf, zb)), zf0=complex(zf0),
+                    zb0=complex(zb0), phi0=float(orbit_angle(zf0, zb0)), static=static, static0=static0,
+                    clearance=clearance, clearance_eff=clearance_eff)
 
     async def _refresh(self, *events):
         if not self._ready or self._tables is None:
             return
         try:
-            state = await self.jobs.run(lambda progress: self._state(), label="response", quiet=True)
+            effect = None if self.effect is None else self.effect.hold()  # a copy: widgets may move meanwhile
+            label = "response" if effect is None else f"response with {effect.label()}"
+            state = await self.jobs.run(self._state, self.node, (self.op.q1, self.op.q2), effect, label=label,
+                                        quiet=True)
         except Cancelled:
             return
         except Exception as exc:  # noqa: BLE001
@@ -165,6 +225,27 @@ class RotorPage(pn.viewable.Viewer):
         self._error.visible = False
         self._pipe.send(state)
         self._summary.object = self._summary_text(state)
+
+    async def _on_effect(self, event):
+        name = event.new
+        if name == "none":
+            self.effect = None
+            self._effect_story.object = ""
+            self._effect_widgets.objects = []
+        else:
+            effect = EFFECTS[name]()
+            if getattr(effect, "clearance_um", 0) is None:  # wear: start 25 % above the declared clearance
+                k = 0 if effect.bearing in (1, "both") else 1
+                effect.clearance_um = round(1.25 * self.machine.bearings[k].clearance * 1e6, 1)
+            if name == "viscosity":
+                effect.factor = 0.7  # oil hotter than declared
+            self.effect = effect
+            self._effect_story.object = effect.describe()
+            self._effect_widgets.objects = parameter_widgets(
+                effect, (*effect.placement, *effect.continuous), end=self.machine.n_nodes,
+                sizing_mode="stretch_width")
+            effect.param.watch(self._refresh, [p for p in effect.param if p != "name"])
+        await self._refresh()
 
     async def _on_campbell(self, event):
         if self._tables is None:
@@ -232,8 +313,15 @@ class RotorPage(pn.viewable.Viewer):
         n_show = min(data["noisy"].shape[1], 64 * self.revolutions)
         noisy = data["noisy"][:, :n_show] * 1e6
         lim = 1.25 * max(np.abs(noisy).max(), 1e-9)
+        bx = (data["base_x"] * np.exp(1j * th)).real * 1e6
+        by = (data["base_y"] * np.exp(1j * th)).real * 1e6
+        effect = data.get("effect")
+        base = hv.Curve((bx, by) if effect is not None else ([], []), *kd, label="without the effect").opts(
+            color="gray", line_dash="dashed", line_width=1.5)
         return (hv.Scatter((noisy[0], noisy[1]), *kd, label="probes (noisy)").opts(color="#9ecae1", size=3)
-                * hv.Curve((x, y), *kd, label="steady orbit").opts(color="#08519c", line_width=2)
+                * base
+                * hv.Curve((x, y), *kd, label="steady orbit" if effect is None else f"with {effect.label()}").opts(
+                    color="#08519c", line_width=2)
                 * hv.Points([(x[0], y[0])], kd, label="t = 0 (keyphasor)").opts(color="black", size=8)).opts(
             title=f"Orbit at node {data['node']} (forward: counter-clockwise)", xlim=(-lim, lim), ylim=(-lim, lim),
             **opts)
@@ -316,10 +404,34 @@ class RotorPage(pn.viewable.Viewer):
             color="green")).opts(**dict(opts, title=f"Campbell diagram at Q/Q_T = {r}: {text}",
                                         ylim=(0.0, 1.5 * speeds[-1])))
 
+    def _centreline(self, data, k: int):
+        """Journal k's static position in its clearance circle (µm, from the bearing centre; Y up)."""
+        kd = ["X (µm)", "Y (µm)"]
+        opts = dict(frame_width=250, frame_height=250, framewise=True, legend_position="right",
+                    title=f"Shaft centreline, bearing {k + 1}")
+        if not data:
+            return (hv.Curve([], *kd) * hv.Points([], kd)).opts(**opts)
+        th = np.linspace(0, 2 * math.pi, 181)
+        c0, c = data["clearance"][k] * 1e6, data["clearance_eff"][k] * 1e6
+        p0, p = data["static0"][k] * 1e6, data["static"][k] * 1e6
+        lim = 1.1 * max(c0, c)
+        layers = [hv.Curve((c0 * np.cos(th), c0 * np.sin(th)), *kd, label="clearance circle").opts(color="black")]
+        effect = data.get("effect")
+        if effect is not None and abs(c - c0) > 1e-9:
+            layers.append(hv.Curve((c * np.cos(th), c * np.sin(th)), *kd, label="with the effect").opts(
+                color="#d62728", line_dash="dashed"))
+        layers.append(hv.Points([tuple(p0)], kd, label="journal" if effect is None else "without the effect").opts(
+            color="gray" if effect is not None else "#08519c", size=10))
+        if effect is not None:
+            layers.append(hv.Curve(([p0[0], p[0]], [p0[1], p[1]]), *kd).opts(color="#d62728", line_width=1))
+            layers.append(hv.Points([tuple(p)], kd, label=f"with {effect.label()}").opts(color="#d62728", size=10))
+        e = math.hypot(*p) / c
+        return hv.Overlay(layers).opts(**dict(opts, title=f"Shaft centreline, bearing {k + 1}: ε = {e:.2f}"),
+                                       xlim=(-lim, lim), ylim=(-lim, lim))
+
     def _summary_text(self, s) -> str:
         spec = s["spectrum"]
-        zf, zb = s["resp"].zf[s["node"] - 1], s["resp"].zb[s["node"] - 1]
-        phi = math.degrees(s["resp"].phi[s["node"] - 1])
+        zf, zb, phi = s["zf"], s["zb"], math.degrees(s["phi"])
         modal = s["modal"]
         q = [f"{q / M3S_PER_MLMIN:.0f} ml/min ({q / qt:.2f} Q_T)" for q, qt in zip(s["flows"], s["q_threshold"])]
         fr = ", ".join(f"{f:.1f}" for f in modal.damped_frequencies_hz[:4])
@@ -333,5 +445,19 @@ class RotorPage(pn.viewable.Viewer):
             f"{abs(spec.line(1.0)) / abs(spec.line(-1.0)):.3f} |",
             f"| orbit angle φ | {phi:.1f}° | |",
             "", f"Damped natural frequencies: {fr} Hz; {'stable' if modal.stable else '**unstable**'} at this speed.",
-        ])
+        ] + self._effect_lines(s))
+
+    @staticmethod
+    def _effect_lines(s) -> list[str]:
+        effect = s["effect"]
+        if effect is None:
+            return []
+        fb0 = abs(s["zf0"]) / abs(s["zb0"])
+        shift = ", ".join(f"bearing {k + 1} ({(a[0] - b[0]) * 1e6:+.1f}, {(a[1] - b[1]) * 1e6:+.1f}) µm"
+                          for k, (a, b) in enumerate(zip(s["static"], s["static0"])))
+        note = " (modes: the bearings as the effect changes them)" if effect.stage == "bearings" else \
+            " (modes: without the effect)"
+        return ["", f"**With {effect.label()}**: fb {fb0:.3f} → {abs(s['zf']) / abs(s['zb']):.3f}, "
+                    f"φ {math.degrees(s['phi0']):.1f}° → {math.degrees(s['phi']):.1f}° "
+                    f"(without the effect → with it); centreline moved {shift}{note}."]
 

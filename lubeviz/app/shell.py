@@ -15,6 +15,7 @@ from ..model.operating import OperatingPoint
 from ..units import M3S_PER_MLMIN
 from . import resources
 from .bearing_page import BearingPage
+from .diagnose_page import DiagnosePage
 from .identify_page import IdentifyPage
 from .jobs import JobPanel
 from .maps_page import MapsPage
@@ -33,11 +34,14 @@ Daniel; see the README).
 * **Rotor**: the machine, its orbits, signals and full spectra, modes and Campbell diagram.
 * **Maps**: how the orbit features depend on Q1 and Q2, and the identification's search on them.
 * **Identify**: upload a measured record and get the flows, their uncertainty and a verdict.
+* **Diagnose**: when the model does not explain a record, find the effect it lacks (hotter oil, a worn
+  bearing, a probe turned …), identify the flows again with it, and download a report for the work order.
 
 Everything shown here is also a Python API and a command (`lubeviz --help`).
 
-**Where to start.** A student: open **Bearing** and drag the supply flow below Q_T. An engineer with a
-record: open **Identify**, upload it (or load the sample) and press *Identify*. A researcher: **Maps**
+**Where to start.** A student: open **Bearing** and drag the supply flow below Q_T, then switch an effect
+on in **Rotor**. An engineer with a record: open **Identify**, upload it (or load the sample) and press
+*Identify*; if the model does not explain it, **Diagnose** it. A researcher: **Maps**
 shows the paper's Figs. 7 and 9–11 for any flows; `lubeviz reproduce` and `lubeviz figures` regenerate its
 tables and figures.
 """
@@ -46,7 +50,8 @@ tables and figures.
 PAGES = {"Bearing": lambda m, op, state: BearingPage(m, op),
          "Rotor": lambda m, op, state: RotorPage(m, op),
          "Maps": lambda m, op, state: MapsPage(m, op, state),
-         "Identify": lambda m, state_op, state: IdentifyPage(m, state)}
+         "Identify": lambda m, state_op, state: IdentifyPage(m, state),
+         "Diagnose": lambda m, op, state: DiagnosePage(m, state)}
 
 
 def build() -> pn.template.FastListTemplate:

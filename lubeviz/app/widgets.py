@@ -54,7 +54,7 @@ def link(obj: param.Parameterized, name: str, widget: pn.widgets.Widget, scale: 
             return
         busy[0] = True
         try:
-            setattr(obj, name, e.new / scale)
+            setattr(obj, name, e.new if scale == 1.0 else e.new / scale)  # keeps ints and choices as they are
         finally:
             busy[0] = False
 
@@ -63,7 +63,7 @@ def link(obj: param.Parameterized, name: str, widget: pn.widgets.Widget, scale: 
             return
         busy[0] = True
         try:
-            widget.value = e.new * scale
+            widget.value = e.new if scale == 1.0 else e.new * scale
         finally:
             busy[0] = False
 
@@ -74,3 +74,60 @@ def link(obj: param.Parameterized, name: str, widget: pn.widgets.Widget, scale: 
 def selector(obj: param.Parameterized, name: str, **kwargs) -> pn.widgets.Widget:
     """A widget for a non-Quantity parameter (Selector, Integer, Boolean), linked to it."""
     return pn.Param(obj.param, parameters=[name], show_name=False, **kwargs)
+
+
+_UNIT_SUFFIXES = {"_um": "µm", "_deg": "°", "_kg": "kg", "_ns_m": "N·s/m", "_n_m": "N/m", "_hz": "Hz",
+                  "_mlmin": "ml/min"}
+
+
+def parameter_widget(obj: param.Parameterized, name: str, *, end: float | None = None,
+                     label: str | None = None, **kwargs) -> pn.widgets.Widget:
+    """A widget for any declared parameter of `obj` (an effect's, a model's), linked both ways.
+
+    Quantity: `quantity_slider`; Selector: a Select of its objects; Integer: an IntSlider over its bounds
+    (`end` closes an open upper bound, e.g. the machine's number of nodes); Number: a slider over its
+    bounds, or a number box when they span more than four decades (a stiffness from 1e5 to 1e12 N/m).
+    The label carries the unit (`obj.unit(name)` when the object has one) and the tooltip the doc.
+    """
+    p = obj.param[name]
+    text, unit = p.label, getattr(p, "unit", "") or ""
+    for suffix, shown in _UNIT_SUFFIXES.items():  # clearance_um -> "Clearance (µm)"
+        if name.endswith(suffix):
+            text, unit = name[:-len(suffix)].replace("_", " ").capitalize(), unit or shown
+    if name in getattr(obj, "continuous", ()) and hasattr(obj, "unit"):  # an effect's own unit
+        unit = obj.unit(name) or unit
+    unit = {"um": "µm", "deg": "°"}.get(unit, unit)
+    title = label or (f"{text} ({unit})" if unit else text)
+    if isinstance(p, Quantity) and p.bounds and None not in p.bounds:
+        w = quantity_slider(obj, name, label=title, **kwargs)
+        w.description = p.doc
+        return w
+    if isinstance(p, param.Selector):
+        options = {str(o): o for o in p.objects}
+        w = pn.widgets.Select(name=title, options=options, value=getattr(obj, name), description=p.doc, **kwargs)
+    elif isinstance(p, param.Integer):
+        lo, hi = p.bounds or (None, None)
+        hi = end if hi is None else hi
+        if lo is None or hi is None:
+            raise ValueError(f"{type(obj).__name__}.{name} has an open bound; give end")
+        w = pn.widgets.IntSlider(name=title, start=int(lo), end=int(hi), value=int(getattr(obj, name)), **kwargs)
+    elif isinstance(p, param.Number):
+        lo, hi = p.bounds or (None, None)
+        value = getattr(obj, name)
+        if lo is not None and hi is not None and (lo <= 0 or hi / lo < 1e4):
+            w = pn.widgets.FloatSlider(name=title, start=float(lo), end=float(hi), step=(hi - lo) / 200.0,
+                                       value=float(lo if value is None else value), **kwargs)
+        else:
+            w = pn.widgets.FloatInput(name=title, start=lo, end=hi, value=value, description=p.doc, **kwargs)
+    elif isinstance(p, param.Boolean):
+        w = pn.widgets.Checkbox(name=title, value=getattr(obj, name), **kwargs)
+    else:
+        raise TypeError(f"{type(obj).__name__}.{name}: no widget for a {type(p).__name__}")
+    link(obj, name, w)
+    w.doc = p.doc
+    return w
+
+
+def parameter_widgets(obj: param.Parameterized, names, **kwargs) -> list[pn.widgets.Widget]:
+    """`parameter_widget` for each of `names` (same keyword arguments)."""
+    return [parameter_widget(obj, n, **kwargs) for n in names]

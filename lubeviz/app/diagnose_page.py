@@ -1,0 +1,391 @@
+"""Diagnose page: the residual loop on a record. Load a record (upload, or simulate a sample that carries
+an effect the plain model lacks), run the diagnosis in the background (one progress step per candidate
+effect, Cancel), and see the residual of every feature before and after, the ranked candidates with
+their evidence, the chi^2 map over Q1 x Q2 with the searches, the verdict, and a report to download.
+
+Display only: the sample comes from `identify.chain.simulate`, the diagnosis from `diagnose.diagnose`,
+its figures from `diagnose.loop.cost_map` and `diagnose.diagnosis_dict`, the report from
+`diagnose.report.report_html`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import math
+
+import holoviews as hv
+import numpy as np
+import pandas as pd
+import panel as pn
+import param
+
+from ..diagnose import diagnose, diagnosis_dict
+from ..diagnose.loop import cost_map
+from ..diagnose.report import report_html
+from ..effects import EFFECTS
+from ..errors import LubevizError
+from ..identify.batch import check_model_speed, model_speed
+from ..identify.chain import simulate
+from ..identify.measured import measure
+from ..identify.newton import lubrication_verdict
+from ..model.machine import Machine
+from ..model.operating import OperatingPoint
+from ..progress import Cancelled
+from ..signals.records import MAX_RECORD_BYTES, read_record_bytes
+from ..units import M3S_PER_MLMIN
+from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
+from .jobs import JobPanel
+from .session import SessionState
+from .widgets import parameter_widgets, quantity_slider
+
+hv.extension("bokeh", logo=False)
+
+UPLOAD_LIMIT_MB = 50
+MAP_POINTS = 50
+SAMPLE_FLOWS_MLMIN = (420.0, 600.0)
+BEFORE, AFTER = "#9a9a9a", "#2c5f8a"
+
+EXPLAIN = """
+### The residual loop
+The plain model knows only the two supply flows. When a record holds something else — oil hotter than
+declared, a worn bearing, a second unbalance, soft pedestals, a probe turned or miscalibrated, a bowed
+shaft — the best flows leave a **residual**: features the model cannot match, in standard deviations
+of the noise and of the model's own uncertainty. The diagnosis tries every effect of the library in
+every placement, fitted together with the flows, ranks them by AIC (χ² + 2 × parameters) and names the
+one that brings the residual back to noise — or says that several do equally well (and which
+measurement would tell them apart), or that none does. The flows are then identified again with it.
+
+**Try it**: pick an effect below, *Simulate a sample with this effect*, then *Diagnose*.
+"""
+
+
+def _verdict_badge(v: str) -> str:
+    return {"starved": "🟠 starved", "normal": "🟢 normal", "over-supplied": "🔵 over-supplied"}.get(v, v)
+
+
+class DiagnosePage(pn.viewable.Viewer):
+    """The Diagnose page of one session."""
+
+    effect_name = param.Selector(default="probe_rotation", objects=list(EFFECTS),
+                                 doc="Effect the simulated sample record carries")
+    snr_db = param.Number(12.0, bounds=(0.0, 40.0), doc="Signal-to-noise ratio of the sample's probes (dB)")
+    seed = param.Integer(1, bounds=(0, 1_000_000), doc="Seed of the sample's noise")
+    candidates = param.ListSelector(default=list(EFFECTS), objects=list(EFFECTS),
+                                    doc="Effects the diagnosis tries (each in every placement)")
+
+    def __init__(self, machine: Machine, state: SessionState, **params):
+        super().__init__(**params)
+        self.machine = machine
+        self.state = state
+        self.sample = OperatingPoint(speed=machine.operating_speed, q1=SAMPLE_FLOWS_MLMIN[0] * M3S_PER_MLMIN,
+                                     q2=SAMPLE_FLOWS_MLMIN[1] * M3S_PER_MLMIN, name="sample")
+        self.effect = None
+        self.jobs = JobPanel()
+        self._record = self._measured = self._truth = None
+        self._result = None
+        self._seen_uploads: set = set()
+        self._upload = pn.widgets.FileDropper(
+            accepted_filetypes=[".csv", ".npz", ".mat", "text/csv", "application/octet-stream"],
+            max_file_size=f"{UPLOAD_LIMIT_MB}MB", multiple=True, sizing_mode="stretch_width",
+            css_classes=["lubeviz-diagnose-upload"])
+        self._upload.param.watch(self._on_upload, "value")
+        self._effect_story = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["lubeviz-effect-story"],
+                                              styles={"font-size": "0.9em"})
+        self._effect_widgets = pn.Column(sizing_mode="stretch_width")
+        self._sample_button = pn.widgets.Button(name="Simulate a sample with this effect", button_type="default",
+                                                css_classes=["lubeviz-diagnose-sample"])
+        self._sample_button.on_click(self._on_sample)
+        self._run = pn.widgets.Button(name="Diagnose", button_type="primary", disabled=True,
+                                      css_classes=["lubeviz-diagnose-run"])
+        self._run.on_click(self._on_run)
+        self._download = pn.widgets.FileDownload(callback=self._report, filename="lubeviz-diagnosis.html",
+                                                 label="Download report (HTML)", button_type="success",
+                                                 disabled=True, css_classes=["lubeviz-download-report"])
+        self._record_info = pn.pane.Markdown("No record yet.", sizing_mode="stretch_width",
+                                             css_classes=["lubeviz-diagnose-record"])
+        self._message = pn.pane.Alert("", alert_type="danger", visible=False, sizing_mode="stretch_width",
+                                      css_classes=["lubeviz-diagnose-error"])
+        self._verdict = pn.pane.Alert("", alert_type="info", visible=False, sizing_mode="stretch_width",
+                                      css_classes=["lubeviz-verdict"])
+        self._flows = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["lubeviz-diagnosis-flows"])
+        self._candidates = pn.Column(sizing_mode="stretch_width")  # a Tabulator made afresh per result
+        self._residuals = pn.pane.HoloViews(self._residual_plot(None), sizing_mode="stretch_width",
+                                            linked_axes=False, css_classes=["lubeviz-residuals"])
+        self._maps = pn.Row(sizing_mode="stretch_width")
+        flows = [quantity_slider(self.sample, n, start=0.3 * 546 * M3S_PER_MLMIN, end=2.0 * 546 * M3S_PER_MLMIN,
+                                 step=M3S_PER_MLMIN, label=f"Sample: true flow Q{k + 1} (ml/min)",
+                                 sizing_mode="stretch_width") for k, n in enumerate(("q1", "q2"))]
+        sample_settings = pn.Param(self.param, parameters=["effect_name", "snr_db", "seed"], show_name=False,
+                                   widgets={"effect_name": {"type": pn.widgets.Select, "name": "Effect in the sample"},
+                                            "snr_db": {"type": pn.widgets.FloatSlider, "name": "Sample SNR (dB)"},
+                                            "seed": {"type": pn.widgets.IntInput, "name": "Noise seed"}})
+        tried = pn.widgets.MultiChoice.from_param(self.param.candidates, name="Candidate effects to try",
+                                                  sizing_mode="stretch_width")
+        controls = pn.Column(
+            "### Record", self._upload, pn.pane.Markdown("**or a sample that carries an effect:**"),
+            sample_settings, self._effect_story, self._effect_widgets, *flows, self._sample_button,
+            self._record_info, "### Diagnosis", tried, self._run, self.jobs, self._download, width=340)
+        results = pn.Column(self._message, self._verdict, self._flows, self._residuals, sizing_mode="stretch_width")
+        self._layout = pn.Column(
+            pn.Row(controls, results, sizing_mode="stretch_width"),
+            pn.pane.Markdown("### Candidate effects, best first", sizing_mode="stretch_width"), self._candidates,
+            self._maps, pn.pane.Markdown(EXPLAIN, sizing_mode="stretch_width"), sizing_mode="stretch_width")
+        self.param.watch(lambda e: self._choose_effect(e.new), "effect_name")
+        self._choose_effect(self.effect_name)
+
+    def __panel__(self):
+        return self._layout
+
+    # --- the sample's effect ----------------------------------------------------------------------------
+    def _choose_effect(self, name: str):
+        effect = EFFECTS[name]()
+        if getattr(effect, "clearance_um", 0) is None:  # wear: start from the declared clearance, worn by 25 %
+            k = 0 if effect.bearing in (1, "both") else 1
+            effect.clearance_um = 1.25 * self.machine.bearings[k].clearance * 1e6
+        self.effect = effect
+        self._effect_story.object = f"**{effect.effect_name}**: {effect.describe()}"
+        self._effect_widgets.objects = parameter_widgets(
+            effect, (*effect.placement, *effect.continuous), end=self.machine.n_nodes, sizing_mode="stretch_width")
+
+    # --- loading ----------------------------------------------------------------------------------------
+    def _show_error(self, text: str):
+        self._message.object = text
+        self._message.visible = True
+
+    def _loaded(self, record, measured, truth):
+        self._record, self._measured, self._truth = record, measured, truth
+        self._result = None
+        self._verdict.visible = False
+        self._flows.object = ""
+        self._candidates.objects = []
+        self._maps.objects = []
+        self._residuals.object = self._residual_plot(None)
+        self._download.disabled = True
+        self._run.disabled = False
+        n = record.displacement.shape[-1]
+        dur = n / record.sample_rate_hz
+        lines = [f"**{record.source}**", "",
+                 f"speed {record.speed_hz:g} Hz; {dur:.2f} s ({dur * record.speed_hz:.0f} revolutions); planes at "
+                 f"nodes {record.nodes[0]} and {record.nodes[1]}"]
+        if truth:
+            q = truth["q_mlmin"]
+            lines += ["", f"Truth: Q1 = {q[0]:.0f}, Q2 = {q[1]:.0f} ml/min" +
+                      (f", effect `{truth['effect']}`" if truth.get("effect") else "")]
+        self._record_info.object = "\n".join(lines)
+
+    async def _on_sample(self, event):
+        effect = self.effect.hold()
+        theta = np.array([self.sample.q1, self.sample.q2])
+        self._message.visible = False
+        try:
+            loaded = await self.jobs.run(self._simulate, effect, theta, self.snr_db, self.seed,
+                                         label=f"simulating a sample with {effect.label()}")
+        except Cancelled:
+            return
+        except LubevizError as exc:
+            self._show_error(f"**No sample.** {exc}")
+            return
+        except Exception as exc:  # noqa: BLE001 - shown on the page
+            self._show_error(f"**No sample**: unexpected problem: {exc}")
+            return
+        self._loaded(*loaded)
+
+    def _simulate(self, effect, theta, snr_db, seed, progress):
+        m = self.machine
+        base = resources.chain(m, m.operating_speed, m.center_nodes, progress=progress)
+        resources.prepare_views(base, (effect,), progress=progress)  # a viscosity/clearance change: new tables
+        record = simulate(base.with_effects((effect,)), theta, snr_db=snr_db, rng=np.random.default_rng(seed),
+                          metadata={"effect": effect.spec()})
+        record = dataclasses.replace(record, source=f"sample with {effect.spec()}")
+        truth = {"q_mlmin": [float(q / M3S_PER_MLMIN) for q in theta], "effect": effect.spec()}
+        return record, measure(record), truth
+
+    async def _on_upload(self, event):
+        files = event.new or {}
+        new = []
+        for name, content in files.items():
+            tag = (name, len(content or b""), hash(content[:4096]) if content else 0)
+            if tag not in self._seen_uploads:
+                self._seen_uploads.add(tag)
+                new.append((name, content))
+        if not new:
+            return
+        filename, content = new[-1]
+        if content is not None and len(content) > MAX_RECORD_BYTES:
+            self._show_error(f"**The record was not loaded.** {filename}: {len(content) / 1e6:.1f} MB is too large")
+            return
+        self._message.visible = False
+        try:
+            loaded = await self.jobs.run(self._read, content, filename, label=f"reading {filename}", quiet=True)
+        except Cancelled:
+            return
+        except LubevizError as exc:
+            self._show_error(f"**The record was not loaded.** {exc}")
+            return
+        except Exception as exc:  # noqa: BLE001 - never let a bad upload stop the app
+            self._show_error(f"**The record was not loaded.** {filename}: unexpected problem: {exc}")
+            return
+        self._loaded(*loaded)
+
+    def _read(self, content, filename, progress):
+        record = read_record_bytes(content, filename, default_nodes=tuple(self.machine.center_nodes))
+        meta = record.metadata
+        truth = None
+        if "synthetic" in meta and "q1_mlmin" in meta and "q2_mlmin" in meta:  # a `lubeviz simulate` record
+            truth = {"q_mlmin": [float(meta["q1_mlmin"]), float(meta["q2_mlmin"])]}
+            if meta.get("effect"):
+                truth["effect"] = meta["effect"]
+        return record, measure(record), truth
+
+    # --- the diagnosis ----------------------------------------------------------------------------------
+    async def _on_run(self, event):
+        if self._record is None:
+            return
+        chosen = list(self.candidates)
+        if not chosen:
+            self._show_error("**No diagnosis**: choose at least one candidate effect.")
+            return
+        self._message.visible = False
+        self._run.disabled = True
+        try:
+            result = await self.jobs.run(self._diagnose, self._record, self._measured, self._truth, chosen,
+                                         label="diagnosis")
+        except Cancelled:
+            return
+        except LubevizError as exc:
+            self._show_error(f"**No diagnosis.** {exc}")
+            return
+        except Exception as exc:  # noqa: BLE001
+            self._show_error(f"**No diagnosis**: unexpected problem: {exc}")
+            return
+        finally:
+            self._run.disabled = False
+        self._result = result
+        self._show(result)
+
+    def _diagnose(self, record, measured, truth, chosen, progress):
+        m = self.machine
+        speed = model_speed(m, record)
+        check_model_speed(m, speed)
+        base = resources.chain(m, speed, record.nodes, record.probe_angles_deg, progress=progress)
+        pool = None if len(chosen) == len(EFFECTS) else [EFFECTS[n] for n in chosen]
+        d = diagnose(base, measured, candidates=pool, progress=progress, truth=truth)
+        maps = [("plain model", cost_map(base, measured, n=MAP_POINTS), d.before)]
+        if d.added is not None:
+            maps.append((f"with {d.added.label}", cost_map(base, measured, effect=d.added.effect, n=MAP_POINTS),
+                         d.after))
+        return dict(diagnosis=d, summary=diagnosis_dict(d), record=record, maps=maps, truth=truth)
+
+    # --- showing ----------------------------------------------------------------------------------------
+    def _show(self, r):
+        d, s = r["diagnosis"], r["summary"]
+        kind = "success" if d.explained and not d.ambiguous else ("warning" if d.explained or d.ambiguous else "danger")
+        added = f"**Effect added: {d.added.label}.** " if d.added is not None else (
+            "**No effect needed.** " if d.explained else "**No effect explains the record.** ")
+        self._verdict.alert_type = kind
+        self._verdict.object = added + d.verdict
+        self._verdict.visible = True
+        self._flows.object = self._flows_text(d, s, r["truth"])
+        self._residuals.object = self._residual_plot(d)
+        self._candidates.objects = [pn.widgets.Tabulator(self._candidates_table(d, s), disabled=True, show_index=False,
+                                                         sizing_mode="stretch_width",
+                                                         css_classes=["lubeviz-candidates"])]
+        self._maps.objects = [pn.pane.HoloViews(self._map_plot(title, grid, fit, r["truth"]), linked_axes=False,
+                                                css_classes=["lubeviz-diagnose-map"]) for title, grid, fit in r["maps"]]
+        self._download.disabled = False
+
+    def _flows_text(self, d, s, truth) -> str:
+        qt = d.before.q_threshold
+        cols = [("plain model", d.before, s["before"])] + ([("with " + d.added.label, d.after, s["after"])]
+                                                          if d.after is not None else [])
+        head = "| bearing | " + " | ".join(f"{name}: flow (95 % interval) | verdict" for name, _, _ in cols) + \
+               (" | truth |" if truth else " |")
+        lines = ["### Supply flows before and after", head,
+                 "|---" * (1 + 2 * len(cols) + (1 if truth else 0)) + "|"]
+        for k in range(2):
+            cells = [f"{k + 1} (node {self.machine.bearings[k].node})"]
+            for name, f, fd in cols:
+                iv = fd[f"q{k + 1}_interval_mlmin"]
+                iv_text = "" if iv is None else f" ({iv[0]:.0f}–{'∞' if iv[1] is None else f'{iv[1]:.0f}'})"
+                cells.append(f"**Q{k + 1} = {fd[f'q{k + 1}_mlmin']:.0f} ± {fd[f'q{k + 1}_std_mlmin']:.0f} ml/min**"
+                             f"{iv_text}")
+                cells.append(_verdict_badge(lubrication_verdict(f.values[k], qt[k])))
+            if truth:
+                cells.append(f"{truth['q_mlmin'][k]:.0f} ml/min")
+            lines.append("| " + " | ".join(cells) + " |")
+        lines.append("")
+        lines.append("; ".join(f"{name}: χ² = {fd['chi2']:.1f} for {fd['dof']} dof (p = {fd['p_value']:.2g})"
+                               for name, _, fd in cols) + f". Q_T = {qt[0] / M3S_PER_MLMIN:.0f} / "
+                     f"{qt[1] / M3S_PER_MLMIN:.0f} ml/min. Diagnosis in {d.seconds:.1f} s.")
+        if d.ambiguous:
+            lines += ["", f"**Look-alikes**: {', '.join(d.ambiguous)} fit as well. To tell them apart: "
+                          f"{'; or '.join(d.separated_by)}."]
+        elif d.separated_by:
+            lines += ["", f"To confirm it: {'; or '.join(d.separated_by)}."]
+        return "\n".join(lines)
+
+    @staticmethod
+    def _candidates_table(d, s) -> pd.DataFrame:
+        rows = []
+        for i, (c, e) in enumerate(zip(d.candidates, s["effects"]), start=1):
+            ev = e["evidence"] or {}
+            params = e["parameters"]
+            fitted = ", ".join(f"{k} = {params[k]:.4g} ± {params[k + '_std']:.2g}" for k in params
+                               if k + "_std" in params)
+            mark = "added" if d.added is not None and c.label == d.added.label else (
+                "as good" if c.label in d.ambiguous else "")
+            rows.append({"rank": i, "effect": c.label, "": mark, "ΔAIC": round(ev.get("delta_aic", math.nan), 1),
+                         "χ²/dof": round(c.fit.chi2 / max(c.fit.dof, 1), 2) if c.fit is not None else math.nan,
+                         "passes": "yes" if c.passes else "no", "fitted parameters ± 1σ": fitted or e["error"] or "",
+                         "Q1 (ml/min)": round(ev.get("q1_mlmin", math.nan)),
+                         "Q2 (ml/min)": round(ev.get("q2_mlmin", math.nan))})
+        return pd.DataFrame(rows)
+
+    def _residual_plot(self, d):
+        kd, vd = ["feature", "fit"], "residual (σ)"
+        opts = dict(responsive=True, min_height=300, show_legend=True)
+        band = hv.HSpan(-2.0, 2.0).opts(color="#9fd49f", alpha=0.35)
+        if d is None:
+            return (hv.Bars([], kd, vd).opts(ylim=(-3.0, 3.0)) * band).opts(
+                title="Residual of each feature (run a diagnosis)", **opts)
+        names = list(d.before.features_names)
+        rows = [(n, "plain", float(v)) for n, v in zip(names, d.before.residual)]  # short: each bar is labelled
+        title = "Residual of each feature (σ), plain model"
+        if d.after is not None:
+            after = dict(zip(d.after.features_names, d.after.residual))
+            rows += [(n, "with effect", float(after.get(n, np.nan))) for n in names]
+            title = f"Residual of each feature (σ), before and after {d.added.label}"
+        top = max(3.0, 1.1 * float(np.nanmax(np.abs([r[2] for r in rows]))))  # the ±2σ band always shows
+        bars = hv.Bars(rows, kd, vd).opts(color="fit", cmap=[BEFORE, AFTER], xlabel="", ylabel=vd, tools=["hover"],
+                                          multi_level=False, framewise=True, ylim=(-top, top))
+        return (bars * band).opts(title=title, **opts)
+
+    def _map_plot(self, title, grid, fit, truth):
+        q1, q2, chi2 = grid
+        a, b = q1 / M3S_PER_MLMIN, q2 / M3S_PER_MLMIN
+        kd = ["Q1 (ml/min)", "Q2 (ml/min)"]
+        z = np.log10(chi2 - np.nanmin(chi2) + 1.0).T
+        mesh = hv.QuadMesh((a, b, z), kd, "log10(χ² − min + 1)").opts(cmap="viridis_r", colorbar=True, tools=["hover"])
+        layers = [mesh]
+        for path in fit.paths:
+            p = np.asarray(path) / M3S_PER_MLMIN
+            layers.append(hv.Curve((p[:, 0], p[:, 1]), *kd).opts(color="white", line_width=1.5, alpha=0.7))
+        answer = fit.values[:2] / M3S_PER_MLMIN
+        layers.append(hv.Points([tuple(answer)], kd, label="fit").opts(color="white", size=10, marker="circle",
+                                                                     line_color="black"))
+        if truth:
+            layers.append(hv.Points([tuple(truth["q_mlmin"])], kd, label="truth").opts(color="red", size=12,
+                                                                                     marker="x", line_width=3))
+        return hv.Overlay(layers).opts(title=f"χ² over Q1 × Q2, {title}", frame_width=330, frame_height=330,
+                                       legend_position="top_right", framewise=True)
+
+    def _report(self):
+        r = self._result
+        if r is None:
+            return io.StringIO("")
+        maps = [(title, grid, [(title, fit.paths[-1], BEFORE if fit is r["diagnosis"].before else AFTER)]
+                 if fit.paths else []) for title, grid, fit in r["maps"]]
+        html = report_html(r["diagnosis"], record=r["record"], machine_name=self.machine.name,
+                           bearing_nodes=[b.node for b in self.machine.bearings], maps=maps)
+        return io.StringIO(html)

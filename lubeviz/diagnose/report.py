@@ -1,0 +1,486 @@
+"""The diagnosis as one self-contained HTML file, to attach to a work order.
+
+No network is needed to open it and no JavaScript runs in it: the text is plain HTML with its own
+stylesheet and the figures are inline SVG drawn here with plain Python (this module imports neither
+bokeh nor matplotlib, so the CLI writes the report on a base install). Contents, in the order an
+engineer reads them: what to do (the verdict and one action per bearing), the flows before and after
+the residual loop with their 95 % intervals and lubrication verdicts, the residual of every feature in
+sigma before and after (a bar chart with the +/-2 sigma band), the ranked candidate effects with their
+evidence, what would separate look-alikes, the record, the model's uncertainty budget, the date and the
+lubeviz version.
+
+    html = report_html(diagnosis, record=record, machine_name="paper machine")
+    write_report(diagnosis, "work-order-1234.html", record=record)
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import math
+import re
+from html import escape
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from .. import __version__
+from ..identify.budget import ModelBudget
+from ..identify.newton import lubrication_verdict
+from ..model.quantity import Quantity
+from ..units import M3S_PER_MLMIN
+
+BEFORE_COLOUR = "#9a9a9a"
+AFTER_COLOUR = "#2c5f8a"
+VERDICT_COLOURS = {"starved": "#f6d7b0", "normal": "#cfe8cf", "over-supplied": "#cfe0f3"}
+RESIDUAL_CLIP = 30.0  # sigma: taller bars are cut and labelled with their value
+
+CSS = """
+body{font-family:-apple-system,Segoe UI,Helvetica,Arial,sans-serif;margin:24px auto;max-width:980px;color:#222;
+     line-height:1.4}
+h1{font-size:1.5em;margin-bottom:0}h2{font-size:1.15em;border-bottom:1px solid #ccc;padding-bottom:2px;
+     margin-top:1.6em}
+.sub{color:#666;margin-top:2px}
+.verdict{border-left:6px solid #2c5f8a;background:#f3f7fb;padding:10px 14px;margin:12px 0}
+.verdict.bad{border-color:#b03a2e;background:#fbf1f0}.verdict.warn{border-color:#d68910;background:#fdf6ea}
+table{border-collapse:collapse;margin:8px 0;font-size:0.92em}
+th,td{border:1px solid #ccc;padding:4px 8px;text-align:left;vertical-align:top}th{background:#f0f0f0}
+td.num{text-align:right;font-variant-numeric:tabular-nums}
+.starved{background:#f6d7b0}.normal{background:#cfe8cf}.over-supplied{background:#cfe0f3}
+.small{font-size:0.85em;color:#555}ul.actions li{margin:4px 0}
+svg{display:block;margin:8px 0;max-width:100%;height:auto}
+@media print{body{margin:0}}
+"""
+
+
+# --- numbers as text ---------------------------------------------------------------------------------
+
+def _mlmin(q) -> float:
+    return float(q) / M3S_PER_MLMIN
+
+
+def _flow(fit, k: int) -> str:
+    return f"{_mlmin(fit.values[k]):.0f} ± {_mlmin(fit.std[k]):.0f} ml/min"
+
+
+def _interval(fit, k: int) -> str:
+    iv = fit.intervals.get(("q1", "q2")[k]) if fit.intervals else None
+    if iv is None:
+        return "–"
+    lo, hi = iv
+    return f"[{_mlmin(lo):.0f}, {'unbounded' if hi is None else f'{_mlmin(hi):.0f}'}]"
+
+
+def _q_threshold(d) -> np.ndarray | None:
+    qt = getattr(d.before, "q_threshold", None)
+    return None if qt is None else np.asarray(qt, dtype=float)
+
+
+def _fmt(v) -> str:
+    if isinstance(v, (float, np.floating)):
+        return f"{v:.4g}"
+    return str(v)
+
+
+def _effect_parameters(c) -> str:
+    """'angle_deg = 4.99 ± 0.32 deg; plane = 1': fitted ones with their std, then the held ones."""
+    if c.fit is None:
+        return escape(c.error or "fit failed")
+    p = c.parameters()
+    fitted = [n.rpartition(".")[2] for n in c.fit.names[2:]]
+    parts = []
+    for n in fitted:
+        unit = c.effect.unit(n) if hasattr(c.effect, "unit") else ""
+        parts.append(f"<b>{escape(n)}</b> = {p[n]:.4g} ± {p.get(n + '_std', float('nan')):.2g} {escape(unit)}")
+    held = [f"{escape(n)} = {escape(_fmt(v))}" for n, v in p.items()
+            if not n.endswith("_std") and n not in fitted]
+    return "; ".join(parts) + (f" <span class='small'>(held: {', '.join(held)})</span>" if held else "")
+
+
+def _story(effect) -> str:
+    """The effect's physical story (first sentence of its description) with its parameter names, quoted
+    as `name` in the docstring, replaced by the fitted values: 'The probe pair of plane 1 sits 4.99 ...'."""
+    first = effect.describe().split(". ")[0].rstrip(".") + "."
+
+    def value(m):
+        name = m.group(1)
+        if name not in effect.param:
+            return name
+        v = getattr(effect, name)
+        if name in effect.placement:  # "plane 1", but "Bearing 1" where the text already names it
+            before = m.string[:m.start()].rstrip().rsplit(" ", 1)[-1].lower()
+            return str(v) if before == name else f"{name} {v}"
+        unit = effect.unit(name) if hasattr(effect, "unit") else ""
+        return f"{_fmt(v)} {unit}".strip() if v is not None else f"(declared {name})"
+
+    return re.sub(r"`(\w+)`", value, first)
+
+
+# --- what to do --------------------------------------------------------------------------------------
+
+def _outcome(d) -> str:
+    if d.explained and d.added is None:
+        return "explained"
+    if d.added is not None and d.ambiguous:
+        return "ambiguous"
+    if d.added is not None:
+        return "effect added" if d.explained else "effect added, still not explained"
+    return "unexplained"
+
+
+def _actions(d, nodes) -> list[str]:
+    """One sentence per thing to do, in the order to do them (HTML, escaped)."""
+    out = []
+    outcome = _outcome(d)
+    if outcome in ("unexplained", "effect added, still not explained"):
+        out.append("<b>Do not act on the flows alone</b>: the model does not explain this record, even with "
+                   "the best effect of the library. Check the machine (alignment, rub, looseness) and the "
+                   "measurement (probe wiring, calibration, a steady speed) and record again.")
+    if outcome == "ambiguous":
+        out.append(f"<b>Several explanations fit equally well</b> ({escape(', '.join((d.added.label,) + d.ambiguous))}). "
+                   "Before acting on them, take one of the measurements that separate them (listed under “Telling "
+                   "look-alikes apart”). The flows below are those of the best-ranked, provisionally.")
+    elif d.added is not None:
+        story = escape(_story(d.added.effect))
+        sep = escape(type(d.added.effect).separated_by)
+        out.append(f"<b>The model needed {escape(d.added.label)}</b>: {story} Confirm it"
+                   + (f" by {sep}." if sep else "."))
+    qt = _q_threshold(d)
+    if qt is not None and outcome != "unexplained":
+        f = d.final
+        for k in range(2):
+            q = f.values[k]
+            v = lubrication_verdict(q, qt[k])
+            where = f"Bearing {k + 1}" + (f" (node {nodes[k]})" if nodes else "")
+            ratio = f"{q / qt[k]:.0%} of its flooded threshold Q_T = {_mlmin(qt[k]):.0f} ml/min"
+            if v == "starved":
+                out.append(f"<b>{where} is starved</b>: {_mlmin(q):.0f} ml/min, {ratio}. Check its oil supply "
+                           "(filter, orifice, supply pressure and line) and restore the flow to at least Q_T.")
+            elif v == "over-supplied":
+                out.append(f"{where} receives more oil than the film needs: {_mlmin(q):.0f} ml/min, {ratio}. No "
+                           "lubrication risk; the supply could be reduced if oil or power is a concern.")
+            else:
+                out.append(f"{where} is fed normally: {_mlmin(q):.0f} ml/min, {ratio}. Nothing to do.")
+    return out
+
+
+# --- SVG figures -------------------------------------------------------------------------------------
+
+def _svg(width: int, height: int, body: list[str], label: str) -> str:
+    return (f'<svg width="{width}" height="{height}" '
+            f'viewBox="0 0 {width} {height}" role="img" aria-label="{escape(label)}" '
+            f'font-family="Helvetica,Arial,sans-serif" font-size="11">' + "".join(body) + "</svg>")
+
+
+def _text(x, y, s, anchor="middle", size=11, colour="#222", extra="") -> str:
+    return (f'<text x="{x:.1f}" y="{y:.1f}" text-anchor="{anchor}" font-size="{size}" fill="{colour}" {extra}>'
+            f"{escape(str(s))}</text>")
+
+
+def residual_svg(names: Sequence[str], before: np.ndarray, after: np.ndarray | None = None, *,
+                 width: int = 760, height: int = 300) -> str:
+    """Bars of each feature's whitened residual (sigma) before (grey) and after (blue) the effect, with
+    the +/-2 sigma band: what a fit within noise leaves is inside the band."""
+    names = list(names)
+    before = np.asarray(before, dtype=float)
+    after = None if after is None else np.asarray(after, dtype=float)
+    vals = np.abs(np.concatenate([before, after if after is not None else []]))
+    top = min(max(3.0, 1.15 * float(np.nanmax(vals)) if vals.size else 3.0), RESIDUAL_CLIP)
+    left, right, up, down = 50, 10, 30, 50
+    pw, ph = width - left - right, height - up - down
+
+    def y(v):
+        return up + ph / 2 - max(-top, min(top, v)) / top * ph / 2
+
+    body = [f'<rect x="{left}" y="{y(2):.1f}" width="{pw}" height="{y(-2) - y(2):.1f}" fill="#e9f3e9"/>',
+            _text(left + pw - 4, y(2) - 3, "±2σ: within noise", anchor="end", size=10, colour="#3a7a3a")]
+    step = 1 if top <= 6 else (2 if top <= 12 else (5 if top <= 30 else 10))
+    for t in np.arange(-math.floor(top / step) * step, top + 1e-9, step):
+        body.append(f'<line x1="{left}" x2="{left + pw}" y1="{y(t):.1f}" y2="{y(t):.1f}" stroke="#ddd"/>')
+        body.append(_text(left - 5, y(t) + 4, f"{t:g}", anchor="end", size=10))
+    body.append(f'<line x1="{left}" x2="{left + pw}" y1="{y(0):.1f}" y2="{y(0):.1f}" stroke="#555"/>')
+    body.append(_text(14, up + ph / 2, "residual (σ)", extra=f'transform="rotate(-90 14 {up + ph / 2:.1f})"'))
+    n = max(len(names), 1)
+    slot = pw / n
+    series = [("before", before, BEFORE_COLOUR)] + ([("after", after, AFTER_COLOUR)] if after is not None else [])
+    bw = slot * 0.7 / len(series)
+    for i, name in enumerate(names):
+        x0 = left + i * slot + slot * 0.15
+        for j, (which, v, colour) in enumerate(series):
+            r = float(v[i])
+            ya, yb = sorted((y(0), y(r)))
+            x = x0 + j * bw
+            body.append(f'<rect x="{x:.1f}" y="{ya:.1f}" width="{bw - 1:.1f}" height="{max(yb - ya, 0.5):.1f}" '
+                        f'fill="{colour}"><title>{escape(name)} {which}: {r:+.2f} σ</title></rect>')
+            if abs(r) > 2:
+                ty = (ya - 3) if r > 0 else (yb + 11)
+                body.append(_text(x + bw / 2, ty, f"{r:+.1f}", size=9, colour=colour))
+        body.append(_text(left + (i + 0.5) * slot, up + ph + 16, name))
+    lx = left
+    for which, _, colour in series:
+        body.append(f'<rect x="{lx}" y="8" width="12" height="12" fill="{colour}"/>')
+        body.append(_text(lx + 16, 18, f"{which} the effect" if after is not None else "plain fit", anchor="start"))
+        lx += 140
+    if top >= RESIDUAL_CLIP:
+        body.append(_text(left + pw, 18, f"bars cut at ±{RESIDUAL_CLIP:g} σ", anchor="end", size=10, colour="#777"))
+    return _svg(width, height, body, "residual of each feature in sigma, before and after the effect")
+
+
+def flows_svg(before, after, q_threshold, *, truth_mlmin=None, width: int = 760, height: int = 190) -> str:
+    """Each bearing's flow on a Q/Q_T axis (0.25-2) shaded starved / normal / over-supplied: the plain
+    fit (grey) and the fit with the effect (blue), each with its 95 % interval; the truth when known."""
+    left, right = 90, 20
+    pw = width - left - right
+    lo, hi = 0.25, 2.0
+
+    def x(r):
+        return left + (min(max(r, lo), hi) - lo) / (hi - lo) * pw
+
+    body = []
+    rows = [(k, 45 + 70 * k) for k in range(2)]
+    for k, yc in rows:
+        for a, b, v in ((lo, 0.95, "starved"), (0.95, 1.05, "normal"), (1.05, hi, "over-supplied")):
+            body.append(f'<rect x="{x(a):.1f}" y="{yc - 22}" width="{x(b) - x(a):.1f}" height="44" '
+                        f'fill="{VERDICT_COLOURS[v]}"/>')
+        body.append(_text(left - 8, yc + 4, f"bearing {k + 1}", anchor="end"))
+        fits = [("plain fit", before, BEFORE_COLOUR, -9)] + ([("with the effect", after, AFTER_COLOUR, 9)]
+                                                             if after is not None else [])
+        for which, f, colour, dy in fits:
+            r = f.values[k] / q_threshold[k]
+            iv = f.intervals.get(("q1", "q2")[k]) if f.intervals else None
+            if iv is not None:
+                a = iv[0] / q_threshold[k]
+                b = hi if iv[1] is None else iv[1] / q_threshold[k]
+                body.append(f'<line x1="{x(a):.1f}" x2="{x(b):.1f}" y1="{yc + dy}" y2="{yc + dy}" '
+                            f'stroke="{colour}" stroke-width="2"/>')
+                if iv[1] is None:
+                    body.append(f'<path d="M{x(hi) - 6:.1f},{yc + dy - 4} L{x(hi):.1f},{yc + dy} '
+                                f'L{x(hi) - 6:.1f},{yc + dy + 4}" fill="none" stroke="{colour}" stroke-width="2"/>')
+            body.append(f'<circle cx="{x(r):.1f}" cy="{yc + dy}" r="5" fill="{colour}">'
+                        f"<title>bearing {k + 1}, {which}: {_mlmin(f.values[k]):.0f} ml/min ({r:.2f} Q_T)"
+                        "</title></circle>")
+        if truth_mlmin is not None:
+            r = _mlmin_to_ratio(truth_mlmin[k], q_threshold[k])
+            body.append(f'<path d="M{x(r):.1f},{yc - 20} l5,8 l-5,8 l-5,-8 z" fill="#111">'
+                        f"<title>true flow {truth_mlmin[k]:.0f} ml/min</title></path>")
+    base = rows[-1][1] + 30
+    body.append(f'<line x1="{left}" x2="{left + pw}" y1="{base}" y2="{base}" stroke="#555"/>')
+    for r in (0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0):
+        body.append(f'<line x1="{x(r):.1f}" x2="{x(r):.1f}" y1="{base}" y2="{base + 4}" stroke="#555"/>')
+        body.append(_text(x(r), base + 15, f"{r:g}"))
+    body.append(_text(left + pw / 2, base + 30, "supply flow / flooded threshold Q_T"))
+    for j, (v, a, b) in enumerate((("starved", lo, 0.95), ("normal", 0.95, 1.05), ("over-supplied", 1.05, hi))):
+        body.append(_text((x(a) + x(b)) / 2, 14, v, size=10, colour="#555"))
+    legend = [("plain fit", BEFORE_COLOUR), ("with the effect", AFTER_COLOUR)] if after is not None else \
+        [("plain fit", BEFORE_COLOUR)]
+    lx = left
+    for label, colour in legend:
+        body.append(f'<circle cx="{lx + 5}" cy="{height - 8}" r="5" fill="{colour}"/>')
+        body.append(_text(lx + 14, height - 4, label + " (95 % interval)", anchor="start", size=10))
+        lx += 190
+    if truth_mlmin is not None:
+        body.append(_text(lx, height - 4, "◆ true flow", anchor="start", size=10))
+    return _svg(width, height + 0, body, "supply flows relative to the flooded threshold, before and after")
+
+
+def _mlmin_to_ratio(q_mlmin: float, q_threshold: float) -> float:
+    return float(q_mlmin) * M3S_PER_MLMIN / q_threshold
+
+
+def map_svg(q1, q2, chi2, *, paths=(), truth_mlmin=None, title: str = "", width: int = 380) -> str:
+    """chi^2 over Q1 x Q2 (ml/min; the darker the better fit) with search paths [(label, (n, 2) m^3/s, colour)]."""
+    q1, q2 = np.asarray(q1) / M3S_PER_MLMIN, np.asarray(q2) / M3S_PER_MLMIN
+    c = np.log10(np.asarray(chi2, dtype=float) - np.nanmin(chi2) + 1.0)
+    c = c / max(float(np.nanmax(c)), 1e-12)
+    left, up, size = 55, 24, width - 75
+    e1 = np.concatenate([[q1[0]], (q1[1:] + q1[:-1]) / 2, [q1[-1]]])
+    e2 = np.concatenate([[q2[0]], (q2[1:] + q2[:-1]) / 2, [q2[-1]]])
+
+    def px(v):
+        return left + (v - q1[0]) / (q1[-1] - q1[0]) * size
+
+    def py(v):
+        return up + size - (v - q2[0]) / (q2[-1] - q2[0]) * size
+
+    body = [_text(left + size / 2, 15, title)] if title else []
+    for i in range(len(q1)):
+        for j in range(len(q2)):
+            g = int(40 + 215 * c[i, j])
+            body.append(f'<rect x="{px(e1[i]):.1f}" y="{py(e2[j + 1]):.1f}" width="{px(e1[i + 1]) - px(e1[i]) + 0.3:.1f}" '
+                        f'height="{py(e2[j]) - py(e2[j + 1]) + 0.3:.1f}" fill="rgb({g},{g},{min(255, g + 25)})"/>')
+    for label, path, colour in paths:
+        p = np.asarray(path) / M3S_PER_MLMIN
+        pts = " ".join(f"{px(a):.1f},{py(b):.1f}" for a, b in p)
+        body.append(f'<polyline points="{pts}" fill="none" stroke="{colour}" stroke-width="2"/>')
+        body.append(f'<circle cx="{px(p[-1, 0]):.1f}" cy="{py(p[-1, 1]):.1f}" r="4" fill="{colour}">'
+                    f"<title>{escape(label)}: {p[-1, 0]:.0f}, {p[-1, 1]:.0f} ml/min</title></circle>")
+    if truth_mlmin is not None:
+        a, b = px(truth_mlmin[0]), py(truth_mlmin[1])
+        body.append(f'<path d="M{a - 5:.1f},{b - 5:.1f} L{a + 5:.1f},{b + 5:.1f} M{a - 5:.1f},{b + 5:.1f} '
+                    f'L{a + 5:.1f},{b - 5:.1f}" stroke="#c0392b" stroke-width="2.5"><title>true flows</title></path>')
+    body.append(f'<rect x="{left}" y="{up}" width="{size}" height="{size}" fill="none" stroke="#555"/>')
+    for v in np.linspace(q1[0], q1[-1], 5):
+        body.append(_text(px(v), up + size + 14, f"{v:.0f}", size=10))
+    for v in np.linspace(q2[0], q2[-1], 5):
+        body.append(_text(left - 4, py(v) + 4, f"{v:.0f}", anchor="end", size=10))
+    body.append(_text(left + size / 2, up + size + 30, "Q1 (ml/min)"))
+    body.append(_text(12, up + size / 2, "Q2 (ml/min)", extra=f'transform="rotate(-90 12 {up + size / 2:.1f})"'))
+    return _svg(width, up + size + 40, body, title or "chi-square map over Q1 and Q2")
+
+
+# --- the document ------------------------------------------------------------------------------------
+
+def _flows_table(d, nodes, truth) -> str:
+    qt = _q_threshold(d)
+    head = ["bearing", "plain fit", "95 % interval", "verdict"]
+    if d.after is not None:
+        head += ["with the effect", "95 % interval", "verdict"]
+    if truth is not None:
+        head.append("true flow")
+    rows = []
+    for k in range(2):
+        cells = [f"{k + 1}" + (f" (node {nodes[k]})" if nodes else "")]
+        for f in [d.before] + ([d.after] if d.after is not None else []):
+            v = lubrication_verdict(f.values[k], qt[k]) if qt is not None else "–"
+            cells += [f"<td class='num'>{_flow(f, k)}</td>", f"<td class='num'>{_interval(f, k)}</td>",
+                      f"<td class='{v}'>{v}" + (f" ({f.values[k] / qt[k]:.2f} Q_T)" if qt is not None else "") + "</td>"]
+        if truth is not None:
+            cells.append(f"<td class='num'>{truth[k]:.0f} ml/min</td>")
+        rows.append("<tr><td>" + cells[0] + "</td>" + "".join(cells[1:]) + "</tr>")
+    stats = [("plain fit", d.before)] + ([("with the effect", d.after)] if d.after is not None else [])
+    foot = "; ".join(f"{w}: χ² = {f.chi2:.1f} for {f.dof} dof, p = {f.p_value:.3g}"
+                     + (" (explains the record)" if f.explained else " (does <b>not</b> explain the record)")
+                     for w, f in stats)
+    qt_text = "" if qt is None else (f" Flooded thresholds of the declared bearings: Q_T = {_mlmin(qt[0]):.0f} and "
+                                     f"{_mlmin(qt[1]):.0f} ml/min; starved below 0.95 Q_T, over-supplied above 1.05 Q_T.")
+    return ("<table><tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr>" + "".join(rows) + "</table>"
+            + f"<p class='small'>{foot}.{qt_text} “unbounded”: the record does not limit the flow from above "
+              "(a flooded bearing changes little as more oil arrives).</p>")
+
+
+def _candidates_table(d) -> str:
+    if not d.candidates:
+        return "<p>No candidate effect was tried.</p>"
+    best = d.candidates[0].aic
+    rows = [f"<tr><td>–</td><td>plain model (no effect)</td><td class='num'>{d.before.aic - best:+.1f}</td>"
+            f"<td class='num'>{d.before.chi2 / max(d.before.dof, 1):.2f}</td><td>{'yes' if d.before.explained else 'no'}"
+            f"</td><td>–</td><td class='num'>{_mlmin(d.before.values[0]):.0f}, {_mlmin(d.before.values[1]):.0f}</td></tr>"]
+    added = d.added.label if d.added is not None else None
+    for i, c in enumerate(d.candidates, start=1):
+        mark = " ★ added" if c.label == added else (" ≈ as good" if c.label in d.ambiguous else "")
+        if c.fit is None:
+            rows.append(f"<tr><td>{i}</td><td>{escape(c.label)}</td><td colspan='5'>{escape(c.error)}</td></tr>")
+            continue
+        f = c.fit
+        style = " style='font-weight:bold'" if mark.startswith(" ★") else ""
+        rows.append(f"<tr{style}><td>{i}</td>"
+                    f"<td>{escape(c.label)}{escape(mark)}</td><td class='num'>{c.aic - best:+.1f}</td>"
+                    f"<td class='num'>{f.chi2 / max(f.dof, 1):.2f}</td><td>{'yes' if c.passes else 'no'}</td>"
+                    f"<td>{_effect_parameters(c)}</td>"
+                    f"<td class='num'>{_mlmin(f.values[0]):.0f}, {_mlmin(f.values[1]):.0f}</td></tr>")
+    return ("<table><tr><th>#</th><th>effect</th><th>ΔAIC</th><th>χ²/dof</th><th>passes</th>"
+            "<th>fitted parameters ± 1σ</th><th>Q1, Q2 implied (ml/min)</th></tr>" + "".join(rows) + "</table>"
+            "<p class='small'>Ranked by Akaike's information criterion AIC = χ² + 2k (k: free parameters); ΔAIC "
+            "to the best. “passes”: what the effect leaves is noise and model uncertainty (p above the test "
+            "level). Two candidates within ΔAIC 4 are not told apart by this record.</p>")
+
+
+def _record_section(record, measured_names) -> str:
+    if record is None:
+        return "<p>No record details were given.</p>"
+    n = record.displacement.shape[-1]
+    dur = n / record.sample_rate_hz
+    rows = [("file", record.source or "(not from a file)"),
+            ("machine", record.machine or "(the default model)"),
+            ("speed", f"{record.speed_hz:g} Hz ({60 * record.speed_hz:.0f} rpm)"),
+            ("sampling", f"{record.sample_rate_hz:g} samples/s, {n} samples"),
+            ("duration", f"{dur:.2f} s ({dur * record.speed_hz:.0f} revolutions)"),
+            ("planes", f"nodes {record.nodes[0]} and {record.nodes[1]}; probe angles "
+                       + "; ".join(f"{a:g}°/{b:g}°" for a, b in record.probe_angles_deg)),
+            ("static position", "recorded (shaft centreline)" if record.rest_position is not None else "not recorded"),
+            ("features used", ", ".join(measured_names))]
+    if record.set_name:
+        rows.append(("set", record.set_name))
+    for k, v in sorted(record.metadata.items()):
+        rows.append((f"metadata: {k}", v))
+    return "<table>" + "".join(f"<tr><th>{escape(str(a))}</th><td>{escape(str(b))}</td></tr>" for a, b in rows) + "</table>"
+
+
+def _budget_section() -> str:
+    b = ModelBudget()
+    items = "".join(f"<li>{escape(p.doc)}: {getattr(b, n):.3g}</li>" for n, p in b.param.objects("existing").items()
+                    if isinstance(p, Quantity))
+    return ("<p>The residuals are whitened by the record's noise <i>and</i> by what the model does not know, "
+            "each a relative 1σ uncertainty propagated through the whole model at the fitted point. A "
+            "residual outside ±2σ is therefore more than noise or model tolerance: something the model "
+            f"lacks.</p><ul class='small'>{items}</ul>")
+
+
+def report_html(diagnosis, *, record=None, title: str = "Lubrication diagnosis", machine_name: str | None = None,
+                bearing_nodes: Sequence[int] | None = None, maps: Sequence = (), generated: _dt.datetime | None = None
+                ) -> str:
+    """The diagnosis as one self-contained HTML document (str).
+
+    `record`: the measured record (its file, speed, planes and duration are listed); `bearing_nodes`: the
+    machine's bearing nodes, named in the text; `maps`: optional chi^2 maps [(title, (q1, q2, chi2), paths)]
+    with `paths` as in `map_svg`; `generated`: the date printed (default now, local time).
+    """
+    d = diagnosis
+    generated = generated or _dt.datetime.now().astimezone()
+    nodes = tuple(bearing_nodes) if bearing_nodes else None
+    truth = d.truth.get("q_mlmin") if d.truth else None
+    outcome = _outcome(d)
+    cls = {"explained": "", "effect added": "", "ambiguous": "warn"}.get(outcome, "bad")
+    qt = _q_threshold(d)
+    parts = [f"<h1>{escape(title)}</h1>",
+             "<p class='sub'>" + escape(" · ".join(filter(None, [machine_name, record.source if record else None,
+                                                                   generated.strftime("%Y-%m-%d %H:%M %Z")]))) + "</p>",
+             "<h2>What to do</h2>",
+             f"<div class='verdict {cls}'>" + ("" if d.verdict.lower().startswith(outcome.split()[0]) else
+                                                f"<b>{escape(outcome.capitalize())}.</b> ") + f"{escape(d.verdict)}</div>",
+             "<ul class='actions'>" + "".join(f"<li>{a}</li>" for a in _actions(d, nodes)) + "</ul>",
+             "<h2>Supply flows</h2>", _flows_table(d, nodes, truth)]
+    if qt is not None:
+        parts.append(flows_svg(d.before, d.after, qt, truth_mlmin=truth))
+    names = list(d.before.features_names)
+    after = None
+    if d.after is not None:
+        idx = {n: i for i, n in enumerate(d.after.features_names)}
+        after = np.array([d.after.residual[idx[n]] if n in idx else np.nan for n in names])
+    parts += ["<h2>Residual of each feature</h2>",
+              "<p>Model minus measurement, in standard deviations (noise and model uncertainty together). "
+              "Bars outside the green band are what the plain model cannot explain; after the effect is added "
+              "they should fall inside it.</p>",
+              residual_svg(names, d.before.residual, after)]
+    if maps:
+        parts.append("<h2>The search over Q1 × Q2</h2><div style='display:flex;flex-wrap:wrap;gap:12px'>"
+                     + "".join(map_svg(*m[1], paths=m[2] if len(m) > 2 else (), truth_mlmin=truth, title=m[0])
+                               for m in maps) + "</div>"
+                     "<p class='small'>χ² over the flows (darker: better fit); lines: the fits' search paths, "
+                     "ending at the answer; ✕: the true flows when known.</p>")
+    parts += ["<h2>Candidate effects</h2>", _candidates_table(d)]
+    if d.ambiguous or d.separated_by:
+        sep = "".join(f"<li>{escape(s)}</li>" for s in d.separated_by)
+        parts += ["<h2>Telling look-alikes apart</h2>",
+                  (f"<p>These effects fit this record as well as the one named: "
+                   f"<b>{escape(', '.join(d.ambiguous))}</b>.</p>" if d.ambiguous else
+                   "<p>The effect named is clearly the best of the library for this record; to confirm it:</p>"),
+                  f"<ul>{sep}</ul>"]
+    if truth is not None or (d.truth and d.truth.get("effect")):
+        parts += ["<h2>Known truth (simulated record)</h2>",
+                  "<p>" + escape(", ".join(f"{k} = {v}" for k, v in d.truth.items())) + "</p>"]
+    parts += ["<h2>Record</h2>", _record_section(record, names),
+              "<h2>Model uncertainty budget</h2>", _budget_section(),
+              f"<p class='small'>lubeviz {escape(__version__)} · diagnosis computed in {d.seconds:.1f} s · report "
+              f"generated {escape(generated.isoformat(timespec='seconds'))}. Method: Oliveira, Cunha &amp; Daniel "
+              "(supply-flow identification from the full spectrum) with lubeviz's residual loop.</p>"]
+    return ("<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
+            f"<title>{escape(title)}</title><style>{CSS}</style></head><body>\n" + "\n".join(parts)
+            + "\n</body></html>\n")
+
+
+def write_report(diagnosis, path, **kwargs) -> Path:
+    """Write `report_html(diagnosis, **kwargs)` to `path` (UTF-8); returns the path."""
+    path = Path(path)
+    path.write_text(report_html(diagnosis, **kwargs), encoding="utf-8")
+    return path
