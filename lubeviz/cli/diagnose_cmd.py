@@ -67,10 +67,16 @@ def run_diagnose(args) -> dict | list:
         for w in item["warnings"]:
             sys.stderr.write(f"lubeviz diagnose: warning: {w}\n")
         if args.report:
+            from ..diagnose.loop import cost_map
             from ..diagnose.report import write_report
 
+            maps = [("plain model", cost_map(chains, meas, n=50), [("plain fit", d.before.paths[-1], "#1f77b4")])]
+            if d.added is not None and d.after is not None:
+                maps.append((f"with {d.added.label}", cost_map(chains, meas, effect=d.added.effect, n=50),
+                             [("with the effect", d.after.paths[-1], "#d62728")]))
             path = args.report if len(groups) == 1 else args.report.replace(".html", f"-{g}.html")
-            write_report(d, path, record=group[0], machine_name=machine.name)
+            write_report(d, path, record=group[0], machine_name=machine.name,
+                         bearing_nodes=[b.node for b in machine.bearings], maps=maps)
             item["report"] = path
         out.append(item)
     if not args.json:

@@ -70,7 +70,17 @@ class Effect(param.Parameterized):
         new._free = tuple(p for p in self._free if p not in changes)
         return new
 
+    def limited(self, **limits) -> "Effect":
+        """The same effect with narrower fitting bounds, e.g. `limited(factor=(0.75, 1.33))`: a plausible
+        range for a nuisance parameter, inside the parameter's declared bounds."""
+        new = self.copy()
+        new._free = self._free
+        new._limits = {**getattr(self, "_limits", {}), **limits}
+        return new
+
     def bounds(self, pname: str) -> tuple[float, float]:
+        if pname in getattr(self, "_limits", {}):
+            return tuple(float(v) for v in self._limits[pname])
         lo, hi = self.param[pname].bounds
         return (-math.inf if lo is None else float(lo), math.inf if hi is None else float(hi))
 

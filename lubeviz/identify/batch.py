@@ -92,7 +92,48 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
     check_record(_NodesSpeed(chain), measured, settings)
     res = fit(chain, measured, names=tuple(settings.features), budget=budget, lower=settings.lower,
               upper=settings.upper)
-    return _identification(res, chain)
+    out = _identification(res, chain)
+    if settings.oil_check and not measured.static_names and not any(
+            getattr(e, "effect_name", "") in ("viscosity", "clearance") for e in effects):
+        out = _oil_check(out, res, chain, measured, settings, budget)
+    return out
+
+
+OIL_RANGE = (0.75, 1.0 / 0.75)
+
+
+def _oil_check(out: Identification, res, chain, measured, settings, budget) -> Identification:
+    """The flows' intervals with the oil viscosity a free nuisance within OIL_RANGE (both bearings), and
+    how strongly it is tied to the flows: what a single record at one speed can and cannot say."""
+    from ..effects import Viscosity
+    from .fit import fit
+
+    oil = Viscosity(bearing="both").release("factor").limited(factor=OIL_RANGE)
+    try:
+        wide = fit(chain.with_effects(chain.effects + (oil,)), measured, names=tuple(settings.features),
+                   budget=budget, lower=settings.lower, upper=settings.upper)
+    except LubevizError as exc:  # the tables cannot serve the range: say so
+        return dataclasses.replace(out, warnings=out.warnings + (f"oil check skipped: {exc}",))
+    j = wide.names.index("viscosity.factor")
+    corr = wide.correl[j, :2]
+    iv = tuple(wide.intervals.get(n) for n in ("q1", "q2"))
+    warnings = out.warnings
+    width = [(b if b is not None else chain.bounds(settings.lower, settings.upper)[1][k]) - a
+             for k, (a, b) in enumerate(iv)]
+    narrow = [(b if b is not None else chain.bounds(settings.lower, settings.upper)[1][k]) - a
+              for k, (a, b) in enumerate(out.intervals)]
+    if any(w > 2 * n for w, n in zip(width, narrow)):
+        lo = [a * 6e7 for a, _ in iv]
+        hi = ["open" if b is None else f"{b * 6e7:.0f}" for _, b in iv]
+        warnings = warnings + (
+            "the flows are tied to the oil viscosity in this record (correlation "
+            f"{corr[0]:+.2f}, {corr[1]:+.2f}): if the oil may be x{OIL_RANGE[0]:g}-{OIL_RANGE[1]:.2f} as viscous as "
+            f"declared, Q1 lies in [{lo[0]:.0f}, {hi[0]}] and Q2 in [{lo[1]:.0f}, {hi[1]}] ml/min; the oil "
+            "temperature, the static shaft position or records at other speeds would pin it",)
+    return dataclasses.replace(out, intervals_any_oil=iv, warnings=warnings,
+                               oil_degeneracy={"correlation_q1": float(corr[0]), "correlation_q2": float(corr[1]),
+                                               "factor": float(wide.values[j]), "factor_std": float(wide.std[j]),
+                                               "range": list(OIL_RANGE)})
 
 
 def _identification(res, chain) -> Identification:
@@ -212,6 +253,8 @@ def result_dict(item: RecordIdentification) -> dict:
                           "chi2": r.alternatives_chi2[j] if j < len(r.alternatives_chi2) else None}
                          for j, a in enumerate(r.alternatives)],
         "q1_interval_mlmin": _interval(r, 0), "q2_interval_mlmin": _interval(r, 1),
+        "q1_interval_any_oil_mlmin": _interval(r, 0, r.intervals_any_oil),
+        "q2_interval_any_oil_mlmin": _interval(r, 1, r.intervals_any_oil), "oil_degeneracy": r.oil_degeneracy,
         "chi2": r.chi2, "dof": r.dof, "p_value": r.p_value, "level": r.level,
         "model_explains_data": r.model_explains_data, "effects": r.effects,
         "warnings": list(r.warnings) + list(getattr(item, "warnings", ())),
@@ -219,10 +262,11 @@ def result_dict(item: RecordIdentification) -> dict:
     }
 
 
-def _interval(r, k):
-    if r.intervals is None or r.intervals[k] is None:
+def _interval(r, k, intervals=None):
+    intervals = r.intervals if intervals is None else intervals
+    if intervals is None or intervals[k] is None:
         return None
-    low, high = r.intervals[k]
+    low, high = intervals[k]
     return [low * 6e7, None if high is None else high * 6e7]
 
 

@@ -357,15 +357,40 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
 
 
 def _profile(problem: _Problem, theta, chi2_min, k, lo, hi, scale, sigma, threshold, q_t):
-    """95 % profile-likelihood interval of parameter k: (low, high); None for a side open at the box edge."""
+    """95 % profile-likelihood interval of parameter k: (low, high); None for a side open at the box edge.
+
+    Walked out from the optimum in steps of about half a standard deviation; at each step the other
+    parameters are re-fitted from the previous point, from the optimum's values and from a linear
+    continuation along the valley (near a critical speed, or with a nuisance such as the oil's viscosity,
+    the valley is long, curved and bumpy, and one warm start can stall); the crossing of the threshold is
+    then located by bisection (the profile turns sharply where a nuisance reaches its bound).
+    """
     others = np.array([i for i in problem.free if i != k])
     sub = problem.with_free(others) if others.size else None
     step0 = max(0.5 * sigma, 1e-3 * q_t) if np.isfinite(sigma) else 0.02 * q_t
+
+    def profile_at(v, history, warm):
+        th = warm.copy()
+        th[k] = v
+        if sub is None:
+            return float(problem.cost_many(th[None, :])[0]) - chi2_min, th
+        seeds = [th, np.where(np.arange(th.size) == k, v, theta)]
+        if len(history) >= 2 and history[-1][0] != history[-2][0]:
+            (v0, t0), (v1, t1) = history[-2], history[-1]
+            seeds.append(np.clip(t1 + (t1 - t0) * (v - v1) / (v1 - v0), lo, hi))
+        trials = []
+        for seed in seeds:
+            seed = seed.copy()
+            seed[k] = v
+            t_new, r, *_ = _lm(sub, seed, lo, hi, scale, max_iter=25, step_tol=1e-6)
+            trials.append((float(r @ r), t_new))
+        c, t_best = min(trials, key=lambda t: t[0])
+        return c - chi2_min, t_best
+
     bounds = []
     for direction in (-1, 1):
         edge = lo[k] if direction < 0 else hi[k]
-        th = theta.copy()
-        prev_v, prev_d = theta[k], 0.0
+        prev_v, prev_th, prev_d = theta[k], theta.copy(), 0.0
         step = step0
         history = [(theta[k], theta.copy())]
         found = None
@@ -373,32 +398,24 @@ def _profile(problem: _Problem, theta, chi2_min, k, lo, hi, scale, sigma, thresh
             v = prev_v + direction * step
             if (v - edge) * direction >= 0:
                 v = edge
-            th[k] = v
-            if sub is not None:
-                # the other parameters re-fitted from the previous point and from the optimum's values:
-                # near a critical speed the valley is long, curved and bumpy, and one warm start can stall
-                trials = []
-                seeds = [th, np.where(np.arange(th.size) == k, v, theta)]
-                if len(history) >= 2:  # continuation: the others extrapolated along the valley
-                    (v0, t0), (v1, t1) = history[-2], history[-1]
-                    seeds.append(t1 + (t1 - t0) * (v - v1) / (v1 - v0))
-                for seed in seeds:
-                    seed = seed.copy()
-                    seed[k] = v
-                    t_new, r, *_ = _lm(sub, seed, lo, hi, scale, max_iter=25, step_tol=1e-6)
-                    trials.append((float(r @ r), t_new))
-                c_min, th = min(trials, key=lambda t: t[0])
-                history.append((v, th.copy()))
-                d = c_min - chi2_min
-            else:
-                d = float(problem.cost_many(th[None, :])[0]) - chi2_min
+            d, th = profile_at(v, history, prev_th)
             if d > threshold:
-                f = (threshold - prev_d) / max(d - prev_d, 1e-300)
-                found = prev_v + f * (v - prev_v)
+                a, b, ta, da, db = prev_v, v, prev_th, prev_d, d  # inside at a, outside at b
+                for _ in range(6):
+                    if db < 2.0 * threshold:  # smooth enough here: interpolate
+                        break
+                    mid = 0.5 * (a + b)
+                    dm, tm = profile_at(mid, history, ta)
+                    if dm > threshold:
+                        b, db = mid, dm
+                    else:
+                        a, ta, da = mid, tm, dm
+                found = a + (threshold - da) / max(db - da, 1e-300) * (b - a)
                 break
+            history.append((v, th.copy()))
             if v == edge:
                 break
-            prev_v, prev_d = v, max(d, 0.0)
+            prev_v, prev_th, prev_d = v, th, max(d, 0.0)
             step = min(step * 1.5, 2.0 * step0)
         bounds.append(found)
     low = bounds[0] if bounds[0] is not None else float(lo[k])

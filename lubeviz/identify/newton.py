@@ -65,6 +65,10 @@ class Identification:
     warnings: tuple[str, ...] = field(default=())
     effects: dict = field(default_factory=dict)
     alternatives_chi2: tuple[float, ...] = field(default=())
+    # the flows' 95 % intervals when the oil's viscosity is not known (a free nuisance within x0.75-1.33):
+    # a record at one speed without the static position cannot tell a viscosity change from a supply change
+    intervals_any_oil: tuple | None = None
+    oil_degeneracy: dict = field(default_factory=dict)
 
     @property
     def path(self) -> np.ndarray:

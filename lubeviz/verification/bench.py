@@ -1,0 +1,166 @@
+"""Rates over many independent records: the figures of BENCHMARKS.md "Identification you can trust" and
+"Diagnosis" (`lubeviz bench coverage`, `lubeviz bench diagnose`).
+
+Every record comes from `independent.make_record` (another film mesh and linearization, another rotor
+mesh and damping, time integration), never from the identification's own model. Rates are given with
+their Wilson 95 % interval.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ..progress import ProgressFn, silent
+
+
+def wilson(k: int, n: int, z: float = 1.959964) -> list[float]:
+    """Wilson score interval of a rate k/n."""
+    if n == 0:
+        return [0.0, 1.0]
+    p = k / n
+    d = 1 + z * z / n
+    c = (p + z * z / (2 * n)) / d
+    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
+    return [max(0.0, c - h), min(1.0, c + h)]
+
+
+def _rate(flags) -> dict:
+    flags = [bool(f) for f in flags]
+    return {"rate": float(np.mean(flags)) if flags else None, "k": int(sum(flags)), "n": len(flags),
+            "wilson95": wilson(int(sum(flags)), len(flags))}
+
+
+def _summary(rows) -> dict:
+    if not rows:
+        return {}
+    err = np.array([r["max_abs_error_pct"] for r in rows])
+    return {
+        "records": len(rows),
+        "error_pct_median": float(np.median(err)), "error_pct_p90": float(np.percentile(err, 90)),
+        "error_pct_max": float(err.max()),
+        "coverage_q1": _rate(r["holds"][0] for r in rows), "coverage_q2": _rate(r["holds"][1] for r in rows),
+        "flagged": _rate(not r["explained"] for r in rows),
+        "off_over_5pct_without_truth_in_alternatives": int(sum(r["max_abs_error_pct"] > 5 and not r["truth_in_alt"]
+                                                              for r in rows)),
+        "fit_ms_median": float(np.median([r["seconds"] for r in rows]) * 1e3),
+    }
+
+
+BANDS = ((50.0, 62.5), (62.5, 80.0), (80.0, 100.0 + 1e-9))
+
+
+def bench_coverage(machine_path=None, *, n: int = 120, seed: int = 2026, progress: ProgressFn = silent) -> dict:
+    """Clean independent records (seeds x speeds 50-100 Hz x flows 30-180 % Q_T x centre/outside planes x
+    X/Y or 45/135 probes): error, 95 % interval coverage and chi^2 flag rate, with the model budget and with
+    the noise alone; by speed band."""
+    from ..identify.batch import identify_record
+    from ..identify.budget import ModelBudget
+    from ..model.machine import load_machine
+    from .independent import clean_corpus, make_record
+
+    t0 = time.perf_counter()
+    machine = load_machine(machine_path)
+    specs = clean_corpus(n, np.random.default_rng(seed), machine=machine_path)
+    rows = {"budget": [], "noise_only": []}
+    for i, spec in enumerate(specs, start=1):
+        rec = make_record(spec).record
+        q = np.array([spec.q1_mlmin, spec.q2_mlmin])
+        for key, budget in (("budget", None), ("noise_only", ModelBudget.none())):
+            r = identify_record(rec, machine, budget=budget).result
+            qi = r.q * 6e7
+            holds = []
+            for k in range(2):
+                low, high = r.intervals[k]
+                holds.append(bool(low * 6e7 <= q[k] <= (math.inf if high is None else high * 6e7)))
+            rows[key].append({"speed_hz": spec.speed_hz, "q_mlmin": q.tolist(), "q_id_mlmin": qi.tolist(),
+                              "nodes": list(spec.nodes), "probe_angles_deg": [list(a) for a in spec.probe_angles_deg],
+                              "max_abs_error_pct": float(np.max(np.abs(qi / q - 1)) * 100), "holds": holds,
+                              "explained": bool(r.model_explains_data), "chi2": r.chi2, "seconds": r.seconds,
+                              "truth_in_alt": any(np.all(np.abs(a * 6e7 / q - 1) < 0.05) for a in r.alternatives)})
+        progress(i, len(specs), f"{spec.speed_hz:g} Hz")
+    out = {"records": len(specs), "seed": seed, "seconds": time.perf_counter() - t0}
+    for key, rr in rows.items():
+        out[key] = {"all": _summary(rr)}
+        for lo, hi in BANDS:
+            out[key][f"{lo:g}-{min(hi, 100):g} Hz"] = _summary([r for r in rr if lo <= r["speed_hz"] < hi])
+    out["rows"] = rows["budget"]
+    return out
+
+
+DIAGNOSE_CASES = (
+    ("viscosity", ("viscosity:factor=0.8", "viscosity:factor=0.65")),
+    ("clearance", ("clearance:bearing=1,clearance_um=140", "clearance:bearing=1,clearance_um=165")),
+    ("unbalance2", ("unbalance2:node=15,ratio=0.3,phase_deg=90", "unbalance2:node=15,ratio=0.6,phase_deg=200")),
+    ("pedestals", ("pedestals:bearing=2,mass_kg=50,stiffness_n_m=2e8,damping_ns_m=1e4",
+                   "pedestals:bearing=2,mass_kg=50,stiffness_n_m=8e7,damping_ns_m=1e4")),
+    ("probe_rotation", ("probe_rotation:plane=1,angle_deg=3", "probe_rotation:plane=1,angle_deg=8")),
+    ("probe_gain", ("probe_gain:channel=y2,gain=1.08", "probe_gain:channel=y2,gain=1.2")),
+    ("bow", ("bow:node=13,amplitude_um=40,phase_deg=45", "bow:node=13,amplitude_um=90,phase_deg=160")),
+    ("seal (not in the library)", ("seal:node=13,kxy_n_m=1.5e6", "seal:node=13,kxy_n_m=3e6")),
+)
+
+
+def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0, candidates=None,
+                   progress: ProgressFn = silent) -> dict:
+    """For each effect and two strengths, independent records (12 dB, flows 75-125 % Q_T, seeded): plain
+    identification, then diagnosis; the named effect, the residual and the flow errors before and after."""
+    from ..diagnose import diagnose
+    from ..identify.chain import ForwardChain
+    from ..identify.measured import measure
+    from ..model.machine import load_machine
+    from .independent import IndependentSpec, make_record, thresholds_mlmin
+
+    t0 = time.perf_counter()
+    machine = load_machine(machine_path)
+    qt = thresholds_mlmin(speed_hz, machine_path)
+    rng = np.random.default_rng(7)
+    chain = ForwardChain(machine, speed_hz, (6, 20))
+    rows = []
+    total = len(DIAGNOSE_CASES) * 2 * seeds
+    i = 0
+    for name, strengths in DIAGNOSE_CASES:
+        for level, text in enumerate(strengths, start=1):
+            for s in range(seeds):
+                i += 1
+                q = qt * rng.uniform(0.75, 1.25, 2)
+                spec = IndependentSpec(speed_hz=speed_hz, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]),
+                                       effects=(text,), seed=100 + i)
+                rec = make_record(spec).record
+                d = diagnose(chain, measure(rec), candidates=candidates)
+                truth = name.split(" ")[0]
+                named = d.added.effect.effect_name if (d.added is not None and not d.ambiguous) else None
+                in_set = d.added is not None and (truth in [d.added.effect.effect_name] +
+                                                  [lab.split("[")[0] for lab in d.ambiguous])
+                err_b = np.abs(d.before.values[:2] * 6e7 / q - 1) * 100
+                err_a = np.abs(d.final.values[:2] * 6e7 / q - 1) * 100
+                rows.append({"effect": name, "strength": level, "spec": text, "q_mlmin": q.tolist(),
+                             "plain_chi2": d.before.chi2, "plain_explained": bool(d.before.explained),
+                             "named": named, "added": None if d.added is None else d.added.label,
+                             "ambiguous": list(d.ambiguous), "right_first": named == truth,
+                             "right_in_set": bool(in_set), "explained_after": d.explained,
+                             "chi2_after": None if d.after is None else d.after.chi2,
+                             "dof_after": None if d.after is None else d.after.dof,
+                             "flow_error_pct_before": err_b.tolist(), "flow_error_pct_after": err_a.tolist(),
+                             "verdict": d.verdict, "seconds": d.seconds})
+                progress(i, total, f"{name} {level}")
+    summary = {}
+    for name, _ in DIAGNOSE_CASES:
+        for level in (1, 2):
+            rr = [r for r in rows if r["effect"] == name and r["strength"] == level]
+            summary[f"{name} #{level}"] = {
+                "spec": rr[0]["spec"], "records": len(rr),
+                "plain_flagged": sum(not r["plain_explained"] for r in rr),
+                "right_first": sum(r["right_first"] for r in rr), "right_in_set": sum(r["right_in_set"] for r in rr),
+                "unexplained": sum(r["added"] is None and not r["plain_explained"] for r in rr),
+                "flow_error_pct_before_max": float(max(max(r["flow_error_pct_before"]) for r in rr)),
+                "flow_error_pct_after_max": float(max(max(r["flow_error_pct_after"]) for r in rr)),
+                "chi2_before_median": float(np.median([r["plain_chi2"] for r in rr])),
+                "chi2_after_median": (float(np.median([r["chi2_after"] for r in rr]))
+                                      if all(r["chi2_after"] is not None for r in rr) else None),
+            }
+    return {"speed_hz": speed_hz, "seeds": seeds, "summary": summary, "rows": rows,
+            "diagnose_seconds_median": float(np.median([r["seconds"] for r in rows])),
+            "seconds": time.perf_counter() - t0}
