@@ -1,0 +1,117 @@
+"""`--effect` on simulate and identify, `lubeviz diagnose`, sets: the SPEC §7 contract and its bad input."""
+
+import json
+
+import numpy as np
+import pytest
+
+from lubeviz.cli.main import main
+from lubeviz.signals import read_record
+from lubeviz.signals.records import write_record
+from lubeviz.verification import IndependentSpec, make_set
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_simulate_writes_the_effect_and_identify_fits_its_free_parameter(capsys, tmp_path):
+    rec = tmp_path / "gain.csv"
+    code, out, _ = run(capsys, "simulate", "--q1-mlmin", 450, "--q2-mlmin", 620, "--effect",
+                       "probe_gain:channel=x1,gain=1.2", "--seed", 4, "-o", rec, "--json")
+    assert code == 0
+    assert json.loads(out)["effects"] == ["probe_gain:channel=x1,gain=1.2"]
+    assert read_record(rec).metadata["effects"] == "probe_gain:channel=x1,gain=1.2"
+    code, out, err = run(capsys, "identify", rec, "--effect", "probe_gain:channel=x1", "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    gain = data["effects"]["probe_gain"]
+    assert abs(gain["gain"] - 1.2) < 3 * gain["gain_std"] + 0.01
+    for key in ("q1_interval_mlmin", "q2_interval_mlmin", "alternatives", "model_explains_data", "chi2", "dof",
+                "p_value", "warnings"):
+        assert key in data
+    low, high = data["q1_interval_mlmin"]
+    assert low < data["q1_mlmin"] and (high is None or data["q1_mlmin"] < high)
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (("--effect", "viscosty:factor=0.8"), "did you mean 'viscosity'"),
+    (("--effect", "viscosity:factor=7"), "out of bounds"),
+    (("--effect", "probe_gain:chanel=x1"), "did you mean 'channel'"),
+])
+def test_a_bad_effect_is_bad_input(capsys, tmp_path, argv, fragment):
+    code, out, err = run(capsys, "simulate", "--q1-mlmin", 450, "--q2-mlmin", 620, *argv, "-o", tmp_path / "r.csv")
+    assert code == 2
+    assert out == ""
+    assert fragment in err and len(err.strip().splitlines()) == 1
+
+
+def test_time_integration_with_an_effect_is_refused(capsys, tmp_path):
+    code, _, err = run(capsys, "simulate", "--q1-mlmin", 450, "--q2-mlmin", 620, "--effect", "bow",
+                       "--method", "time", "-o", tmp_path / "r.csv")
+    assert code == 2 and "--method steady" in err
+
+
+def test_diagnose_names_a_rotated_probe_pair_and_writes_its_report(capsys, tmp_path):
+    rec = tmp_path / "rot.csv"
+    assert run(capsys, "simulate", "--q1-mlmin", 480, "--q2-mlmin", 600, "--effect",
+               "probe_rotation:plane=2,angle_deg=6", "--seed", 2, "-o", rec)[0] == 0
+    report = tmp_path / "r.html"
+    code, out, err = run(capsys, "diagnose", rec, "--effects", "probe_rotation,probe_gain,viscosity",
+                         "--report", report, "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    assert {"before", "effects", "added", "after", "explained", "ambiguous", "verdict"} <= set(data)
+    assert data["added"] == "probe_rotation[plane=2]" and data["explained"]
+    assert not data["before"]["model_explains_data"]
+    assert "<svg" in report.read_text()
+    code, _, err = run(capsys, "diagnose", rec, "--effects", "pedestal")
+    assert code == 2 and "did you mean 'pedestals'" in err
+
+
+def test_records_of_a_set_are_identified_together(capsys, tmp_path):
+    specs = [IndependentSpec(speed_hz=s, q1_mlmin=500.0, q2_mlmin=580.0, seed=20 + k, total_s=8.0)
+             for k, s in enumerate((65.0, 80.0))]
+    paths = []
+    for k, r in enumerate(make_set(specs, "coast-down")):
+        paths.append(tmp_path / f"s{k}.csv")
+        write_record(r.record, paths[-1])
+    code, out, err = run(capsys, "identify", *paths, "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["set"] == "coast-down" and data["speeds_hz"] == [65.0, 80.0]
+    assert abs(data["q1_mlmin"] / 500 - 1) < 0.03 and abs(data["q2_mlmin"] / 580 - 1) < 0.03
+    # a set whose records disagree on the planes is refused
+    rec = read_record(paths[1])
+    import dataclasses
+
+    bad = dataclasses.replace(rec, nodes=(5, 21))
+    write_record(bad, tmp_path / "bad.csv")
+    code, _, err = run(capsys, "identify", paths[0], tmp_path / "bad.csv")
+    assert code == 2
+    assert "s0.csv" in err or "bad.csv" in err
+
+
+def test_a_record_naming_an_unknown_machine_is_refused(capsys, tmp_path):
+    rec = tmp_path / "m.csv"
+    assert run(capsys, "simulate", "--q1-mlmin", 480, "--q2-mlmin", 600, "--method", "steady", "-o", rec)[0] == 0
+    text = rec.read_text().replace("# machine: paper_machine.toml", "# machine: other_machine.toml")
+    rec.write_text(text)
+    code, _, err = run(capsys, "identify", rec)
+    assert code == 2 and "other_machine" in err and "paper_machine" in err
+    rec.write_text(text.replace("other_machine.toml", "../paper_machine.toml"))
+    code, _, err = run(capsys, "identify", rec)
+    assert code == 2
+
+
+def test_a_misspelled_key_is_a_warning_in_the_json(capsys, tmp_path):
+    rec = tmp_path / "k.csv"
+    assert run(capsys, "simulate", "--q1-mlmin", 480, "--q2-mlmin", 600, "--method", "steady", "-o", rec)[0] == 0
+    rec.write_text(rec.read_text().replace("# node1: 6", "# node_1: 6"))
+    code, out, err = run(capsys, "identify", rec, "--json")
+    assert code == 0
+    data = json.loads(out)
+    assert any("node_1" in w and "node1" in w for w in data["warnings"])
+    assert "node_1" in err
