@@ -10,12 +10,14 @@ from .common import add_common, finite_float
 def register(sub) -> None:
     p = sub.add_parser("bench", help="performance figures of BENCHMARKS.md")
     add_common(p)
-    p.add_argument("what", choices=("film", "mesh", "smoothness", "rotor", "stability", "identify"),
+    p.add_argument("what", choices=("film", "mesh", "smoothness", "rotor", "stability", "identify", "table"),
                    help="film: solver timings; mesh: mesh study; smoothness: roughness of K, C over Q; "
                         "rotor: assembly, response, modes, 15 s record (ROSS alongside); stability: critical speed and "
                         "instability threshold across 50-150 %% Q_T; "
                         "identify: tables, one identification (and --reproduce: the 128 cases; "
-                        "--accuracy: tables vs direct solves)")
+                        "--accuracy: tables vs direct solves); "
+                        "table: the dimensionless (S, Q/Q_T) table: full-range cold build, size, accuracy over "
+                        "speed 5-150 Hz x viscosity x0.5-2 x clearance x0.8-1.5, cold first identification")
     p.add_argument("--no-ross", action="store_true", help="rotor: skip the side-by-side ROSS timings")
     p.add_argument("--reproduce", action="store_true",
                    help="identify: also time the paper's whole protocol, both locations, both modes (cold tables)")
@@ -23,6 +25,8 @@ def register(sub) -> None:
                    help="identify: also measure the tables' error in fb and phi against direct solves (~30 s)")
     p.add_argument("--secant-amplitude-um", type=finite_float, default=None,
                    help="smoothness: use secant coefficients over +-this amplitude (um) instead of the tangent")
+    p.add_argument("--points", type=int, default=200,
+                   help="table: random operating points of the accuracy measurement")
     p.add_argument("--repeat", type=int, default=5, help="repetitions (the median is reported)")
     p.set_defaults(run=run_bench)
 
@@ -50,4 +54,15 @@ def run_bench(args) -> dict:
 
         return bench_identify(args.machine, repeat=args.repeat, reproduce_all=args.reproduce, accuracy=args.accuracy,
                               progress=StderrBar())
+    if args.what == "table":
+        from pathlib import Path
+
+        import lubeviz
+        from ..identify.accuracy import bench_table
+
+        if args.points < 1:
+            raise ValueError(f"--points {args.points}: expected at least 1")
+        record = Path(lubeviz.__file__).resolve().parents[1] / "assets" / "sample_record.csv"
+        return bench_table(args.machine, points=args.points, identify_record=record if record.exists() else None,
+                           progress=StderrBar())
     return bench_film(args.machine, repeat=args.repeat, progress=StderrBar())

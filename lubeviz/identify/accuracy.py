@@ -30,6 +30,16 @@ fb and 0.0079 deg in phi):
   ringing of the first kink), 1.37 % / 0.14 deg at Q_T + 7, 0.21 % / 0.034 deg above.
 - on 1014 flows every 1 ml/min (0.1 near Q_T) instead of the midpoints: the same picture (222 points:
   max 0.012 / 0.055 / 0.058 % in fb, 0.0035 / 0.0056 / 0.014 deg in phi).
+- the default grid is now 140 points at 0.2 % Q_T steps in the band (tables.py lists the measurements):
+  max 0.023 / 0.016 / 0.064 % in fb, 0.0046 / 0.0018 / 0.013 deg in phi.
+
+Over the operating range (`range_accuracy`, `lubeviz bench table`): the tables are views of the
+dimensionless (S, Q/Q_T) table (dimensionless.py), so their error has a third part, (4) the cubic in
+ln S between slices (and the film's roughness in S). Measured at 200 random points (speed 5-150 Hz,
+viscosity x0.5-2, clearance x0.8-1.5, both bearings, bearing 1 at 25-200 % of its Q_T; nodes 6, 20, 5,
+21, the per-point worst node): see BENCHMARKS.md, "Dimensionless tables". The fixed target (a tenth of
+the 75 Hz noise floor) is strict away from 75 Hz: where the backward component |Zb| nearly vanishes
+fb = |Zf| / |Zb| is ill-conditioned, and its noise grows in proportion.
 """
 
 from __future__ import annotations
@@ -223,3 +233,165 @@ def noise_floor(machine, flows: Sequence[float], *, seeds: int = 50, nodes: Sequ
                       fb_rel_std=fb_vals.std(axis=0, ddof=1) / np.abs(fb_vals.mean(axis=0)),
                       phi_deg_std=phi_deg.std(axis=0, ddof=1), seeds=seeds)
 
+
+
+# --- over the operating range: the dimensionless tables (S, r) against direct solves ----------------
+
+# The range the dimensionless tables must cover (issue 15): speed, viscosity and clearance factors.
+RANGE_SPEED_HZ = (5.0, 150.0)
+RANGE_VISCOSITY_FACTOR = (0.5, 2.0)
+RANGE_CLEARANCE_FACTOR = (0.8, 1.5)
+
+
+@dataclass(frozen=True)
+class RangeAccuracy:
+    """fb and φ of `machine` at random operating points with bearing 1's K, C from its dimensionless-table
+    view vs from a direct equilibrium; per point (rows) and node (columns). The other bearing sits at its
+    flooded equilibrium, solved directly, the same in both."""
+
+    speed_hz: np.ndarray
+    viscosity_factor: np.ndarray
+    clearance_factor: np.ndarray
+    ratio: np.ndarray  # Q / Q_T of bearing 1 (Q_T of its view)
+    sommerfeld: np.ndarray
+    nodes: tuple[int, ...]
+    fb_rel: np.ndarray  # |fb_table / fb_direct - 1|
+    phi_deg: np.ndarray  # |Δφ| (deg, modulo 180)
+    coefficient_error: np.ndarray  # per point: max |table - direct| / max|direct| over K and C
+    q_threshold_error: np.ndarray  # |Q_T view / Q_T direct - 1|
+    fb_direct: np.ndarray  # fb on the direct solves (per point and node): large where |Zb| -> 0
+
+    def worst(self, n: int = 5) -> list[dict]:
+        """The n points with the largest fb error: where they are and how sensitive fb is there."""
+        fb = 100.0 * self.fb_rel.max(axis=1)
+        out = []
+        for i in np.argsort(fb)[::-1][:n]:
+            j = int(np.argmax(self.fb_rel[i]))
+            out.append({"speed_hz": float(self.speed_hz[i]), "viscosity_factor": float(self.viscosity_factor[i]),
+                        "clearance_factor": float(self.clearance_factor[i]), "q_over_q_threshold": float(self.ratio[i]),
+                        "sommerfeld": float(self.sommerfeld[i]), "fb_pct": float(fb[i]),
+                        "phi_deg": float(self.phi_deg[i].max()), "node": int(self.nodes[j]),
+                        "fb": float(self.fb_direct[i, j]), "coefficient_rel": float(self.coefficient_error[i])})
+        return out
+
+    def summary(self) -> dict:
+        """Median, 90th percentile and max of the per-point worst node, with the targets."""
+        fb = 100.0 * self.fb_rel.max(axis=1)
+        phi = self.phi_deg.max(axis=1)
+        out = {"points": int(self.ratio.size), "nodes": list(self.nodes),
+               "sommerfeld_range": [float(self.sommerfeld.min()), float(self.sommerfeld.max())],
+               "target_fb_pct": 10.0 * NOISE_FB_REL, "target_phi_deg": 0.1 * NOISE_PHI_DEG}
+        for name, a in (("fb_pct", fb), ("phi_deg", phi), ("coefficient_rel", self.coefficient_error),
+                        ("q_threshold_rel", self.q_threshold_error)):
+            out.update({f"{name}_{k}": float(f(a)) for k, f in _STATS.items()})
+        out["fraction_within_target"] = float(np.mean((fb < 10.0 * NOISE_FB_REL) & (phi < 0.1 * NOISE_PHI_DEG)))
+        return out
+
+    def by_sommerfeld(self, edges=(0.0, 0.1, 0.3, 1.0, 3.0, np.inf)) -> list[dict]:
+        """The same statistics per band of S (where the ln S interpolation is hardest: low S)."""
+        out = []
+        fb = 100.0 * self.fb_rel.max(axis=1)
+        phi = self.phi_deg.max(axis=1)
+        for lo, hi in zip(edges[:-1], edges[1:]):
+            sel = (self.sommerfeld >= lo) & (self.sommerfeld < hi)
+            if sel.any():
+                out.append({"s_from": float(lo), "s_to": float(hi), "points": int(sel.sum()),
+                            **{f"fb_pct_{k}": float(f(fb[sel])) for k, f in _STATS.items()},
+                            **{f"phi_deg_{k}": float(f(phi[sel])) for k, f in _STATS.items()}})
+        return out
+
+
+def range_accuracy(machine, points: int = 200, *, rng: np.random.Generator, nodes: Sequence[int] | None = None,
+                   directory=None, progress=None) -> RangeAccuracy:
+    """Draw `points` operating points (speed log-uniform in RANGE_SPEED_HZ, viscosity and clearance
+    factors log-uniform in their ranges, applied to both bearings, bearing 1's supply uniform in 25-200 %
+    of its Q_T) and compare fb, φ with bearing 1 on its table view vs on a direct equilibrium.
+
+    The views come from `cache.bearing_view` (slices built if missing, in `directory`)."""
+    from ..film.equilibrium import find_equilibrium
+    from ..film.feed import Feed
+    from ..progress import silent
+    from .cache import bearing_view
+    from .dimensionless import sommerfeld_number
+
+    progress = silent if progress is None else progress
+    if len(machine.bearings) != 2:
+        raise InputError("range_accuracy needs a two-bearing machine")
+    nodes = tuple(machine.center_nodes) + tuple(machine.outside_nodes) if nodes is None else tuple(nodes)
+    rotor = rotor_from_machine(machine)
+    loads = bearing_static_loads(machine)
+    unb = machine_unbalance(machine)
+
+    def log_uniform(lo, hi):
+        return np.exp(rng.uniform(np.log(lo), np.log(hi), points))
+
+    speed, fm, fc = log_uniform(*RANGE_SPEED_HZ), log_uniform(*RANGE_VISCOSITY_FACTOR), log_uniform(*RANGE_CLEARANCE_FACTOR)
+    ratio = rng.uniform(0.25, 2.0, points)
+    fb_rel, phi_deg, coef, qt_err, s_all, fb_d = [], [], [], [], [], []
+    for i in range(points):
+        omega = 2.0 * np.pi * speed[i]
+        b1, b2 = (b.copy(viscosity=fm[i] * b.viscosity, clearance=fc[i] * b.clearance) for b in machine.bearings)
+        view = bearing_view(b1, loads[0], omega, directory=directory)
+        s_all.append(sommerfeld_number(b1, loads[0], omega))
+        q = ratio[i] * view.q_threshold
+        K_t, C_t = view.coefficients(q)
+        eq = find_equilibrium(b1, omega, loads[0], Feed.flow(q), start=view.journal_position(q))
+        flooded = find_equilibrium(b1, omega, loads[0], Feed.flooded(), start=view.journal_position(view.q_threshold))
+        other = find_equilibrium(b2, omega, loads[1], Feed.flooded(), start=view.journal_position(view.q_threshold))
+        if not (eq.converged and flooded.converged and other.converged):
+            raise InputError(f"direct equilibrium failed at {speed[i]:.4g} Hz, viscosity x{fm[i]:.3g}, "
+                             f"clearance x{fc[i]:.3g}, Q/Q_T {ratio[i]:.3g}: {eq.message}")
+        K_d, C_d = eq.coefficients.K, eq.coefficients.C
+        pair_o = (other.coefficients.K, other.coefficients.C)
+        r_t = unbalance_response(rotor, omega, unb, [(K_t, C_t), pair_o], nodes=nodes)
+        r_d = unbalance_response(rotor, omega, unb, [(K_d, C_d), pair_o], nodes=nodes)
+        fb_rel.append(np.abs(np.asarray(r_t.fb) / np.asarray(r_d.fb) - 1.0))
+        fb_d.append(np.asarray(r_d.fb, dtype=float))
+        d = np.degrees(np.asarray(r_t.phi) - np.asarray(r_d.phi))
+        phi_deg.append(np.abs((d + 90.0) % 180.0 - 90.0))
+        coef.append(max(np.abs(K_t - K_d).max() / np.abs(K_d).max(), np.abs(C_t - C_d).max() / np.abs(C_d).max()))
+        qt_err.append(abs(view.q_threshold / flooded.film.side_leakage - 1.0))
+        progress(i + 1, points, f"{speed[i]:.0f} Hz, S = {s_all[-1]:.3g}")
+    return RangeAccuracy(speed_hz=speed, viscosity_factor=fm, clearance_factor=fc, ratio=ratio,
+                         sommerfeld=np.array(s_all), nodes=nodes, fb_rel=np.array(fb_rel), phi_deg=np.array(phi_deg),
+                         coefficient_error=np.array(coef), q_threshold_error=np.array(qt_err), fb_direct=np.array(fb_d))
+
+
+def bench_table(machine_path=None, *, points: int = 200, seed: int = 0, identify_record=None,
+                progress=None) -> dict:
+    """`lubeviz bench table`: the full-range cold build of the dimensionless table (seconds, MB, slices),
+    its accuracy over the range (`range_accuracy`) and a cold first identification (a fresh cache)."""
+    import os
+    import subprocess
+    import sys
+    import tempfile
+    import time
+    from pathlib import Path
+
+    from ..model.machine import load_machine
+    from ..progress import silent
+    from .cache import full_build
+
+    progress = silent if progress is None else progress
+    machine = load_machine(machine_path)
+    out: dict = {"machine": machine.source}
+    with tempfile.TemporaryDirectory(prefix="lubeviz-bench-table-") as tmp:
+        table, seconds = full_build(machine.bearings[0], directory=tmp, progress=progress)
+        files = list((Path(tmp) / "slices").glob("*.npz"))
+        out.update({"full_build_cold_s": seconds, "slices": len(files),
+                    "disk_mb": sum(f.stat().st_size for f in files) / 1e6,
+                    "sommerfeld_range": list(table.s_range), "ratio_points": table.points})
+        t0 = time.perf_counter()
+        acc = range_accuracy(machine, points, rng=np.random.default_rng(seed), directory=tmp, progress=progress)
+        out["accuracy"] = {**acc.summary(), "by_sommerfeld": acc.by_sommerfeld(), "worst": acc.worst(),
+                           "seconds": time.perf_counter() - t0}
+    if identify_record is not None:
+        with tempfile.TemporaryDirectory(prefix="lubeviz-bench-cold-") as tmp:
+            env = {**os.environ, "LUBEVIZ_CACHE_DIR": tmp}
+            cmd = [sys.executable, "-m", "lubeviz.cli.main", "identify", str(identify_record), "--json"]
+            if machine_path is not None:
+                cmd += ["--machine", str(machine_path)]
+            t0 = time.perf_counter()
+            subprocess.run(cmd, env=env, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            out["cold_first_identification_s"] = time.perf_counter() - t0
+    return out

@@ -1,28 +1,33 @@
-"""On-disk cache of coefficient tables (SPEC §5): built once per machine, speed and oil, then loaded.
+"""On-disk cache of dimensionless coefficient tables (SPEC §5): film solves once per geometry, then loaded.
 
-A table costs a few seconds per bearing at the paper's 100 x 100 mesh and is deterministic, so it
-is stored in the user's cache directory (never inside the repository) as
-`<cache_dir>/tables/<key>.npz`, the key a sha256 of every input that affects the numbers
-(`table_key`). A file is trusted only if it proves it is what the key says: its stored key and a
-sha256 of its arrays match, its shapes agree, every value is finite and its flows are the grid the
-key asks for. Anything else (truncated file, a bad zip, another key, NaN, tampered values) is
-reported with a `StaleCacheWarning`, deleted and rebuilt. Files are read with `allow_pickle=False`
-and written atomically (temporary file in the same directory, then `os.replace`), so a crash or a
-concurrent writer never leaves a half-written table under a valid name.
+The numbers behind every `CoefficientTable` are slices of a dimensionless table (`dimensionless.py`):
+one geometry, one Sommerfeld number, the ten dimensionless values over the supply ratio r. A slice
+costs ~10 s at the paper's 100 x 100 mesh and is deterministic, so each is stored in the user's
+cache directory (never inside the repository) as `<cache_dir>/slices/<key>.npz`, the key a sha256 of
+every input that affects its numbers (`slice_inputs`). A file is trusted only if it proves it is
+what the key says: its stored key and a sha256 of its arrays match, its shapes agree, every value is
+finite, its ratios are the grid the key asks for and its S the key's node. Anything else (truncated
+file, a bad zip, another key, NaN, tampered values) is reported with a `StaleCacheWarning`, deleted
+and rebuilt. Files are read with `allow_pickle=False` and written atomically (temporary file in the
+same directory, then `os.replace`), so a crash or a concurrent writer never leaves a half-written
+slice under a valid name.
 
-`machine_tables` builds the missing tables of a machine in parallel, one worker process per bearing
-(forked from a single-threaded caller, spawned from a threaded one such as the app: `_process_context`);
-workers get plain values (the bearing's parameters, its load, the speed) and run
-`tables.bearing_table`, the same code `build_table` runs, so parallel and serial tables are identical. Progress: every worker
-reports each solved flow through a `multiprocessing.Manager` queue; the parent drains it while it
-waits and calls `progress(done, total, label)` with the sum over the bearings being built. If that
-callback raises `Cancelled`, the workers are told to stop at their next flow, pending work is
-cancelled, the pool is shut down and `Cancelled` is re-raised; tables finished before that are kept.
+A bearing's dimensional table (`bearing_view`, `cached_table`, `machine_tables`) is a view: its
+Sommerfeld number picks the 4 slices around it (one on a node), those missing are built (in
+parallel, two worker processes per slice, one per part r <= 1 and r > 1: forked from a single-threaded caller, spawned from a threaded one such as the
+app, `_process_context`), and the view is scaled to the bearing's viscosity, clearance, load and
+speed. So a change of viscosity, clearance, speed or load costs no film solve once its slices exist,
+and bearings of one geometry (the paper's two) share them. Workers get plain values (the geometry
+and S) and run `dimensionless.build_slice_part`, the same code the serial path runs, so parallel
+and serial slices are identical. Progress: every worker reports each solved ratio through a
+`multiprocessing.Manager` queue; the parent drains it while it waits and calls
+`progress(done, total, label)` with the sum over the slices being built. If that callback raises
+`Cancelled`, the workers are told to stop at their next ratio, pending work is cancelled, the pool is
+shut down and `Cancelled` is re-raised; slices finished before that are kept (a build is resumable).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import hashlib
 import json
@@ -32,6 +37,7 @@ import os
 import queue as queue_module
 import tempfile
 import threading
+import time
 import warnings
 import zipfile
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -42,30 +48,32 @@ import platformdirs
 
 import lubeviz
 
-from ..errors import InputError
+from ..errors import ConvergenceError, InputError
 from ..model.bearing import Bearing
 from ..progress import Cancelled, ProgressFn, silent
 from ..rotor.statics import bearing_static_loads
-from . import tables as _tables
-from .tables import DEFAULT_POINTS, DEFAULT_SPAN, CoefficientTable, table_flows
+from . import dimensionless as _dimensionless
+from .dimensionless import DimensionlessTable, Slice, geometry_values, sommerfeld_nodes, sommerfeld_number
+from .tables import DEFAULT_POINTS, DEFAULT_SPAN, CoefficientTable
 
 # Bump when the stored layout or the meaning of a stored array changes.
-TABLE_FORMAT_VERSION = 1
+TABLE_FORMAT_VERSION = 2
 
-# Modules whose source decides the numbers in a table: the film model and its solvers, the
-# equilibrium and coefficient method, the table grid, and the rotor statics that give the load.
-# Their source text is hashed into the key (`solver_version`), so any edit to them invalidates
-# every cached table: a version constant that someone must remember to bump would be trusted
-# after a change nobody bumped it for.
-_SOLVER_MODULES = ("film", "identify/tables.py", "rotor/statics.py", "rotor/assembly.py", "rotor/elements.py")
+# Modules whose source decides the numbers in a slice: the film model and its solvers, the
+# equilibrium and coefficient method, the ratio grid and the reference point of a slice, and the
+# rotor statics that give a view's load. Their source text is hashed into the key
+# (`solver_version`), so any edit to them invalidates every cached slice: a version constant that
+# someone must remember to bump would be trusted after a change nobody bumped it for.
+_SOLVER_MODULES = ("film", "identify/tables.py", "identify/dimensionless.py", "rotor/statics.py",
+                   "rotor/assembly.py", "rotor/elements.py")
 
-_LOAD_DIGITS = 12  # significant digits of the static load kept in the key (see `table_key`)
+_LOAD_DIGITS = 12  # significant digits of the static load kept in a view's key (see `table_key`)
 
-_ARRAYS = ("q", "K", "C", "position", "q_threshold", "omega", "seconds")
+_ARRAYS = ("ratio", "values", "q_threshold", "sommerfeld", "seconds")
 
 
 class StaleCacheWarning(UserWarning):
-    """A cached table could not be trusted (corrupt, tampered or for other inputs) and is rebuilt."""
+    """A cached slice could not be trusted (corrupt, tampered or for other inputs) and is rebuilt."""
 
 
 # --- where ---------------------------------------------------------------------------------------
@@ -100,12 +108,12 @@ def cache_dir() -> Path:
     return _check_directory(platformdirs.user_cache_path("lubeviz", appauthor=False), "user cache directory")
 
 
-def _tables_dir(directory) -> Path:
+def _slices_dir(directory) -> Path:
     root = cache_dir() if directory is None else _check_directory(Path(directory), "directory argument")
-    return root / "tables"
+    return root / "slices"
 
 
-# --- key -----------------------------------------------------------------------------------------
+# --- keys ----------------------------------------------------------------------------------------
 
 @functools.lru_cache(maxsize=1)
 def solver_version() -> str:
@@ -122,6 +130,11 @@ def solver_version() -> str:
 
 def _omega(machine, omega) -> float:
     omega = 2.0 * math.pi * machine.operating_speed if omega is None else float(omega)
+    return _check_omega(omega)
+
+
+def _check_omega(omega) -> float:
+    omega = float(omega)
     if not (math.isfinite(omega) and omega > 0.0):
         raise InputError(f"shaft speed {omega!r} rad/s; expected a positive number")
     return omega
@@ -138,52 +151,66 @@ def _bearing_values(b: Bearing) -> dict:
     return {k: getattr(b, k) for k in sorted(b.param) if k != "name"}
 
 
-def key_inputs(machine, bearing: int, omega: float | None = None, *, span=DEFAULT_SPAN,
-               points: int = DEFAULT_POINTS, load=None) -> dict:
-    """The inputs `table_key` hashes, as a JSON-ready dict (also stored in the file, for reading)."""
-    bearing = _check_bearing(machine, bearing)
-    load = bearing_static_loads(machine)[bearing] if load is None else load
+def _grid(span, points) -> dict:
     lo, hi = (float(v) for v in span)
+    return {"span": [lo, hi], "points": int(points)}
+
+
+def slice_inputs(geometry: dict, sommerfeld: float, *, span=DEFAULT_SPAN, points: int = DEFAULT_POINTS) -> dict:
+    """What a slice's key hashes (JSON-ready; also stored in the file, for reading).
+
+    - the geometry (`dimensionless.geometry_values`: radius, length, groove angle, groove length / R,
+      groove width / L, the mesh) and the slice's S (the exact node value);
+    - the ratio grid (span, points) and the reference operating point the slice is solved at;
+    - the code: `TABLE_FORMAT_VERSION`, `lubeviz.__version__` and `solver_version()`.
+    Not in it: viscosity, clearance, load, speed (they only choose S and scale the view), the rotor."""
     return {
         "format": TABLE_FORMAT_VERSION,
         "lubeviz": lubeviz.__version__,
         "solver": solver_version(),
-        "bearing": _bearing_values(machine.bearings[bearing]),
+        "geometry": dict(geometry),
+        "sommerfeld": float(sommerfeld),
+        "reference": [_dimensionless.REF_VISCOSITY, _dimensionless.REF_CLEARANCE_RATIO, _dimensionless.REF_OMEGA],
+        **_grid(span, points),
+    }
+
+
+def slice_key(geometry: dict, sommerfeld: float, *, span=DEFAULT_SPAN, points: int = DEFAULT_POINTS) -> str:
+    return _digest(slice_inputs(geometry, sommerfeld, span=span, points=points))
+
+
+def key_inputs(machine, bearing: int, omega: float | None = None, *, span=DEFAULT_SPAN,
+               points: int = DEFAULT_POINTS, load=None) -> dict:
+    """The inputs `table_key` hashes, as a JSON-ready dict."""
+    bearing = _check_bearing(machine, bearing)
+    load = bearing_static_loads(machine)[bearing] if load is None else load
+    return _view_inputs(machine.bearings[bearing], load, _omega(machine, omega), span, points)
+
+
+def _view_inputs(b: Bearing, load, omega: float, span, points) -> dict:
+    return {
+        "format": TABLE_FORMAT_VERSION,
+        "lubeviz": lubeviz.__version__,
+        "solver": solver_version(),
+        "bearing": _bearing_values(b),
         "load_n": [float(f"{float(w):.{_LOAD_DIGITS}g}") for w in load],
-        "omega_rad_s": _omega(machine, omega),
-        "span": [lo, hi],
-        "points": int(points),
+        "omega_rad_s": float(omega),
+        "sommerfeld_nodes": [_dimensionless.COARSE_STEP, _dimensionless.FINE_STEP, _dimensionless.FINE_BELOW,
+                             *_dimensionless.S_RANGE],
+        **_grid(span, points),
     }
 
 
 def table_key(machine, bearing: int, omega: float | None = None, span=DEFAULT_SPAN,
               points: int = DEFAULT_POINTS) -> str:
-    """sha256 (hex) of the canonical JSON of every input that decides the table's numbers.
+    """sha256 (hex) of every input that decides the numbers of a bearing's view (`CoefficientTable.key`).
 
-    In the key, and why:
-    - the bearing's parameters (`Bearing.param` except `name`): radius, length, clearance, viscosity,
-      groove angle, length and width, and the mesh (n_circumferential, n_axial): the film model's
-      inputs. `node` too: it places the bearing on the rotor and so decides its load.
-    - the static load on the journal (N), computed from the rotor (`bearing_static_loads`): it is
-      the only way the shaft elements, discs, density, gravity and the other bearing's position
-      reach the table, so it stands for all of them exactly, and a change to any of them that moves
-      the load changes the key. Kept to 12 significant digits so last-bit differences of the
-      linear algebra between machines do not defeat the cache.
-    - the speed omega (rad/s), the span and the number of points (the flow grid is a function of
-      span, points and Q_T, and Q_T of the bearing, load and speed).
-    - the code: `TABLE_FORMAT_VERSION` (file layout), `lubeviz.__version__`, and `solver_version()`,
-      a hash of the source of the film solver, equilibrium/coefficient method, table grid and statics.
-    Not in the key, and why:
-    - the unbalance, the measurement nodes, shaft damping, Young's modulus and Poisson's ratio: the
-      table is a static equilibrium plus a linearization of the film, with the load from a statically
-      determinate support problem; none of these enter it.
-    - the bearing's index in the machine and its display name: labels only.
-    - the machine file's bytes: every value the table depends on is hashed above as the machine
-      object holds it, which also covers a machine edited after loading; hashing the bytes would
-      rebuild on a comment or an unbalance edit. The file's sha256 is stored in the table file as
-      provenance.
-    - numpy/scipy/numba versions: they change results at rounding level only.
-    """
+    In it: the bearing's parameters (`Bearing.param` except `name`; `node` since it decides the load),
+    the static load on the journal (12 significant digits; it stands for the shaft, discs, density,
+    gravity and the other bearing's position), the speed, the ratio grid and the S grid, and the code
+    (format, package version, `solver_version()`). Not in it: the unbalance, measurement nodes, shaft
+    damping, E and nu (none enter a static equilibrium or the film's linearization), labels, the
+    machine file's bytes. Views are not stored; the slices under them are (`slice_inputs`)."""
     return _digest(key_inputs(machine, bearing, omega, span=span, points=points))
 
 
@@ -202,22 +229,20 @@ def _checksum(key: str, arrays: dict) -> str:
     return h.hexdigest()
 
 
-def _table_arrays(table: CoefficientTable) -> dict:
-    return {"q": table.q, "K": table.K, "C": table.C, "position": table.position,
-            "q_threshold": np.float64(table.q_threshold), "omega": np.float64(table.omega),
-            "seconds": np.float64(table.seconds)}
+def _slice_arrays(s: Slice) -> dict:
+    return {"ratio": s.ratio, "values": s.values, "q_threshold": np.float64(s.q_threshold),
+            "sommerfeld": np.float64(s.sommerfeld), "seconds": np.float64(s.seconds)}
 
 
-def _write(path: Path, table: CoefficientTable, key: str, inputs: dict, source_sha256: str) -> None:
+def _write(path: Path, s: Slice, key: str, inputs: dict) -> None:
     """Write atomically: a temporary file in the same directory, fsync, then os.replace."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    arrays = {k: np.asarray(v, dtype="<f8") for k, v in _table_arrays(table).items()}
+    arrays = {k: np.asarray(v, dtype="<f8") for k, v in _slice_arrays(s).items()}
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem[:16]}-", suffix=".npz.tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "wb") as fh:
             np.savez(fh, **arrays, key=np.array(key), checksum=np.array(_checksum(key, arrays)),
-                     format=np.array(TABLE_FORMAT_VERSION), inputs=np.array(json.dumps(inputs, sort_keys=True)),
-                     source_sha256=np.array(source_sha256))
+                     format=np.array(TABLE_FORMAT_VERSION), inputs=np.array(json.dumps(inputs, sort_keys=True)))
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
@@ -230,8 +255,8 @@ class _Untrusted(Exception):
     """Why a cache file is not used (becomes the warning's text)."""
 
 
-def _read(path: Path, key: str, bearing: int, span, points: int) -> CoefficientTable:
-    """Load and validate one table file; raises _Untrusted with the reason."""
+def _read(path: Path, key: str, sommerfeld: float, span, points: int) -> Slice:
+    """Load and validate one slice file; raises _Untrusted with the reason."""
     try:
         with np.load(path, allow_pickle=False) as z:
             data = {name: z[name] for name in z.files}
@@ -251,125 +276,187 @@ def _read(path: Path, key: str, bearing: int, span, points: int) -> CoefficientT
         arrays[name] = data[name].astype("<f8")
     if str(data["checksum"]) != _checksum(key, arrays):
         raise _Untrusted("checksum mismatch (the values were changed after writing)")
-    n = arrays["q"].shape[0] if arrays["q"].ndim == 1 else -1
-    shapes = {"q": (n,), "K": (n, 2, 2), "C": (n, 2, 2), "position": (n, 2), "q_threshold": (),
-              "omega": (), "seconds": ()}
+    n = arrays["ratio"].shape[0] if arrays["ratio"].ndim == 1 else -1
+    shapes = {"ratio": (n,), "values": (n, 10), "q_threshold": (), "sommerfeld": (), "seconds": ()}
     bad = [f"{k} {arrays[k].shape} (expected {s})" for k, s in shapes.items() if arrays[k].shape != s]
     if n != points or bad:
-        raise _Untrusted(f"inconsistent shapes for {points} points: {', '.join(bad) or 'q'}")
+        raise _Untrusted(f"inconsistent shapes for {points} points: {', '.join(bad) or 'ratio'}")
     if not all(np.all(np.isfinite(a)) for a in arrays.values()):
         raise _Untrusted("non-finite values")
-    q = arrays["q"]
-    if np.any(np.diff(q) <= 0):
-        raise _Untrusted("flows not strictly increasing")
-    grid = table_flows(float(arrays["q_threshold"]), span, points)
-    if not np.allclose(q, grid, rtol=1e-12, atol=0.0):
-        raise _Untrusted("flows are not the table grid of the key's span and points")
-    return CoefficientTable(bearing=bearing, omega=float(arrays["omega"]), q_threshold=float(arrays["q_threshold"]),
-                            q=q, K=arrays["K"], C=arrays["C"], position=arrays["position"],
-                            seconds=float(arrays["seconds"]), key=key)
+    if not np.array_equal(arrays["ratio"], _dimensionless.ratio_grid(span, points)):
+        raise _Untrusted("supply ratios are not the grid of the key's span and points")
+    if float(arrays["sommerfeld"]) != float(sommerfeld) or not float(arrays["q_threshold"]) > 0.0:
+        raise _Untrusted("Sommerfeld number or flooded threshold differs from the key's")
+    return Slice(sommerfeld=float(arrays["sommerfeld"]), q_threshold=float(arrays["q_threshold"]),
+                 ratio=arrays["ratio"], values=arrays["values"], seconds=float(arrays["seconds"]))
 
 
-def _source_sha256(machine) -> str:
-    if not machine.source:
-        return ""
+# Slices already validated in this process, by key and the sha256 of the file's bytes: a view is
+# made for every (viscosity, clearance) a fit tries, and unpacking and re-checking its four files each
+# time would dominate. Any change to a file's bytes gives another digest, and a full validation.
+_VALIDATED: dict = {}
+_VALIDATED_MAX = 512
+
+
+def _load_or_discard(path: Path, key: str, sommerfeld: float, span, points: int) -> Slice | None:
+    """The cached slice if present and trustworthy; None (after warning and deleting) otherwise."""
     try:
-        return hashlib.sha256(Path(machine.source).read_bytes()).hexdigest()
-    except OSError:
-        return ""
-
-
-def _load_or_discard(path: Path, key: str, bearing: int, span, points: int) -> CoefficientTable | None:
-    """The cached table if present and trustworthy; None (after warning and deleting) otherwise."""
-    if not path.exists():
+        ident = (key, float(sommerfeld), tuple(span), int(points), hashlib.sha256(path.read_bytes()).hexdigest())
+    except FileNotFoundError:
         return None
+    if ident in _VALIDATED:
+        return _VALIDATED[ident]
     try:
-        return _read(path, key, bearing, span, points)
+        s = _read(path, key, sommerfeld, span, points)
+        if len(_VALIDATED) >= _VALIDATED_MAX:
+            _VALIDATED.clear()
+        _VALIDATED[ident] = s
+        return s
     except _Untrusted as why:
         warnings.warn(f"coefficient table cache {path}: {why}; deleting it and rebuilding",
-                      StaleCacheWarning, stacklevel=3)
+                      StaleCacheWarning, stacklevel=4)
         path.unlink(missing_ok=True)
         return None
 
 
-def _store(path: Path, table: CoefficientTable, key: str, inputs: dict, machine) -> CoefficientTable:
-    _write(path, table, key, inputs, _source_sha256(machine))
-    return dataclasses.replace(table, key=key)
+# --- slices: load or build ---------------------------------------------------------------------------
+
+def _build_one(geometry: dict, sommerfeld: float, span, points: int, progress: ProgressFn) -> Slice:
+    try:
+        return _dimensionless.build_slice(geometry, sommerfeld, span=span, points=points, progress=progress)
+    except ConvergenceError as exc:
+        raise ConvergenceError(f"dimensionless table slice at S = {sommerfeld:.4g}: {exc}") from exc
 
 
-# --- public --------------------------------------------------------------------------------------
+def geometry_table(bearing: Bearing, sommerfeld=None, *, span=DEFAULT_SPAN, points: int = DEFAULT_POINTS,
+                   progress: ProgressFn = silent, directory=None, workers: int | None = None,
+                   nodes: np.ndarray | None = None) -> DimensionlessTable:
+    """The dimensionless table of `bearing`'s geometry with the slices that queries at S value(s)
+    `sommerfeld` need (None: every slice, the full range) loaded from the cache or built and stored.
+
+    `workers` defaults to min(2 x number missing, CPU count) (each slice is solved in two parts, r <= 1
+    and r > 1, one job each); `workers=1` builds in this process. Progress counts solved ratios over the
+    slices being built. `nodes`: the S grid (default `sommerfeld_nodes()`)."""
+    geometry = geometry_values(bearing)
+    nodes = sommerfeld_nodes() if nodes is None else np.asarray(nodes, dtype=float)
+    table = DimensionlessTable(geometry=geometry, nodes=nodes, span=tuple(float(v) for v in span), points=int(points))
+    wanted = range(nodes.size) if sommerfeld is None else table.needed(sommerfeld)
+    directory = _slices_dir(directory)
+    keys = {i: slice_key(geometry, nodes[i], span=span, points=points) for i in wanted}
+    paths = {i: directory / f"{k}.npz" for i, k in keys.items()}
+    for i in wanted:
+        s = _load_or_discard(paths[i], keys[i], float(nodes[i]), span, points)
+        if s is not None:
+            table.slices[i] = s
+    missing = [i for i in wanted if i not in table.slices]
+    if not missing:
+        progress(1, 1, "tables from cache")
+        return table
+    # two jobs per slice (its parts r <= 1 and r > 1), so even one slice uses two processes
+    workers = min(2 * len(missing), os.cpu_count() or 1) if workers is None else int(workers)
+    if workers < 1:
+        raise InputError(f"workers = {workers}; expected at least 1")
+    total = points * len(missing)
+
+    def store(i, s: Slice):
+        _write(paths[i], s, keys[i], slice_inputs(geometry, nodes[i], span=span, points=points))
+        table.slices[i] = s
+
+    if workers == 1:
+        for j, i in enumerate(missing):
+            def offset(done, _total, label="", j=j, i=i):
+                progress(j * points + done, total, f"S = {nodes[i]:.3g}: {label}")
+            store(i, _build_one(geometry, float(nodes[i]), span, points, offset))
+        return table
+    _build_parallel(geometry, nodes, missing, span, points, progress, workers, total, store)
+    return table
+
+
+def slices_cached(bearing: Bearing, sommerfeld, *, span=DEFAULT_SPAN, points: int = DEFAULT_POINTS,
+                  directory=None) -> bool:
+    """Whether every slice that queries at S value(s) `sommerfeld` need is on disk (not validated here:
+    `geometry_table` validates on load and rebuilds what it cannot trust). Lets a caller do optional
+    work only when it costs no film solve."""
+    geometry = geometry_values(bearing)
+    nodes = sommerfeld_nodes()
+    table = DimensionlessTable(geometry=geometry, nodes=nodes, span=tuple(float(v) for v in span), points=int(points))
+    try:
+        wanted = table.needed(sommerfeld)
+    except InputError:
+        return False
+    directory = _slices_dir(directory)
+    return all((directory / f"{slice_key(geometry, nodes[i], span=span, points=points)}.npz").exists()
+               for i in wanted)
+
+
+def _view(table: DimensionlessTable, bearing: Bearing, load, omega: float, index: int, key: str) -> CoefficientTable:
+    s = sommerfeld_number(bearing, load, omega)
+    return _dimensionless.dimensional_table(table.combination(s), bearing, load, omega, index=index, key=key)
+
+
+def bearing_view(bearing: Bearing, load, omega: float, *, index: int = 0, span=DEFAULT_SPAN,
+                 points: int = DEFAULT_POINTS, progress: ProgressFn = silent, directory=None,
+                 workers: int | None = None) -> CoefficientTable:
+    """The `CoefficientTable` (SI) of `bearing` under static `load` (N, [Wx, Wy], along -Y) at `omega`
+    (rad/s), from its geometry's dimensionless table (slices built only if missing). Use it for a
+    bearing with changed viscosity or clearance, e.g. `bearing.copy(viscosity=0.7 * mu)`: no film solve
+    when the slices around its Sommerfeld number exist. Raises InputError outside the table's S range."""
+    omega = _check_omega(omega)
+    load = _dimensionless._check_load(load)
+    s = sommerfeld_number(bearing, load, omega)
+    table = geometry_table(bearing, [s], span=span, points=points, progress=progress, directory=directory,
+                           workers=workers)
+    return _view(table, bearing, load, omega, index, _digest(_view_inputs(bearing, load, omega, span, points)))
+
 
 def cached_table(machine, bearing: int, omega: float | None = None, *, span=DEFAULT_SPAN,
                  points: int = DEFAULT_POINTS, progress: ProgressFn = silent, directory=None) -> CoefficientTable:
-    """The table of `machine.bearings[bearing]`: from the cache if valid, else built (in this process) and stored."""
+    """The table of `machine.bearings[bearing]`: a view of the cached slices (missing ones built in this process)."""
     bearing = _check_bearing(machine, bearing)
     omega = _omega(machine, omega)
-    inputs = key_inputs(machine, bearing, omega, span=span, points=points)
-    key = _digest(inputs)
-    path = _tables_dir(directory) / f"{key}.npz"
-    table = _load_or_discard(path, key, bearing, span, points)
-    if table is not None:
-        progress(points, points, f"bearing {bearing + 1}: table from cache")
-        return table
-    table = _tables.build_table(machine, bearing, omega, span=span, points=points, progress=progress)
-    return _store(path, table, key, inputs, machine)
-
-
-def _build_worker(bearing_values: dict, load: list, omega: float, index: int, span, points: int,
-                  messages, cancel) -> dict:
-    """Worker process: one bearing's table from plain values; reports each flow on `messages`."""
-    def report(done, total, label=""):
-        if cancel.is_set():
-            raise Cancelled(f"bearing {index + 1}: cancelled")
-        messages.put((index, done, total, label))
-
-    table = _tables.bearing_table(Bearing(**bearing_values), np.asarray(load), omega, index=index, span=span,
-                                  points=points, progress=report)
-    return _table_arrays(table)
-
-
-def _from_arrays(arrays: dict, index: int) -> CoefficientTable:
-    return CoefficientTable(bearing=index, omega=float(arrays["omega"]), q_threshold=float(arrays["q_threshold"]),
-                            q=arrays["q"], K=arrays["K"], C=arrays["C"], position=arrays["position"],
-                            seconds=float(arrays["seconds"]))
+    load = bearing_static_loads(machine)[bearing]
+    return bearing_view(machine.bearings[bearing], load, omega, index=bearing, span=span, points=points,
+                        progress=progress, directory=directory, workers=1)
 
 
 def machine_tables(machine, omega: float | None = None, *, span=DEFAULT_SPAN, points: int = DEFAULT_POINTS,
                    progress: ProgressFn = silent, directory=None, workers: int | None = None
                    ) -> tuple[CoefficientTable, ...]:
-    """One table per bearing of `machine`: cached ones loaded, missing ones built in parallel and stored.
-
-    `workers` defaults to min(number missing, CPU count); `workers=1` (or a single missing table)
-    builds in this process without a pool. Progress counts solved flows over the tables being built.
-    """
+    """One table per bearing of `machine`, views of the cached slices; bearings of one geometry share
+    them, and the slices missing for all bearings are built together, in parallel."""
     omega = _omega(machine, omega)
-    directory = _tables_dir(directory)
     loads = bearing_static_loads(machine)
     n = len(machine.bearings)
-    inputs = [key_inputs(machine, k, omega, span=span, points=points, load=loads[k]) for k in range(n)]
-    keys = [_digest(i) for i in inputs]
-    paths = [directory / f"{key}.npz" for key in keys]
-    out: list[CoefficientTable | None] = [_load_or_discard(paths[k], keys[k], k, span, points) for k in range(n)]
-    missing = [k for k in range(n) if out[k] is None]
-    if not missing:
-        progress(1, 1, "tables from cache")
-        return tuple(out)
-    workers = min(len(missing), os.cpu_count() or 1) if workers is None else int(workers)
-    if workers < 1:
-        raise InputError(f"workers = {workers}; expected at least 1")
-    total = points * len(missing)
-    if workers == 1 or len(missing) == 1:
-        for j, k in enumerate(missing):
-            def offset(done, _total, label="", j=j, k=k):
-                progress(j * points + done, total, f"bearing {k + 1}: {label}")
-            table = _tables.build_table(machine, k, omega, span=span, points=points, progress=offset)
-            out[k] = _store(paths[k], table, keys[k], inputs[k], machine)
-        return tuple(out)
-    out_missing = _build_parallel(machine, omega, missing, loads, span, points, progress, workers, total,
-                                  lambda k, table: _store(paths[k], table, keys[k], inputs[k], machine))
-    for k, table in out_missing.items():
-        out[k] = table
+    for k in range(n):
+        _dimensionless._check_load(loads[k])
+    groups: dict[str, list[int]] = {}
+    for k, b in enumerate(machine.bearings):
+        groups.setdefault(_digest(geometry_values(b)), []).append(k)
+    out: list[CoefficientTable | None] = [None] * n
+    for members in groups.values():
+        s = [sommerfeld_number(machine.bearings[k], loads[k], omega) for k in members]
+        table = geometry_table(machine.bearings[members[0]], s, span=span, points=points, progress=progress,
+                               directory=directory, workers=workers)
+        for k in members:
+            key = _digest(_view_inputs(machine.bearings[k], loads[k], omega, span, points))
+            out[k] = _view(table, machine.bearings[k], loads[k], omega, k, key)
     return tuple(out)
+
+
+# --- parallel build ------------------------------------------------------------------------------------
+
+def _build_worker(geometry: dict, sommerfeld: float, index: int, part: str, span, points: int,
+                  messages, cancel) -> dict:
+    """Worker process: one part of one slice from plain values; reports each ratio on `messages`."""
+    def report(done, total, label=""):
+        if cancel.is_set():
+            raise Cancelled(f"slice {index}: cancelled")
+        messages.put(((index, part), done, total, label))
+
+    try:
+        return _dimensionless.build_slice_part(geometry, sommerfeld, part, span=span, points=points, progress=report)
+    except ConvergenceError as exc:
+        raise ConvergenceError(f"dimensionless table slice at S = {sommerfeld:.4g}: {exc}") from exc
 
 
 def _process_context():
@@ -382,43 +469,61 @@ def _process_context():
     return multiprocessing.get_context("spawn")
 
 
-def _build_parallel(machine, omega, missing, loads, span, points, progress, workers, total, store) -> dict:
+def _build_parallel(geometry, nodes, missing, span, points, progress, workers, total, store) -> None:
     ctx = _process_context()
-    done = {k: 0 for k in missing}
-    built = {}
+    jobs = [(i, part) for i in missing for part in _dimensionless.PARTS]
+    done = {job: 0 for job in jobs}
+    parts: dict[int, dict] = {i: {} for i in missing}
     with ctx.Manager() as manager:
         messages, cancel = manager.Queue(), manager.Event()
         pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
         futures = {}
         try:
-            for k in missing:
-                futures[pool.submit(_build_worker, _bearing_values(machine.bearings[k]),
-                                    [float(w) for w in loads[k]], omega, k, tuple(span), points,
-                                    messages, cancel)] = k
-            progress(0, total, f"building {len(missing)} tables on {workers} processes")
+            for i, part in jobs:
+                futures[pool.submit(_build_worker, geometry, float(nodes[i]), i, part, tuple(span), points,
+                                    messages, cancel)] = (i, part)
+            progress(0, total, f"building {len(missing)} table slices on {workers} processes")
             pending = set(futures)
 
             def drain():
                 while True:
                     try:
-                        k, d, _t, label = messages.get_nowait()
+                        job, d, _t, label = messages.get_nowait()
                     except queue_module.Empty:
                         return
-                    done[k] = max(done[k], d)
-                    progress(sum(done.values()), total, f"bearing {k + 1}: {label}")
+                    done[job] = max(done[job], d)
+                    progress(sum(done.values()), total, f"S = {nodes[job[0]]:.3g}: {label}")
+
+            def harvest(finished):
+                for f in finished:
+                    i, part = futures[f]
+                    if part in parts[i]:
+                        continue
+                    parts[i][part] = f.result()
+                    if len(parts[i]) == len(_dimensionless.PARTS):
+                        store(i, _dimensionless.join_slice(float(nodes[i]), parts[i]["below"], parts[i]["above"],
+                                                           span=span, points=points))
 
             while pending:
                 finished, pending = wait(pending, timeout=0.1, return_when=FIRST_COMPLETED)
+                harvest(finished)  # before progress, which may raise Cancelled: finished slices are kept
                 drain()
-                for f in finished:
-                    k = futures[f]
-                    built[k] = store(k, _from_arrays(f.result(), k))
             drain()
         except BaseException:
             cancel.set()
             for f in futures:
                 f.cancel()
             pool.shutdown(wait=True, cancel_futures=True)
+            # keep the slices whose two parts both finished (a cancelled build resumes from them)
+            harvest([f for f in futures if f.done() and not f.cancelled() and f.exception() is None])
             raise
         pool.shutdown(wait=True)
-    return built
+
+
+def full_build(bearing: Bearing, *, progress: ProgressFn = silent, directory=None, workers: int | None = None,
+               span=DEFAULT_SPAN, points: int = DEFAULT_POINTS) -> tuple[DimensionlessTable, float]:
+    """Every slice of `bearing`'s geometry (the whole S range); returns the table and the seconds taken."""
+    t0 = time.perf_counter()
+    table = geometry_table(bearing, None, span=span, points=points, progress=progress, directory=directory,
+                           workers=workers)
+    return table, time.perf_counter() - t0

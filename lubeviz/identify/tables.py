@@ -2,24 +2,25 @@
 
 For a given load, speed and oil a bearing's coefficients depend on its own supply flow only, so the
 whole identification needs just one table per bearing: equilibria on a grid of flows spanning
-`span` x Q_T (default 25-200 %), each warm-started from its neighbour, interpolated with a cubic
-spline per entry (C2-smooth between kinks, so a Newton search and its finite-difference Jacobian see
-smooth functions).
+`span` x Q_T (default 25-200 %), interpolated with a cubic spline per entry (C2-smooth between kinks,
+so a Newton search and its finite-difference Jacobian see smooth functions). The tables the
+identification uses are views of the dimensionless tables over (S, Q / Q_T) (`dimensionless.py`,
+cached by `cache.py`), on this module's grid in Q / Q_T; `build_table` / `bearing_table` solve a
+table directly (tests, accuracy measurements).
 
 The grid follows what the coefficients do (measured on the paper's bearings, 100 x 100, sub-cell K, C):
 - Q_T is a change of regime (the groove starts to pressurize: Kyy turns from falling to rising), so
   Q_T is a node and each side gets its own spline: one spline across it left 0.75 % in fb.
 - Just above Q_T the slope of K, C ramps to ~3x its starved value within ~10 ml/min as the groove
   pressurizes (Kyy: from -0.1 to +1.9 % per ml/min). On the uniform mesh the ramp came in kinks at
-  mesh-dependent flows (the groove's pressurized zone growing a column at a time: Q_T - 0.7, + 6,
-  + 12 ml/min) and a coarse spline rang around them (the old 71-point grid: 0.35 % in fb at Q_T - 7,
-  1.4 % at Q_T + 7 ml/min). `DENSE_BAND` around Q_T gets a uniform step `DENSE_STEP`; with the
-  groove's columns refined (film.mesh.refined_split) the ramp is smooth and the band's error is
-  0.0065 % in fb at most (0.052 % on the uniform mesh).
+  mesh-dependent flows and a coarse spline rang around them (the old 71-point grid: 0.35 % in fb at
+  Q_T - 7, 1.4 % at Q_T + 7 ml/min). `DENSE_BAND` around Q_T gets a uniform step `DENSE_STEP`; with
+  the groove's columns refined (film.mesh.refined_split) the ramp is smooth, so a step of 0.2 % Q_T
+  suffices there (0.016 % in fb at most).
 - Elsewhere the coefficients are smooth: a grid uniform in s = sqrt(Q / Q_T), about twice as dense
   below Q_T as above.
 `lubeviz bench identify --accuracy` and the tests measure the error against direct solves
-(`lubeviz.identify.accuracy`).
+(`lubeviz.identify.accuracy`); `lubeviz bench table` over the whole operating range.
 """
 
 from __future__ import annotations
@@ -40,11 +41,20 @@ from ..progress import ProgressFn, silent
 from ..rotor.statics import bearing_static_loads
 
 DEFAULT_SPAN = (0.25, 2.0)
-# The band where the groove pressurizes, relative to Q_T, and its step (0.27 ml/min at Q_T =
-# 545 ml/min): 111 of the default points; the other 111 on the sqrt(Q) grid outside it.
+# The band where the groove pressurizes, relative to Q_T, and its step (1.1 ml/min at Q_T =
+# 545 ml/min): 28 of the default points; the other 112 on the sqrt(Q) grid outside it. Measured
+# (fb, phi vs direct solves, bearing 1 at 75 Hz, all midpoints; accuracy.py), max below Q_T - 5 ml/min
+# / across the band / above Q_T + 25, fb in %:
+#   140 points, step 0.002: 0.023 / 0.016 / 0.064 (phi 0.0046 / 0.0018 / 0.013 deg)  <- the default
+#   120 points, step 0.002: 0.028 / 0.016 / 0.082 (phi 0.0064 / 0.0018 / 0.017 deg)
+#   120 points, step 0.001: 0.031 / 0.017 / 0.109;  90 points, step 0.002: 0.053 / 0.016 / 0.119
+#   120 points, step 0.004 over -0.5 ... +10 %: 0.067 / 0.054 / 0.078
+#   222 points, step 0.0005 (the former default): 0.011 / 0.052 / 0.054
+# Above the band the max sits just past it (Q_T + 27 ml/min) and is partly the film's own roughness.
+# Fewer points keep the dimensionless tables' slices (dimensionless.py) cheap.
 DENSE_BAND = (-0.005, 0.05)
-DENSE_STEP = 0.0005
-DEFAULT_POINTS = 222
+DENSE_STEP = 0.002
+DEFAULT_POINTS = 140
 
 
 @dataclass(frozen=True)

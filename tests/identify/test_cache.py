@@ -1,5 +1,6 @@
-"""The on-disk table cache: hits without recomputation, a key that tracks every relevant input,
-untrustworthy files rebuilt, never inside the repository, parallel builds identical to serial ones."""
+"""The on-disk cache of dimensionless table slices: hits without recomputation, keys that track every
+relevant input, untrustworthy files rebuilt, never inside the repository, parallel builds identical to
+serial ones, bearings of one geometry sharing slices."""
 
 import dataclasses
 import math
@@ -11,34 +12,43 @@ import pytest
 
 import lubeviz
 from lubeviz.errors import InputError
-from lubeviz.identify import cache, tables
-from lubeviz.identify.cache import StaleCacheWarning, cache_dir, cached_table, machine_tables, table_key
+from lubeviz.identify import cache, dimensionless, tables
+from lubeviz.identify.cache import (StaleCacheWarning, cache_dir, cached_table, machine_tables, slice_key,
+                                    table_key)
+from lubeviz.identify.dimensionless import geometry_values, sommerfeld_nodes
 from lubeviz.model.machine import ShaftElement, load_machine
 from lubeviz.progress import Cancelled
 
-POINTS = 9  # few flows (the fewest with a node at Q_T and a spline each side) on a coarse mesh: each table takes well under a second
+POINTS = 9  # few ratios (the fewest with a node at Q_T and a spline each side) on a coarse mesh: each slice takes well under a second
+SLICES = 4  # a view interpolates the 4 slices around its Sommerfeld number
 REPO = Path(lubeviz.__file__).resolve().parents[1]
 
 
 def coarse_machine():
-    """The paper's machine with a 40 x 20 film mesh (fast; the cache does not care about accuracy)."""
+    """The paper's machine with a 40 x 20 film mesh (fast; the cache does not care about accuracy), at
+    70 Hz: its S lies between slices (at 75 Hz it sits on the grid's anchor and needs one slice)."""
     m = load_machine()
     m.bearings = [b.copy(n_circumferential=40, n_axial=20) for b in m.bearings]
+    m.operating_speed = 70.0
     return m
 
 
 @pytest.fixture
 def builds(monkeypatch):
-    """Counts calls of tables.build_table (the in-process builder the cache uses)."""
+    """Counts calls of dimensionless.build_slice (the in-process builder the cache uses), by slice S."""
     calls = []
-    original = tables.build_table
+    original = dimensionless.build_slice
 
     def counting(*args, **kwargs):
         calls.append(args[1])
         return original(*args, **kwargs)
 
-    monkeypatch.setattr(tables, "build_table", counting)
+    monkeypatch.setattr(dimensionless, "build_slice", counting)
     return calls
+
+
+def slice_files(directory):
+    return sorted((directory / "slices").glob("*.npz"))
 
 
 def assert_same_table(a, b):
@@ -51,17 +61,19 @@ def assert_same_table(a, b):
 def test_cache_hit_returns_the_same_table_without_rebuilding(tmp_path, builds):
     m = coarse_machine()
     first = cached_table(m, 0, points=POINTS, directory=tmp_path)
-    assert builds == [0]
-    files = list((tmp_path / "tables").glob("*.npz"))
-    assert [f.stem for f in files] == [first.key] == [table_key(m, 0, points=POINTS)]
+    assert len(builds) == SLICES
+    g = geometry_values(m.bearings[0])
+    assert sorted(f.stem for f in slice_files(tmp_path)) == sorted(slice_key(g, s, points=POINTS) for s in builds)
+    assert first.key == table_key(m, 0, points=POINTS)
     second = cached_table(m, 0, points=POINTS, directory=tmp_path)
-    assert builds == [0]
+    assert len(builds) == SLICES
     assert_same_table(first, second)
     assert second.key == first.key
-    # machine_tables finds bearing 1 in the cache and builds only bearing 2
+    # machine_tables: bearing 2 has the same geometry and (to 3e-5) the same S: it shares the slices
     both = machine_tables(m, points=POINTS, directory=tmp_path, workers=1)
-    assert builds == [0, 1]
+    assert len(builds) == SLICES
     assert_same_table(both[0], first)
+    assert both[1].bearing == 1 and both[1].q_threshold != first.q_threshold
 
 
 def test_a_default_grid_table_with_its_dense_band_is_read_back(tmp_path, builds):
@@ -69,10 +81,11 @@ def test_a_default_grid_table_with_its_dense_band_is_read_back(tmp_path, builds)
     m = coarse_machine()
     first = cached_table(m, 0, directory=tmp_path)
     assert first.q.size == tables.DEFAULT_POINTS
+    np.testing.assert_allclose(first.q, tables.table_flows(first.q_threshold), rtol=1e-14)
     with warnings.catch_warnings():
         warnings.simplefilter("error", StaleCacheWarning)
         second = cached_table(m, 0, directory=tmp_path)
-    assert builds == [0]
+    assert len(builds) == SLICES
     assert_same_table(first, second)
 
 
@@ -102,7 +115,7 @@ def test_key_tracks_every_input_that_affects_the_table(monkeypatch):
         "mesh": table_key(_variant(_bearing_change(n_circumferential=41)), 0, points=POINTS),
         "axial mesh": table_key(_variant(_bearing_change(n_axial=22)), 0, points=POINTS),
         "groove": table_key(_variant(_bearing_change(groove_width=30e-3)), 0, points=POINTS),
-        "speed": table_key(coarse_machine(), 0, 2 * math.pi * 70.0, points=POINTS),
+        "speed": table_key(coarse_machine(), 0, 2 * math.pi * 65.0, points=POINTS),
         "operating speed": table_key(_variant(lambda m: setattr(m, "operating_speed", 80.0)), 0, points=POINTS),
         "shaft element": table_key(_variant(_element_change), 0, points=POINTS),
         "disc": table_key(_variant(lambda m: setattr(m, "discs", m.discs[:2])), 0, points=POINTS),
@@ -173,17 +186,17 @@ def _wrong_key(path):
 
 def _nan_with_valid_checksum(path):
     d = _stored(path)
-    K = d["K"].copy()
-    K[2, 0, 1] = np.nan
-    arrays = {k: (K if k == "K" else d[k]) for k in cache._ARRAYS}
-    _rewrite(path, K=K, checksum=np.array(cache._checksum(str(d["key"]), arrays)))
+    values = d["values"].copy()
+    values[2, 1] = np.nan
+    arrays = {k: (values if k == "values" else d[k]) for k in cache._ARRAYS}
+    _rewrite(path, values=values, checksum=np.array(cache._checksum(str(d["key"]), arrays)))
 
 
 def _tampered_value(path):
     d = _stored(path)
-    C = d["C"].copy()
-    C[1, 1, 1] *= 1.0001
-    _rewrite(path, C=C)
+    values = d["values"].copy()
+    values[1, 7] *= 1.0001
+    _rewrite(path, values=values)
 
 
 def _pickled_object(path):
@@ -195,37 +208,62 @@ def _pickled_object(path):
 
 def _wrong_shape(path):
     d = _stored(path)
-    position = d["position"][:-1]
-    arrays = {k: (position if k == "position" else d[k]) for k in cache._ARRAYS}
-    _rewrite(path, position=position, checksum=np.array(cache._checksum(str(d["key"]), arrays)))
+    values = d["values"][:-1]
+    arrays = {k: (values if k == "values" else d[k]) for k in cache._ARRAYS}
+    _rewrite(path, values=values, checksum=np.array(cache._checksum(str(d["key"]), arrays)))
+
+
+def _other_grid_with_valid_checksum(path):
+    d = _stored(path)
+    ratio = d["ratio"].copy()
+    ratio[3] *= 1.001
+    arrays = {k: (ratio if k == "ratio" else d[k]) for k in cache._ARRAYS}
+    _rewrite(path, ratio=ratio, checksum=np.array(cache._checksum(str(d["key"]), arrays)))
 
 
 @pytest.mark.parametrize("damage", [_truncate, _garbage, _wrong_key, _nan_with_valid_checksum, _tampered_value,
-                                    _pickled_object, _wrong_shape])
+                                    _pickled_object, _wrong_shape, _other_grid_with_valid_checksum])
 def test_untrustworthy_file_is_rebuilt(tmp_path, builds, damage):
     m = coarse_machine()
     good = cached_table(m, 0, points=POINTS, directory=tmp_path)
-    path = tmp_path / "tables" / f"{good.key}.npz"
+    path = slice_files(tmp_path)[1]
     damage(path)
     with pytest.warns(StaleCacheWarning, match=str(path.name)):
         rebuilt = cached_table(m, 0, points=POINTS, directory=tmp_path)
-    assert builds == [0, 0]
+    assert len(builds) == SLICES + 1  # only the damaged slice is solved again
     assert_same_table(rebuilt, good)
     again = cached_table(m, 0, points=POINTS, directory=tmp_path)  # the rebuilt file is trusted
-    assert builds == [0, 0]
+    assert len(builds) == SLICES + 1
     assert_same_table(again, good)
 
 
 def test_file_of_other_inputs_under_this_key_is_rebuilt(tmp_path, builds):
     """A file renamed to another key's name (or a key collision) is not trusted."""
     m = coarse_machine()
-    t1 = cached_table(m, 1, points=POINTS, directory=tmp_path)
-    key0 = table_key(m, 0, points=POINTS)
-    (tmp_path / "tables" / f"{t1.key}.npz").rename(tmp_path / "tables" / f"{key0}.npz")
+    cached_table(m, 1, points=POINTS, directory=tmp_path)
+    first, second = slice_files(tmp_path)[:2]
+    first.unlink()
+    second.rename(first)
     with pytest.warns(StaleCacheWarning, match="stored key"):
-        t0 = cached_table(m, 0, points=POINTS, directory=tmp_path)
-    assert builds == [1, 0]
-    assert t0.key == key0
+        cached_table(m, 0, points=POINTS, directory=tmp_path)
+    assert len(builds) == SLICES + 2
+    assert len(slice_files(tmp_path)) == SLICES
+
+
+def test_slice_key_tracks_the_geometry_and_ignores_oil_clearance_and_node():
+    b = coarse_machine().bearings[0]
+    s = float(sommerfeld_nodes()[10])
+    base = slice_key(geometry_values(b), s, points=POINTS)
+    for change in ({"viscosity": 0.05}, {"clearance": 150e-6}, {"node": 7}):
+        assert slice_key(geometry_values(b.copy(**change)), s, points=POINTS) == base
+    changed = [slice_key(geometry_values(b.copy(**change)), s, points=POINTS)
+               for change in ({"radius": 0.046}, {"length": 0.071}, {"groove_length": 15e-3}, {"groove_width": 30e-3},
+                              {"groove_angle": 0.1}, {"n_circumferential": 41}, {"n_axial": 22},
+                              {"groove_refinement": 2})]
+    changed += [slice_key(geometry_values(b), float(sommerfeld_nodes()[11]), points=POINTS),
+                slice_key(geometry_values(b), s, points=POINTS + 1),
+                slice_key(geometry_values(b), s, span=(0.3, 2.0), points=POINTS)]
+    assert base not in changed and len(set(changed)) == len(changed)
 
 
 # --- where -----------------------------------------------------------------------------------------
@@ -247,8 +285,8 @@ def test_cache_dir_is_in_the_user_cache_never_in_the_repository(monkeypatch, tmp
 
 def test_default_directory_comes_from_the_environment(monkeypatch, tmp_path, builds):
     monkeypatch.setenv("LUBEVIZ_CACHE_DIR", str(tmp_path))
-    t = cached_table(coarse_machine(), 0, points=POINTS)
-    assert (tmp_path / "tables" / f"{t.key}.npz").is_file()
+    cached_table(coarse_machine(), 0, points=POINTS)
+    assert len(slice_files(tmp_path)) == SLICES
 
 
 # --- parallel build, progress, cancellation -----------------------------------------------------------
@@ -262,8 +300,8 @@ def test_parallel_build_equals_serial_build_and_reports_progress(tmp_path):
     for a, b in zip(serial, parallel):
         assert_same_table(a, b)
         assert a.key == b.key
-    assert seen[-1] == (2 * POINTS, 2 * POINTS)
-    assert all(t == 2 * POINTS for _, t in seen)
+    assert seen[-1] == (SLICES * POINTS, SLICES * POINTS)
+    assert all(t == SLICES * POINTS for _, t in seen)
     assert [d for d, _ in seen] == sorted(d for d, _ in seen)
     # a second call builds nothing: both come from the cache
     assert_same_table(machine_tables(m, points=POINTS, directory=tmp_path / "parallel")[1], serial[1])
