@@ -20,6 +20,9 @@ def register(sub) -> None:
     p.add_argument("--effect", action="append", default=[], metavar="NAME[:key=value,...]",
                    help="declare an effect (SPEC §7, repeatable): the parameters given are held, the others "
                         "fitted with the flows, e.g. viscosity:bearing=both or probe_rotation:plane=1,angle_deg=4")
+    p.add_argument("--oil-check", action="store_true",
+                   help="for a record at one speed without the static position, give the flows' intervals with the "
+                        "oil viscosity free within x0.75-1.33 (tables +-30 %% viscosity once if needed, ~1 min)")
     p.set_defaults(run=run_identify)
 
     p = sub.add_parser("reproduce", help="the paper's 64-case protocol, Tables 4-8")
@@ -39,7 +42,7 @@ def run_identify(args) -> dict:
     t0 = time.perf_counter()
     parse_effects(args.effect)  # a bad effect is a bad-input error before any work
     results = identify_files(args.files, args.machine, args.mode, workers=args.workers, progress=StderrBar(),
-                             effect_specs=tuple(args.effect))
+                             effect_specs=tuple(args.effect), oil_check="always" if args.oil_check else "if-tabled")
     for path, item, _ in results:
         for w in () if item is None else tuple(item.warnings) + tuple(item.result.warnings):
             sys.stderr.write(f"lubeviz identify: {path}: warning: {w}\n")

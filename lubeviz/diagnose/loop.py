@@ -131,6 +131,13 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         verdict = (f"Explained: the model fits the record within noise and model uncertainty "
                    f"(chi2 = {before.chi2:.1f} for {before.dof} dof); no effect is needed.")
         separated = ()
+        look_alike = _oil_look_alike(chains, meas, before, names, budget, level)
+        if look_alike is not None:
+            ambiguous = (look_alike[0],)
+            separated = (type(look_alike[1]).separated_by,)
+            verdict += (f" But the oil's viscosity is not pinned by this record: oil x{OIL_RANGE[0]:g}-"
+                        f"{OIL_RANGE[1]:.2f} as viscous as declared explains it as well, with Q1 in {look_alike[2]} "
+                        f"and Q2 in {look_alike[3]} ml/min. To tell them apart: {separated[0]}.")
     elif passing:
         best = passing[0]
         close = [c for c in passing[1:] if c.aic - best.aic < ambiguity_aic]
@@ -164,6 +171,33 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
     return Diagnosis(before=before, candidates=tuple(tried), added=added, after=after, explained=explained,
                      ambiguous=ambiguous, verdict=verdict, separated_by=separated,
                      seconds=time.perf_counter() - t0, truth=dict(truth or {}))
+
+
+OIL_RANGE = (0.75, 1.0 / 0.75)
+
+
+def _oil_look_alike(chains, meas, before: Fit, names, budget, level):
+    """For a record the plain model explains: does oil of another viscosity explain it as well with other
+    flows? (label, effect, Q1 range, Q2 range) when the flows' profile intervals with the viscosity free
+    are more than twice as wide as with the declared oil; None otherwise, or when the record holds the
+    static position or several speeds (which pin the viscosity)."""
+    from ..effects import Viscosity
+
+    if len(chains) > 1 or any(getattr(m, "static_names", ()) for m in meas):
+        return None
+    oil = Viscosity(bearing="both").release("factor").limited(factor=OIL_RANGE)
+    try:
+        wide = fit([c.with_effects((oil,)) for c in chains], meas, names=names, budget=budget, level=level)
+    except LubevizError:
+        return None
+    ranges, wider = [], False
+    for k, n in enumerate(("q1", "q2")):
+        lo_w, hi_w = wide.intervals[n]
+        lo_n, hi_n = before.intervals[n]
+        top = chains[0].bounds()[1][k]
+        wider |= ((top if hi_w is None else hi_w) - lo_w) > 2 * ((top if hi_n is None else hi_n) - lo_n)
+        ranges.append(f"[{lo_w * 6e7:.0f}, {'open' if hi_w is None else format(hi_w * 6e7, '.0f')}]")
+    return ("viscosity[bearing=both]", oil, *ranges) if wider else None
 
 
 def _story(c: Candidate) -> str:

@@ -10,6 +10,8 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 import dataclasses
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..errors import InputError, LubevizError
 from ..model.machine import load_machine
 from ..progress import ProgressFn, silent
@@ -93,10 +95,27 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
     res = fit(chain, measured, names=tuple(settings.features), budget=budget, lower=settings.lower,
               upper=settings.upper)
     out = _identification(res, chain)
-    if settings.oil_check and not measured.static_names and not any(
+    if settings.oil_check != "never" and not measured.static_names and not any(
             getattr(e, "effect_name", "") in ("viscosity", "clearance") for e in effects):
-        out = _oil_check(out, res, chain, measured, settings, budget)
+        if settings.oil_check == "always" or _oil_range_tabled(chain):
+            out = _oil_check(out, res, chain, measured, settings, budget)
+        else:
+            out = dataclasses.replace(out, warnings=out.warnings + (
+                "the flows assume the declared oil viscosity: one record at one speed cannot tell hotter or colder "
+                "oil from a supply change (--oil-check quantifies it: it tables +-30 % viscosity once, about a "
+                "minute; the static shaft position or records at other speeds separate them)",))
     return out
+
+
+def _oil_range_tabled(chain) -> bool:
+    from .cache import slices_cached
+    from .dimensionless import sommerfeld_number
+
+    for src in chain.sources:
+        s0 = sommerfeld_number(src.bearing, src.load, chain.omega)
+        if not slices_cached(src.bearing, s0 * np.linspace(OIL_RANGE[0], OIL_RANGE[1], 9)):
+            return False
+    return True
 
 
 OIL_RANGE = (0.75, 1.0 / 0.75)
@@ -285,20 +304,20 @@ def result_csv(item: RecordIdentification) -> str:
     return "\n".join(rows) + "\n"
 
 
-def _worker(path, machine_path, mode, effect_specs=()):
+def _worker(path, machine_path, mode, effect_specs=(), oil_check="if-tabled"):
     from ..effects import parse_effects
 
     try:
         return identify_file(path, None if machine_path is None else load_machine(machine_path),
-                             IdentificationSettings(mode=mode),
+                             IdentificationSettings(mode=mode, oil_check=oil_check),
                              effects=parse_effects(effect_specs)), None
     except LubevizError as exc:
         return None, str(exc)
 
 
 def identify_files(paths, machine_path=None, mode: str = "best", *, workers: int | None = None,
-                   progress: ProgressFn = silent,
-                   effect_specs=()) -> list[tuple[str, RecordIdentification | None, str | None]]:
+                   progress: ProgressFn = silent, effect_specs=(),
+                   oil_check: str = "if-tabled") -> list[tuple[str, RecordIdentification | None, str | None]]:
     """Identify many records; returns (file, result or None, error message or None) in input order.
 
     Tables are built (or loaded) once, up front, then records run on `workers` processes.
@@ -306,7 +325,7 @@ def identify_files(paths, machine_path=None, mode: str = "best", *, workers: int
     paths = [str(p) for p in paths]
     grouped = _set_groups(paths)
     if grouped is not None:
-        return _identify_groups(grouped, machine_path, mode, progress, effect_specs)
+        return _identify_groups(grouped, machine_path, mode, progress, effect_specs, oil_check)
     machine = load_machine(machine_path)
     machine_tables(machine, progress=progress)  # warm the cache before fanning out
     workers = min(len(paths), os.cpu_count() or 1) if workers is None else max(1, int(workers))
@@ -315,7 +334,7 @@ def identify_files(paths, machine_path=None, mode: str = "best", *, workers: int
     if workers == 1 or len(paths) == 1:
         from ..effects import parse_effects
 
-        settings = IdentificationSettings(mode=mode)
+        settings = IdentificationSettings(mode=mode, oil_check=oil_check)
         effects = parse_effects(effect_specs)
         model = None
         for n, p in enumerate(paths, start=1):
@@ -332,7 +351,7 @@ def identify_files(paths, machine_path=None, mode: str = "best", *, workers: int
             progress(n, len(paths), os.path.basename(p))
     else:
         with ProcessPoolExecutor(max_workers=workers) as pool:
-            futures = {pool.submit(_worker, p, machine_path, mode, tuple(effect_specs)): p for p in paths}
+            futures = {pool.submit(_worker, p, machine_path, mode, tuple(effect_specs), oil_check): p for p in paths}
             for n, f in enumerate(as_completed(futures), start=1):
                 out[futures[f]] = f.result()
                 progress(n, len(paths), f"{os.path.basename(futures[f])} ({time.perf_counter() - t0:.1f} s)")
@@ -353,10 +372,10 @@ def _set_groups(paths):
     return group_records(records)
 
 
-def _identify_groups(groups, machine_path, mode, progress, effect_specs):
+def _identify_groups(groups, machine_path, mode, progress, effect_specs, oil_check="if-tabled"):
     from ..effects import parse_effects
 
-    settings = IdentificationSettings(mode=mode)
+    settings = IdentificationSettings(mode=mode, oil_check=oil_check)
     effects = parse_effects(effect_specs)
     out = []
     for group in groups:

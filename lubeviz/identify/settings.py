@@ -39,9 +39,12 @@ class IdentificationSettings(param.Parameterized):
     min_line_snr = Quantity(3.0, bounds=(0.0, None), unit="",
                             doc="Refuse a record whose forward or backward 1X line is below this many "
                                 "noise standard deviations")
-    oil_check = param.Boolean(True, doc="Best mode: for one record without the static position, also give the "
-                              "flows' intervals with the oil viscosity free within x0.75-1.33 (hotter or colder oil "
-                              "than declared mimics a supply change; this says how much)")
+    oil_check = param.Selector(default="if-tabled", objects=["if-tabled", "always", "never"],
+                               doc="Best mode, one record without the static position: also give the flows' "
+                                   "intervals with the oil viscosity free within x0.75-1.33 (hotter or colder oil "
+                                   "than declared mimics a supply change; this says how much). 'if-tabled': when "
+                                   "the coefficient tables already cover that viscosity range (else a warning says "
+                                   "the flows assume the declared oil); 'always': build them if needed (~1 min once)")
     speed_tolerance = Quantity(0.02, bounds=(0.0, 1.0), unit="",
                                doc="Refuse a record whose speed differs from the model's by more than this fraction")
 

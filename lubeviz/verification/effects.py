@@ -18,8 +18,10 @@ physics lives where the record is built (`independent.py`), each hook a few line
 - `bow` (node, amplitude_um, phase_deg): a residual bow sin(pi (z - z_b1)/(z_b2 - z_b1)) between the
   bearing centres, |bow(node)| = amplitude, turning with the shaft at phase_deg from the unbalance;
   it loads the rotor with the rotating force K_shaft q_bow(t).
-- `seal` (node, kxy_n_m): an effect NOT in the diagnosis library (for "unexplained" tests): a
-  cross-coupled stiffness K[x, y] += kxy, K[y, x] -= kxy at the node.
+- `seal` (node, kxy_n_m, kxx_n_m = 0): an effect NOT in the diagnosis library (for "unexplained" tests):
+  a seal or a rub at a node, with cross-coupled stiffness K[x, y] += kxy, K[y, x] -= kxy and direct
+  stiffness K[x, x] += kxx, K[y, y] += kxx. (Cross-coupling alone destabilizes the whirl mode before it
+  shows in 1X; the direct part moves the critical speed, which 1X shows.)
 
 Nodes are given in the machine's own numbering (the paper's 1..21), whatever the independent rotor's
 finer mesh. Effects compose: a list of them is applied in order (gains multiply, rotations add,
@@ -45,7 +47,7 @@ EFFECTS: dict[str, dict[str, object]] = {
     "probe_rotation": {"plane": REQUIRED, "angle_deg": REQUIRED},
     "probe_gain": {"channel": REQUIRED, "gain": REQUIRED},
     "bow": {"node": REQUIRED, "amplitude_um": REQUIRED, "phase_deg": 0.0},
-    "seal": {"node": REQUIRED, "kxy_n_m": REQUIRED},
+    "seal": {"node": REQUIRED, "kxy_n_m": REQUIRED, "kxx_n_m": 0.0},
 }
 CHANNELS = ("x1", "y1", "x2", "y2")
 
@@ -99,6 +101,7 @@ def _check(name: str, p: dict) -> dict:
             p["amplitude_um"] = _number(name, "amplitude_um", p["amplitude_um"], non_negative=True)
         if name == "seal":
             p["kxy_n_m"] = _number(name, "kxy_n_m", p["kxy_n_m"])
+            p["kxx_n_m"] = _number(name, "kxx_n_m", p["kxx_n_m"], non_negative=True)
         if "phase_deg" in p:
             p["phase_deg"] = _number(name, "phase_deg", p["phase_deg"])
     elif name == "pedestals":

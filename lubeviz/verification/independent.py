@@ -251,6 +251,8 @@ def _system(spec: IndependentSpec, rotor: Rotor, machine, omega: float, films) -
             i = _xy(rotor.check_node(fine_node(p["node"]), "seal node"))
             K[i[0], i[1]] += p["kxy_n_m"]
             K[i[1], i[0]] -= p["kxy_n_m"]
+            K[i[0], i[0]] += p.get("kxx_n_m", 0.0)
+            K[i[1], i[1]] += p.get("kxx_n_m", 0.0)
         elif name == "bow":
             rotor.check_node(fine_node(p["node"]), "bow node")
             s, ds = _bow_shape(rotor, p["node"])

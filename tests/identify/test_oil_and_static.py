@@ -1,0 +1,71 @@
+"""Oil hotter than declared mimics less oil: what separates them (issue 11 and 15), on independent records.
+
+One record at one speed cannot tell a viscosity change from a supply change; the static shaft position
+(SPEC §6 `static: absolute`) and records at several speeds (`set:`) can. Records from
+`lubeviz.verification` (another film mesh and linearization, another rotor, time integration).
+"""
+
+import numpy as np
+import pytest
+
+from lubeviz.effects import parse_effect
+from lubeviz.identify.batch import identify_group, identify_record
+from lubeviz.identify.settings import IdentificationSettings
+from lubeviz.verification import IndependentSpec, make_record, make_set
+
+pytestmark = pytest.mark.slow
+
+Q = (480.0, 600.0)
+
+
+def _inside(interval, q):
+    low, high = interval
+    return low * 6e7 <= q <= (np.inf if high is None else high * 6e7)
+
+
+def test_hot_oil_at_one_speed_is_never_a_confident_wrong_answer(machine):
+    """Issue 15: 20 % thinner oil at 75 Hz, no static position: the flows come out ~17 % low and the
+    record is explained; the answer must say that the oil is not pinned, with intervals that hold."""
+    spec = IndependentSpec(speed_hz=75.0, q1_mlmin=500.0, q2_mlmin=560.0, effects=("viscosity:factor=0.8",), seed=3)
+    rec = make_record(spec).record
+    quiet = identify_record(rec, machine, IdentificationSettings(oil_check="never")).result
+    assert not any("viscosity" in w for w in quiet.warnings)
+    r = identify_record(rec, machine, IdentificationSettings(oil_check="always")).result
+    q = (spec.q1_mlmin, spec.q2_mlmin)
+    assert np.all(r.q * 6e7 < 0.9 * np.array(q))  # the degeneracy is real
+    assert not r.model_explains_data or all(_inside(r.intervals_any_oil[k], q[k]) for k in range(2))
+    assert any("viscosity" in w for w in r.warnings)
+    assert r.oil_degeneracy["correlation_q1"] < -0.9  # thinner oil reads as less oil
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_the_static_position_separates_hot_oil_from_less_oil(machine, seed):
+    """Issue 11: oil 25 % less viscous, (Q1, Q2, mu) from one record with the static position."""
+    spec = IndependentSpec(speed_hz=75.0, q1_mlmin=Q[0], q2_mlmin=Q[1], effects=("viscosity:factor=0.75",),
+                           static=True, seed=seed)
+    rec = make_record(spec).record
+    assert rec.static_offset is not None
+    plain = identify_record(rec, machine).result
+    assert not plain.model_explains_data  # the static position contradicts the plain model
+    r = identify_record(rec, machine, effects=(parse_effect("viscosity:bearing=both"),)).result
+    err = r.q * 6e7 / np.array(Q) - 1
+    factor = r.effects["viscosity"]["factor"]
+    # measured: flows -2.2 / -2.1 % and -1.7 / -1.3 %, factor 0.769 and 0.762 (BENCHMARKS "oil and static")
+    assert np.abs(err).max() < 0.03
+    assert abs(factor / 0.75 - 1) < 0.05
+    assert r.model_explains_data
+    assert all(_inside(r.intervals[k], Q[k]) for k in range(2))
+
+
+def test_a_set_at_three_speeds_pins_the_oil_from_the_dynamic_part_alone(machine):
+    """Issue 11: a coast-down set (60, 75, 90 Hz), oil 25 % less viscous, no static position."""
+    specs = [IndependentSpec(speed_hz=s, q1_mlmin=Q[0], q2_mlmin=Q[1], effects=("viscosity:factor=0.75",),
+                             seed=10 + k) for k, s in enumerate((60.0, 75.0, 90.0))]
+    records = [x.record for x in make_set(specs, "coast")]
+    plain = identify_group(records, machine).result
+    assert not plain.model_explains_data
+    r = identify_group(records, machine, effects=(parse_effect("viscosity:bearing=both"),)).result
+    err = r.q * 6e7 / np.array(Q) - 1
+    assert np.abs(err).max() < 0.02
+    assert abs(r.effects["viscosity"]["factor"] / 0.75 - 1) < 0.05
+    assert r.model_explains_data
