@@ -10,14 +10,21 @@ from .common import add_common, finite_float
 def register(sub) -> None:
     p = sub.add_parser("bench", help="performance figures of BENCHMARKS.md")
     add_common(p)
-    p.add_argument("what", choices=("film", "mesh", "smoothness", "rotor", "stability", "identify", "table"),
+    p.add_argument("what", choices=("film", "mesh", "smoothness", "rotor", "stability", "identify", "table",
+                                    "coverage", "budget", "diagnose"),
                    help="film: solver timings; mesh: mesh study; smoothness: roughness of K, C over Q; "
                         "rotor: assembly, response, modes, 15 s record (ROSS alongside); stability: critical speed and "
                         "instability threshold across 50-150 %% Q_T; "
                         "identify: tables, one identification (and --reproduce: the 128 cases; "
                         "--accuracy: tables vs direct solves); "
                         "table: the dimensionless (S, Q/Q_T) table: full-range cold build, size, accuracy over "
-                        "speed 5-150 Hz x viscosity x0.5-2 x clearance x0.8-1.5, cold first identification")
+                        "speed 5-150 Hz x viscosity x0.5-2 x clearance x0.8-1.5, cold first identification; "
+                        "coverage: error, 95 %% interval coverage and chi2 flag rate over --records clean independent "
+                        "records (with and without the model budget, by speed band); budget: the model budget "
+                        "against the model-vs-independent feature differences; diagnose: every effect at two "
+                        "strengths on independent records, named / ambiguous / unexplained, flows before and after")
+    p.add_argument("--records", type=int, default=120, help="coverage: independent records (default 120)")
+    p.add_argument("--seeds", type=int, default=2, help="diagnose: records per effect and strength (default 2)")
     p.add_argument("--no-ross", action="store_true", help="rotor: skip the side-by-side ROSS timings")
     p.add_argument("--reproduce", action="store_true",
                    help="identify: also time the paper's whole protocol, both locations, both modes (cold tables)")
@@ -65,4 +72,16 @@ def run_bench(args) -> dict:
         record = Path(lubeviz.__file__).resolve().parents[1] / "assets" / "sample_record.csv"
         return bench_table(args.machine, points=args.points, identify_record=record if record.exists() else None,
                            progress=StderrBar())
+    if args.what in ("coverage", "budget", "diagnose"):
+        from ..verification import bench as vb
+
+        if args.what == "coverage":
+            if args.records < 1:
+                raise ValueError(f"--records {args.records}: expected at least 1")
+            return vb.bench_coverage(args.machine, n=args.records, progress=StderrBar())
+        if args.what == "budget":
+            return vb.bench_budget(args.machine, progress=StderrBar())
+        if args.seeds < 1:
+            raise ValueError(f"--seeds {args.seeds}: expected at least 1")
+        return vb.bench_diagnose(args.machine, seeds=args.seeds, progress=StderrBar())
     return bench_film(args.machine, repeat=args.repeat, progress=StderrBar())

@@ -55,6 +55,7 @@ def bench_identify(machine_path=None, *, repeat: int = 5, reproduce_all: bool = 
                 identify(model, measure(rec, ALL_FEATURES), IdentificationSettings(mode=mode))
                 times.append(time.perf_counter() - t0)
             out[f"identification_{mode}_s"] = statistics.median(times)
+        out["fit"] = bench_fit(machine, tables, rec, repeat=repeat)
         if accuracy:
             out["interpolation_error"] = table_accuracy(machine, tables)
         if reproduce_all:
@@ -81,4 +82,48 @@ def table_accuracy(machine, tables) -> dict:
         e = interpolation_error(machine, t)
         out[f"bearing_{t.bearing + 1}"] = {"nodes": list(e.nodes), "flows": int(e.flows.size),
                                            **e.regions(t.q_threshold), "seconds": time.perf_counter() - t0}
+    return out
+
+
+def bench_fit(machine, tables, record, *, repeat: int = 5) -> dict:
+    """The fit on named parameters (`fit.fit`): the global search with intervals, the local part alone,
+    one evaluation of the chain with an effect, an identification with one free effect parameter, and the
+    first identification at a speed not seen before (tables of the geometry already built)."""
+    from ..effects import parse_effect
+    from .batch import identify_record
+    from .chain import ForwardChain
+    from .fit import _lm, _parts, _Problem, _scales, fit
+
+    def median(fn):
+        times = []
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - t0)
+        return statistics.median(times)
+
+    chain = ForwardChain(machine, machine.operating_speed, tuple(machine.center_nodes), tables=tables)
+    meas = measure(record, ALL_FEATURES)
+    out = {"global_search_and_intervals_s": median(lambda: fit(chain, meas)),
+           "global_search_no_intervals_s": median(lambda: fit(chain, meas, intervals=False))}
+    parts, noise = _parts([chain], [meas], None)
+    res = fit(chain, meas, intervals=False)
+    prob = _Problem(parts, _Problem(parts, np.eye(len(noise)), [0, 1]).model_cov(res.values, None, noise), [0, 1])
+    lo, hi = chain.bounds()
+    out["local_refinement_s"] = median(lambda: _lm(prob, res.values * 1.02, lo, hi, _scales(chain)))
+    rot = chain.with_effects((parse_effect("probe_rotation:plane=1"),))
+    theta = np.array([*res.values[:2], 2.0])
+    t0 = time.perf_counter()
+    for _ in range(1000):
+        rot.features(theta, ALL_FEATURES)
+    out["one_evaluation_with_an_effect_s"] = (time.perf_counter() - t0) / 1000
+    out["fit_with_one_free_effect_parameter_s"] = median(lambda: fit(rot, meas))
+    from .chain import simulate
+
+    speed = machine.operating_speed * 1.0731  # a speed no table view exists for yet (the slices do)
+    rec2 = simulate(ForwardChain(machine, speed, tuple(machine.center_nodes)), res.values[:2],
+                    rng=np.random.default_rng(1))
+    t0 = time.perf_counter()
+    identify_record(rec2, machine)
+    out["first_identification_at_a_new_speed_s"] = time.perf_counter() - t0
     return out
