@@ -16,7 +16,8 @@ import numpy as np
 from ..film.equilibrium import flooded_threshold
 from ..film.explore import SupplyFrame, supply_frames
 from ..identify.cache import machine_tables
-from ..identify.chain import DEFAULT_PROBE_ANGLES, ForwardChain, bearing_table_view
+from ..identify.chain import DEFAULT_PROBE_ANGLES, ForwardChain
+from ..identify.chain import bearing_changes as chain_bearing_changes
 from ..identify.forward import ForwardModel
 from ..model.machine import Machine, load_machine
 from ..progress import ProgressFn, silent
@@ -93,11 +94,7 @@ def chain(m: Machine, speed_hz: float, nodes, probe_angles_deg=DEFAULT_PROBE_ANG
             c = ForwardChain(m, speed_hz, key[2], probe_angles_deg=angles, tables=t, rotor=rotor(m))
             with _LOCK:
                 for k, src in enumerate(c.sources):
-                    # shared views (BearingSource keeps them in `_views`; no public setter yet)
-                    shared = _VIEWS.setdefault((m.source, key[1], k), {})
-                    for vk, table in src._views.items():
-                        shared.setdefault(vk, table)
-                    src._views = shared
+                    src.share_views(_VIEWS.setdefault((m.source, key[1], k), {}))
             _CHAINS[key] = c
             while len(_CHAINS) > 32:
                 _CHAINS.popitem(last=False)
@@ -106,14 +103,9 @@ def chain(m: Machine, speed_hz: float, nodes, probe_angles_deg=DEFAULT_PROBE_ANG
 
 def bearing_changes(effects, k: int, declared_clearance: float) -> tuple[float, float]:
     """(viscosity factor, clearance m) of bearing k (0-based) after the bearings-stage `effects`, at their
-    current values (the chain's own rule: factors multiply, the last clearance wins)."""
-    factor, clearance = 1.0, declared_clearance
-    for e in effects:
-        if e.stage == "bearings":
-            change = e.bearing_change(k, {}, ())
-            factor = factor * float(change.get("viscosity_factor", 1.0))
-            clearance = float(change.get("clearance", clearance))
-    return factor, clearance
+    current values: the chain's own rule."""
+    factor, clearance = chain_bearing_changes(effects, k, declared_clearance)
+    return float(factor), float(clearance)
 
 
 def prepare_views(c: ForwardChain, effects, progress: ProgressFn = silent) -> None:
@@ -122,14 +114,8 @@ def prepare_views(c: ForwardChain, effects, progress: ProgressFn = silent) -> No
     cached on disk and here)."""
     for k, src in enumerate(c.sources):
         factor, clearance = bearing_changes(effects, k, src.bearing.clearance)
-        vk = src._key(factor, clearance)
-        with _key_lock(("view", c.machine.source, round(c.speed_hz, 9), k, vk)):
-            if vk in src._views:
-                continue
-            bearing = src.bearing.copy(viscosity=src.bearing.viscosity * factor, clearance=clearance)
-            view = bearing_table_view(bearing, src.load, src.omega, index=k, progress=progress)
-            with _LOCK:
-                src._views.setdefault(vk, view)
+        with _key_lock(("view", c.machine.source, round(c.speed_hz, 9), k, round(factor, 12), round(clearance, 15))):
+            src.view(factor, clearance, progress=progress)
 
 
 def bearing_load(m: Machine, index: int) -> np.ndarray:

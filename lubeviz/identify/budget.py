@@ -65,7 +65,7 @@ def _dynamic_perturbations(chain, theta, budget: ModelBudget) -> list[np.ndarray
     out = []
     w = chain.omega
     for k, src in enumerate(chain.sources):
-        factor, clearance = chain._bearing_changes(k, np.asarray(theta), ())
+        factor, clearance = chain.bearing_changes(k, np.asarray(theta), ())
         K, C, _ = src.evaluate(theta[k], factor, clearance)
         sl = slice(2 * k, 2 * k + 2)
         for M, s, scale in ((K, budget.coefficient_k, 1.0), (C, budget.coefficient_c, 1j * w)):
@@ -149,6 +149,6 @@ def _shaft_damping_column(chain, theta, names, rel: float) -> np.ndarray:
                                    shaft_damping_beta=beta * (1 + s * rel)) for s in (1, -1)]
         for c in cache[key]:
             for s_new, s_old in zip(c.sources, chain.sources):
-                s_new._views = s_old._views  # share the bearing views
+                s_new.share_views(s_old._views)
     up, down = cache[key]
     return wrap_difference(up.features(theta, names) - down.features(theta, names), names) / 2.0

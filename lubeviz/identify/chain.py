@@ -72,17 +72,30 @@ class BearingSource:
     def _key(factor: float, clearance: float):
         return (round(float(factor), 12), round(float(clearance), 15))
 
-    def view(self, factor: float = 1.0, clearance: float | None = None) -> CoefficientTable:
-        """The coefficient table of this bearing with viscosity x `factor` and radial clearance `clearance` (m)."""
+    def view(self, factor: float = 1.0, clearance: float | None = None, *,
+             progress: ProgressFn | None = None) -> CoefficientTable:
+        """The coefficient table of this bearing with viscosity x `factor` and radial clearance `clearance` (m);
+        `progress` reports a table build when one is needed (default: the source's own callback)."""
         clearance = self.bearing.clearance if clearance is None else float(clearance)
         key = self._key(factor, clearance)
         if key not in self._views:
             bearing = self.bearing
             if key != self._key(1.0, self.bearing.clearance):
                 bearing = self.bearing.copy(viscosity=self.bearing.viscosity * float(factor), clearance=clearance)
-            self._views[key] = bearing_table_view(bearing, self.load, self.omega, index=self.index,
-                                                  progress=self.progress)
+            view = bearing_table_view(bearing, self.load, self.omega, index=self.index,
+                                      progress=self.progress if progress is None else progress)
+            self._views.setdefault(key, view)
         return self._views[key]
+
+    def has_view(self, factor: float = 1.0, clearance: float | None = None) -> bool:
+        return self._key(factor, self.bearing.clearance if clearance is None else clearance) in self._views
+
+    def share_views(self, store: dict) -> None:
+        """Keep this bearing's views in `store` (a dict shared with other sources of the same bearing, load
+        and speed), adding the ones it already has."""
+        for k, v in self._views.items():
+            store.setdefault(k, v)
+        self._views = store
 
     @property
     def nominal(self) -> CoefficientTable:
@@ -125,6 +138,19 @@ def bearing_table_view(bearing, load, omega: float, *, index: int = 0, progress:
     from .tables import bearing_table
 
     return bearing_table(bearing, load, omega, index=index, progress=progress)
+
+
+def bearing_changes(effects, k: int, declared_clearance: float, values=lambda e: {}, shape=()) -> tuple:
+    """(viscosity factor, clearance m) of bearing k (0-based) after the bearings-stage `effects`: factors
+    multiply, the last clearance given wins. `values(effect)` gives trial values of its free parameters
+    (default: none, i.e. the effects' own values)."""
+    factor, clearance = 1.0, declared_clearance
+    for e in effects:
+        if e.stage == "bearings":
+            change = e.bearing_change(k, values(e), shape)
+            factor = factor * change.get("viscosity_factor", 1.0)
+            clearance = change.get("clearance", clearance)
+    return factor, clearance
 
 
 # --- the chain -----------------------------------------------------------------------------------
@@ -174,9 +200,10 @@ class ForwardChain:
     def with_effects(self, effects) -> "ForwardChain":
         """The same machine, speed, planes and tables with other effects (tables and bearing views shared)."""
         new = ForwardChain(self.machine, self.speed_hz, self.nodes, effects, probe_angles_deg=self.probe_angles_deg,
-                           tables=[s.nominal for s in self.sources], rotor=self.rotor)
+                           tables=[s.nominal for s in self.sources], rotor=self.rotor,
+                           progress=self.sources[0].progress)
         for s_new, s_old in zip(new.sources, self.sources):
-            s_new._views = s_old._views
+            s_new.share_views(s_old._views)
         return new
 
     # --- parameters -------------------------------------------------------------------------------
@@ -219,15 +246,10 @@ class ForwardChain:
     def _values(self, theta: np.ndarray, effect) -> dict:
         return {p: theta[..., 2 + j] for j, (e, p) in enumerate(self._slots) if e is effect}
 
-    def _bearing_changes(self, k: int, theta, shape) -> tuple:
-        """(viscosity factor, clearance) of bearing k after every bearings-stage effect (factors multiply)."""
-        factor, clearance = 1.0, self.sources[k].bearing.clearance
-        for e in self.effects:
-            if e.stage == "bearings":
-                change = e.bearing_change(k, self._values(theta, e), shape)
-                factor = factor * change.get("viscosity_factor", 1.0)
-                clearance = change.get("clearance", clearance)
-        return factor, clearance
+    def bearing_changes(self, k: int, theta, shape=()) -> tuple:
+        """(viscosity factor, clearance) of bearing k at parameters theta (`bearing_changes`)."""
+        return bearing_changes(self.effects, k, self.sources[k].bearing.clearance,
+                               lambda e: self._values(theta, e), shape)
 
     # --- reference solve --------------------------------------------------------------------------
     def _build_reference(self):
@@ -282,7 +304,7 @@ class ForwardChain:
         housing = [None, None]
         static = np.zeros(shape + (2, 2))
         for k, src in enumerate(self.sources):
-            factor, clearance = self._bearing_changes(k, theta, shape)
+            factor, clearance = self.bearing_changes(k, theta, shape)
             K, C, pos = src.evaluate(theta[..., k], factor, clearance)
             B = K + 1j * omega * C
             for e in self.effects:
@@ -354,7 +376,7 @@ class ForwardChain:
         for j, k in enumerate(extra):
             hdofs[k] = n0 + 2 * j + np.arange(2)
         for k, src in enumerate(self.sources):
-            factor, clearance = self._bearing_changes(k, theta, ())
+            factor, clearance = self.bearing_changes(k, theta, ())
             clearance = float(clearance)
             K, C, pos = src.evaluate(theta[k], factor, clearance)
             B = K + 1j * omega * C
