@@ -132,8 +132,8 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
                 d = diagnose(chain, measure(rec), candidates=candidates)
                 truth = name.split(" ")[0]
                 named = d.added.effect.effect_name if (d.added is not None and not d.ambiguous) else None
-                in_set = d.added is not None and (truth in [d.added.effect.effect_name] +
-                                                  [lab.split("[")[0] for lab in d.ambiguous])
+                in_set = truth in ([] if d.added is None else [d.added.effect.effect_name]) + [
+                    lab.split("[")[0] for lab in d.ambiguous]
                 err_b = np.abs(d.before.values[:2] * 6e7 / q - 1) * 100
                 err_a = np.abs(d.final.values[:2] * 6e7 / q - 1) * 100
                 rows.append({"effect": name, "strength": level, "spec": text, "q_mlmin": q.tolist(),
