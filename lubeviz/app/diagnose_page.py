@@ -37,7 +37,7 @@ from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .session import SessionState
-from .widgets import parameter_widgets, quantity_slider
+from .widgets import newest_upload, parameter_widgets, quantity_slider
 
 hv.extension("bokeh", logo=False)
 
@@ -202,16 +202,10 @@ class DiagnosePage(pn.viewable.Viewer):
         return record, measure(record), truth
 
     async def _on_upload(self, event):
-        files = event.new or {}
-        new = []
-        for name, content in files.items():
-            tag = (name, len(content or b""), hash(content[:4096]) if content else 0)
-            if tag not in self._seen_uploads:
-                self._seen_uploads.add(tag)
-                new.append((name, content))
-        if not new:
+        upload = newest_upload(event.new, self._seen_uploads)
+        if upload is None:
             return
-        filename, content = new[-1]
+        filename, content = upload
         if content is not None and len(content) > MAX_RECORD_BYTES:
             self._show_error(f"**The record was not loaded.** {filename}: {len(content) / 1e6:.1f} MB is too large")
             return

@@ -30,6 +30,7 @@ from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .session import SessionState
+from .widgets import newest_upload
 
 hv.extension("bokeh", logo=False)
 
@@ -146,18 +147,10 @@ class IdentifyPage(pn.viewable.Viewer):
         return record, measure(record)
 
     async def _on_upload(self, event):
-        # The dropper keeps every file dropped in this session (a single-file dropper does not report a
-        # second drop, and the dict may be updated in place): load the one not seen before.
-        files = event.new or {}
-        new = []
-        for name, content in files.items():
-            tag = (name, len(content or b""), hash(content[:4096]) if content else 0)
-            if tag not in self._seen_uploads:
-                self._seen_uploads.add(tag)
-                new.append((name, content))
-        if not new:
+        upload = newest_upload(event.new, self._seen_uploads)
+        if upload is None:
             return
-        filename, content = new[-1]
+        filename, content = upload
         size = len(content) if content is not None else 0
         if size > MAX_RECORD_BYTES:
             self._show_error(f"**The record was not loaded.** {filename}: {size / 1e6:.1f} MB is too large")

@@ -131,3 +131,17 @@ def parameter_widget(obj: param.Parameterized, name: str, *, end: float | None =
 def parameter_widgets(obj: param.Parameterized, names, **kwargs) -> list[pn.widgets.Widget]:
     """`parameter_widget` for each of `names` (same keyword arguments)."""
     return [parameter_widget(obj, n, **kwargs) for n in names]
+
+
+def newest_upload(files, seen: set):
+    """(name, content) of the file in a FileDropper's value not seen before in this session, or None.
+
+    The dropper keeps every file dropped in the session (a single-file dropper does not report a second
+    drop, and the dict may be updated in place); `seen` holds the (name, size, head) tags already loaded."""
+    new = []
+    for name, content in (files or {}).items():
+        tag = (name, len(content or b""), hash(content[:4096]) if content else 0)
+        if tag not in seen:
+            seen.add(tag)
+            new.append((name, content))
+    return new[-1] if new else None
