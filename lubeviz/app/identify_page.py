@@ -211,11 +211,18 @@ class IdentifyPage(pn.viewable.Viewer):
         q = r.q / M3S_PER_MLMIN
         qt = r.q_threshold / M3S_PER_MLMIN
         std = None if r.q_std is None else r.q_std / M3S_PER_MLMIN
-        lines = ["### Identified supply flows", "| bearing | flow | Q_T | Q / Q_T | verdict |", "|---|---|---|---|---|"]
+        lines = ["### Identified supply flows",
+                 "| bearing | flow | 95 % interval (noise and model) | Q_T | Q / Q_T | verdict |",
+                 "|---|---|---|---|---|---|"]
         for k in range(2):
-            s = "" if std is None else f" ± {std[k]:.1f}"
-            lines.append(f"| {k + 1} (node {self.machine.bearings[k].node}) | **Q{k + 1} = {q[k]:.1f}{s} ml/min** | "
-                         f"{qt[k]:.0f} ml/min | {q[k] / qt[k]:.2f} | {_verdict_text(r.verdict(k))} |")
+            iv = None if r.intervals is None else r.intervals[k]
+            if iv is not None:
+                hi = "open (flooded: more oil changes nothing measurable)" if iv[1] is None else f"{iv[1] / M3S_PER_MLMIN:.0f}"
+                interval = f"{iv[0] / M3S_PER_MLMIN:.0f} – {hi} ml/min"
+            else:
+                interval = "—" if std is None else f"± {1.96 * std[k]:.1f} ml/min"
+            lines.append(f"| {k + 1} (node {self.machine.bearings[k].node}) | **Q{k + 1} = {q[k]:.1f} ml/min** | "
+                         f"{interval} | {qt[k]:.0f} ml/min | {q[k] / qt[k]:.2f} | {_verdict_text(r.verdict(k))} |")
         lines.append("")
         extra = f"{r.mode} mode; {'converged' if r.converged else '**not converged**'} in {r.iterations} iterations, " \
                 f"{r.starts_tried} start(s), {r.evaluations} model evaluations, {r.seconds * 1e3:.0f} ms."
@@ -225,9 +232,12 @@ class IdentifyPage(pn.viewable.Viewer):
         self._result.object = "\n".join(lines)
         warn = []
         if r.model_explains_data is False:
-            warn.append("**The model does not explain this record** (p < 0.001): the flows above are the "
-                        "best fit of a model that misses something (viscosity, load, misalignment, "
-                        "nonlinearity …). Treat them with care.")
+            warn.append(f"**The model does not explain this record** (p < {r.level:g}, noise and model uncertainty "
+                        "included): the flows above are the best fit of a model that misses something, and their "
+                        "intervals are widened by it. The **Diagnose** page traces what is missing.")
+        for w in r.warnings:
+            if not w.startswith("the model does not explain") and not w.startswith("not unique"):
+                warn.append(w[0].upper() + w[1:] + ".")
         if not r.unique:
             alt = "; ".join(f"{a[0] / M3S_PER_MLMIN:.0f} / {a[1] / M3S_PER_MLMIN:.0f} ml/min" for a in r.alternatives)
             warn.append(f"**Not unique**: other flows fit as well ({alt}).")
