@@ -44,8 +44,9 @@ proximity probe (CSV, NumPy `.npz` or MATLAB `.mat`; SPEC §6 of the README: `# 
 `# sample_rate_hz: 10000`, `# units: um`, then columns `x1, y1, x2, y2`). Files up to {UPLOAD_LIMIT_MB} MB.
 Or load the sample record (machine of the paper, bearings fed 420 and 600 ml/min, 12 dB noise).
 
-**Best mode** (default) fits all the orbit's invariants, weighted by the noise measured in the record,
-and gives each flow a 1σ uncertainty; its χ² test says whether the model explains the record at all.
+**Best mode** (default) searches the whole flow box and fits all the orbit's invariants, weighted by the
+noise measured in the record and the model's own uncertainty; each flow gets a 95 % interval, and the χ²
+test says whether the model explains the record at all.
 **Paper mode** is the method of the paper (Eq. 11 errors, Newton from 3 × 3 starts). The search paths are
 drawn on the Maps page (choose "the record of the Identify page" there).
 """

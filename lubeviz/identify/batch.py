@@ -88,6 +88,10 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
     from .fit import fit
     from .newton import check_record
 
+    from .budget import ModelBudget
+
+    if budget is None and not settings.include_model_error:
+        budget = ModelBudget.none()
     tables = model.tables if model is not None and abs(model.omega / (2 * math.pi) - speed) < 1e-9 else None
     chain = ForwardChain(machine, speed, record.nodes, effects, probe_angles_deg=record.probe_angles_deg,
                          tables=tables, progress=progress)
@@ -217,6 +221,10 @@ def identify_group(records, machine=None, settings: IdentificationSettings | Non
     settings = settings or IdentificationSettings()
     if settings.mode == "paper":
         raise InputError("paper mode identifies one record; a set is identified in best mode")
+    if budget is None and not settings.include_model_error:
+        from .budget import ModelBudget
+
+        budget = ModelBudget.none()
     chains, meas = [], []
     for n, rec in enumerate(records, start=1):
         speed = model_speed(machine, rec)

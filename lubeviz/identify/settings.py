@@ -34,8 +34,9 @@ class IdentificationSettings(param.Parameterized):
                               doc="A search stops when its step is below this fraction of Q_T")
     features = param.List(["fb1", "fb2", "phi1", "phi2", "log_zf_ratio", "arg_zf_ratio"], item_type=str,
                           doc="Best mode: features used (all invariants of an unbalance of unknown size/phase)")
-    include_model_error = param.Boolean(True, doc="Best mode: add the coefficient tables' own scatter in Q "
-                                        "(leave-one-out) to the uncertainty of the flows, so it covers it")
+    include_model_error = param.Boolean(True, doc="Best mode: weigh the fit, its chi2 test and the flows' "
+                                        "intervals by the model's own uncertainty (identify.budget) as well as the "
+                                        "record's noise; off: the noise alone (flags most real records)")
     min_line_snr = Quantity(3.0, bounds=(0.0, None), unit="",
                             doc="Refuse a record whose forward or backward 1X line is below this many "
                                 "noise standard deviations")

@@ -1,4 +1,6 @@
-"""`--effect` on simulate and identify, `lubeviz diagnose`, sets: the SPEC §7 contract and its bad input."""
+"""`--effect` on simulate and identify, `lubeviz diagnose`, sets: the SPEC §7 contract and its bad input.
+
+Identification and diagnosis run on records of the independent source (lubeviz.verification)."""
 
 import json
 
@@ -8,7 +10,7 @@ import pytest
 from lubeviz.cli.main import main
 from lubeviz.signals import read_record
 from lubeviz.signals.records import write_record
-from lubeviz.verification import IndependentSpec, make_set
+from lubeviz.verification import IndependentSpec, make_record, make_set, write_record_csv
 
 
 def run(capsys, *argv):
@@ -17,13 +19,20 @@ def run(capsys, *argv):
     return code, out.out, out.err
 
 
-def test_simulate_writes_the_effect_and_identify_fits_its_free_parameter(capsys, tmp_path):
+def test_simulate_writes_the_effect_in_the_record(capsys, tmp_path):
     rec = tmp_path / "gain.csv"
     code, out, _ = run(capsys, "simulate", "--q1-mlmin", 450, "--q2-mlmin", 620, "--effect",
                        "probe_gain:channel=x1,gain=1.2", "--seed", 4, "-o", rec, "--json")
     assert code == 0
     assert json.loads(out)["effects"] == ["probe_gain:channel=x1,gain=1.2"]
     assert read_record(rec).metadata["effects"] == "probe_gain:channel=x1,gain=1.2"
+
+
+def test_identify_fits_a_declared_effects_free_parameter_on_an_independent_record(capsys, tmp_path):
+    spec = IndependentSpec(speed_hz=75.0, q1_mlmin=450.0, q2_mlmin=620.0, effects=("probe_gain:channel=x1,gain=1.2",),
+                           seed=4, total_s=8.0)
+    rec = tmp_path / "gain.csv"
+    write_record_csv(make_record(spec), rec)
     code, out, err = run(capsys, "identify", rec, "--effect", "probe_gain:channel=x1", "--json")
     assert code == 0, err
     data = json.loads(out)
@@ -32,8 +41,10 @@ def test_simulate_writes_the_effect_and_identify_fits_its_free_parameter(capsys,
     for key in ("q1_interval_mlmin", "q2_interval_mlmin", "alternatives", "model_explains_data", "chi2", "dof",
                 "p_value", "warnings"):
         assert key in data
-    low, high = data["q1_interval_mlmin"]
-    assert low < data["q1_mlmin"] and (high is None or data["q1_mlmin"] < high)
+    for k, q in ((1, 450.0), (2, 620.0)):
+        low, high = data[f"q{k}_interval_mlmin"]
+        assert low <= q and (high is None or q <= high)
+        assert abs(data[f"q{k}_mlmin"] / q - 1) < 0.01
 
 
 @pytest.mark.parametrize("argv, fragment", [
@@ -55,9 +66,10 @@ def test_time_integration_with_an_effect_is_refused(capsys, tmp_path):
 
 
 def test_diagnose_names_a_rotated_probe_pair_and_writes_its_report(capsys, tmp_path):
+    spec = IndependentSpec(speed_hz=75.0, q1_mlmin=480.0, q2_mlmin=600.0, effects=("probe_rotation:plane=2,angle_deg=6",),
+                           seed=2, total_s=8.0)
     rec = tmp_path / "rot.csv"
-    assert run(capsys, "simulate", "--q1-mlmin", 480, "--q2-mlmin", 600, "--effect",
-               "probe_rotation:plane=2,angle_deg=6", "--seed", 2, "-o", rec)[0] == 0
+    write_record_csv(make_record(spec), rec)
     report = tmp_path / "r.html"
     code, out, err = run(capsys, "diagnose", rec, "--effects", "probe_rotation,probe_gain,viscosity",
                          "--report", report, "--json")

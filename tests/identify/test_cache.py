@@ -12,7 +12,7 @@ import pytest
 
 import lubeviz
 from lubeviz.errors import InputError
-from lubeviz.identify import cache, dimensionless, tables
+from lubeviz.identify import cache, tables
 from lubeviz.identify.cache import (StaleCacheWarning, cache_dir, cached_table, machine_tables, slice_key,
                                     table_key)
 from lubeviz.identify.dimensionless import geometry_values, sommerfeld_nodes
@@ -31,20 +31,6 @@ def coarse_machine():
     m.bearings = [b.copy(n_circumferential=40, n_axial=20) for b in m.bearings]
     m.operating_speed = 70.0
     return m
-
-
-@pytest.fixture
-def builds(monkeypatch):
-    """Counts calls of dimensionless.build_slice (the in-process builder the cache uses), by slice S."""
-    calls = []
-    original = dimensionless.build_slice
-
-    def counting(*args, **kwargs):
-        calls.append(args[1])
-        return original(*args, **kwargs)
-
-    monkeypatch.setattr(dimensionless, "build_slice", counting)
-    return calls
 
 
 def slice_files(directory):

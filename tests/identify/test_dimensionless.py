@@ -33,19 +33,6 @@ def load_for(bearing: Bearing, s: float, omega: float = OMEGA) -> np.ndarray:
     return np.array([0.0, -w])
 
 
-@pytest.fixture
-def builds(monkeypatch):
-    calls = []
-    original = dimensionless.build_slice
-
-    def counting(*args, **kwargs):
-        calls.append(args[1])
-        return original(*args, **kwargs)
-
-    monkeypatch.setattr(dimensionless, "build_slice", counting)
-    return calls
-
-
 def _dimensionless_state(eq, bearing, omega, w):
     c = bearing.clearance
     return np.concatenate([eq.position / c, eq.coefficients.K.ravel() * c / w,

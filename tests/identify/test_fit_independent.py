@@ -9,7 +9,7 @@ import pytest
 
 from lubeviz.effects import parse_effect
 from lubeviz.identify.batch import identify_record
-from lubeviz.identify.budget import ModelBudget
+from lubeviz.identify.settings import IdentificationSettings
 from lubeviz.verification import IndependentSpec, clean_corpus, make_record
 
 pytestmark = pytest.mark.slow
@@ -43,7 +43,8 @@ def test_clean_independent_records_are_explained_and_their_intervals_hold(machin
         errors.append(np.abs(err).max())
         held.extend(_holds(r, q))
         flagged += not r.model_explains_data
-        flagged_noise_only += not identify_record(rec, machine, budget=ModelBudget.none()).result.model_explains_data
+        noise_only = IdentificationSettings(include_model_error=False)  # the app's switch: ModelBudget.none()
+        flagged_noise_only += not identify_record(rec, machine, noise_only).result.model_explains_data
     assert flagged <= 1, f"{flagged} of {len(clean_records)} clean records flagged"
     assert np.mean(held) >= 0.8, f"intervals hold the true flows on {np.mean(held):.0%}"
     assert np.median(errors) < 1.5
