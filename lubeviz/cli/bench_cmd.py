@@ -24,6 +24,11 @@ def register(sub) -> None:
                         "against the model-vs-independent feature differences; diagnose: every effect at two "
                         "strengths on independent records, named / ambiguous / unexplained, flows before and after")
     p.add_argument("--records", type=int, default=120, help="coverage: independent records (default 120)")
+    p.add_argument("--seed", type=int, default=2026,
+                   help="coverage, budget: the corpus seed (2026: the budget's calibration corpus; another seed "
+                        "is a held-out check)")
+    p.add_argument("--calibrations", default="",
+                   help="coverage: other budget calibration factors to try on the same records, comma-separated")
     p.add_argument("--seeds", type=int, default=2, help="diagnose: records per effect and strength (default 2)")
     p.add_argument("--no-ross", action="store_true", help="rotor: skip the side-by-side ROSS timings")
     p.add_argument("--reproduce", action="store_true",
@@ -78,9 +83,16 @@ def run_bench(args) -> dict:
         if args.what == "coverage":
             if args.records < 1:
                 raise ValueError(f"--records {args.records}: expected at least 1")
-            return vb.bench_coverage(args.machine, n=args.records, progress=StderrBar())
+            try:
+                cal = [float(c) for c in args.calibrations.split(",") if c.strip()]
+            except ValueError:
+                raise ValueError(f"--calibrations {args.calibrations!r}: expected numbers separated by commas") from None
+            if any(not (0.0 < c <= 10.0) for c in cal):
+                raise ValueError(f"--calibrations {args.calibrations!r}: expected factors in (0, 10]")
+            return vb.bench_coverage(args.machine, n=args.records, seed=args.seed, calibrations=cal,
+                                     progress=StderrBar())
         if args.what == "budget":
-            return vb.bench_budget(args.machine, progress=StderrBar())
+            return vb.bench_budget(args.machine, n=args.records, seed=args.seed, progress=StderrBar())
         if args.seeds < 1:
             raise ValueError(f"--seeds {args.seeds}: expected at least 1")
         return vb.bench_diagnose(args.machine, seeds=args.seeds, progress=StderrBar())

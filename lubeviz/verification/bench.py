@@ -52,10 +52,13 @@ def _summary(rows) -> dict:
 BANDS = ((50.0, 62.5), (62.5, 80.0), (80.0, 100.0 + 1e-9))
 
 
-def bench_coverage(machine_path=None, *, n: int = 120, seed: int = 2026, progress: ProgressFn = silent) -> dict:
+def bench_coverage(machine_path=None, *, n: int = 120, seed: int = 2026, calibrations=(),
+                   progress: ProgressFn = silent) -> dict:
     """Clean independent records (seeds x speeds 50-100 Hz x flows 30-180 % Q_T x centre/outside planes x
     X/Y or 45/135 probes): error, 95 % interval coverage and chi^2 flag rate, with the model budget and with
-    the noise alone; by speed band."""
+    the noise alone; by speed band. `calibrations`: other values of the budget's calibration factor to try
+    on the same records (the default budget's calibration comes from `bench_budget` at seed 2026, so a
+    held-out check uses another seed)."""
     from ..identify.batch import identify_record
     from ..identify.budget import ModelBudget
     from ..model.machine import load_machine
@@ -64,11 +67,13 @@ def bench_coverage(machine_path=None, *, n: int = 120, seed: int = 2026, progres
     t0 = time.perf_counter()
     machine = load_machine(machine_path)
     specs = clean_corpus(n, np.random.default_rng(seed), machine=machine_path)
-    rows = {"budget": [], "noise_only": []}
+    budgets = ([("budget", None)] + [(f"calibration {c:g}", ModelBudget(calibration=float(c))) for c in calibrations]
+               + [("noise_only", ModelBudget.none())])
+    rows = {key: [] for key, _ in budgets}
     for i, spec in enumerate(specs, start=1):
         rec = make_record(spec).record
         q = np.array([spec.q1_mlmin, spec.q2_mlmin])
-        for key, budget in (("budget", None), ("noise_only", ModelBudget.none())):
+        for key, budget in budgets:
             r = identify_record(rec, machine, budget=budget).result
             qi = r.q * 6e7
             holds = []
@@ -81,7 +86,8 @@ def bench_coverage(machine_path=None, *, n: int = 120, seed: int = 2026, progres
                               "explained": bool(r.model_explains_data), "chi2": r.chi2, "seconds": r.seconds,
                               "truth_in_alt": any(np.all(np.abs(a * 6e7 / q - 1) < 0.05) for a in r.alternatives)})
         progress(i, len(specs), f"{spec.speed_hz:g} Hz")
-    out = {"records": len(specs), "seed": seed, "seconds": time.perf_counter() - t0}
+    out = {"records": len(specs), "seed": seed, "calibration": ModelBudget().calibration,
+           "seconds": time.perf_counter() - t0}
     for key, rr in rows.items():
         out[key] = {"all": _summary(rr)}
         for lo, hi in BANDS:
@@ -171,8 +177,10 @@ def bench_budget(machine_path=None, *, n: int = 120, seed: int = 2026, progress:
     the independent source (clean steady state, no noise) at the true flows of the coverage corpus (same
     n and seed as `bench_coverage`, so its film solves are cached), in units of the budget's predicted
     sigma. The budget holds when the RMS of that ratio lies within a factor of 2 of 1 (0.5-2), per
-    feature and per speed band."""
-    from ..identify.budget import model_covariance
+    feature and per speed band. Also the maximum-likelihood calibration factor of the budget's terms as
+    stated (calibration 1): sqrt(sum_r chi2_r / sum_r n_r), chi2_r = d_r^T Sigma_r^-1 d_r (the value
+    `ModelBudget.calibration` carries, from this command at seed 2026)."""
+    from ..identify.budget import ModelBudget, model_covariance
     from ..identify.chain import ForwardChain
     from ..identify.forward import ALL_FEATURES, feature_vector, wrap_difference
     from ..model.machine import load_machine
@@ -192,13 +200,19 @@ def bench_budget(machine_path=None, *, n: int = 120, seed: int = 2026, progress:
         f_true = feature_vector(xy[:, 0], xy[:, 1], ALL_FEATURES)
         theta = np.array([spec.q1_mlmin, spec.q2_mlmin]) / 6e7
         sigma = np.sqrt(np.diag(model_covariance(chain, theta, ALL_FEATURES)))
-        z = wrap_difference(f_true - chain.features(theta, ALL_FEATURES), ALL_FEATURES) / sigma
-        rows.append({"speed_hz": spec.speed_hz, "q_mlmin": [spec.q1_mlmin, spec.q2_mlmin], "z": z.tolist()})
+        d = wrap_difference(f_true - chain.features(theta, ALL_FEATURES), ALL_FEATURES)
+        z = d / sigma
+        cov1 = model_covariance(chain, theta, ALL_FEATURES, ModelBudget(calibration=1.0))
+        chi2 = float(d @ np.linalg.lstsq(cov1, d, rcond=1e-12)[0])
+        rows.append({"speed_hz": spec.speed_hz, "q_mlmin": [spec.q1_mlmin, spec.q2_mlmin], "z": z.tolist(),
+                     "chi2_as_stated": chi2})
         progress(i, len(specs), f"{spec.speed_hz:g} Hz")
     z = np.array([r["z"] for r in rows])
     out = {"points": len(rows), "features": list(ALL_FEATURES),
            "rms_ratio_observed_over_predicted": dict(zip(ALL_FEATURES, np.sqrt(np.mean(z**2, axis=0)).tolist())),
            "median_abs_ratio": dict(zip(ALL_FEATURES, np.median(np.abs(z), axis=0).tolist())),
+           "calibration_ml": float(np.sqrt(sum(r["chi2_as_stated"] for r in rows) / (len(rows) * len(ALL_FEATURES)))),
+           "calibration_in_use": ModelBudget().calibration, "seed": seed,
            "by_band": {}, "seconds": time.perf_counter() - t0, "rows": rows}
     for lo, hi in BANDS:
         zb = np.array([r["z"] for r in rows if lo <= r["speed_hz"] < hi])
