@@ -21,6 +21,7 @@ import panel as pn
 import param
 
 from ..effects import EFFECTS
+from ..errors import LubevizError
 from ..identify.forward import tabled_response
 from ..model.machine import Machine
 from ..model.operating import OperatingPoint
@@ -233,7 +234,16 @@ class RotorPage(pn.viewable.Viewer):
             self._effect_story.object = ""
             self._effect_widgets.objects = []
         else:
-            effect = EFFECTS[name]()
+            try:
+                effect = EFFECTS[name]().bind(self.machine)
+            except LubevizError as exc:  # e.g. an oil temperature on a machine that declares no oil
+                self.effect = None
+                self._effect_story.object = f"**{name}** is not available for this machine: {exc}"
+                self._effect_widgets.objects = []
+                await self._refresh()
+                return
+            if name == "oil_temperature":  # 15 °C hotter than declared
+                effect.temperature_c = round(self.machine.oil.temperature_c + 15.0, 1)
             if getattr(effect, "clearance_um", 0) is None:  # wear: start 25 % above the declared clearance
                 k = 0 if effect.bearing in (1, "both") else 1
                 effect.clearance_um = round(1.25 * self.machine.bearings[k].clearance * 1e6, 1)

@@ -41,6 +41,7 @@ def run_diagnose(args) -> dict | list:
     from ..identify.batch import machine_for, model_speed
     from ..identify.chain import ForwardChain
     from ..identify.measured import measure
+    from ..identify.oil_reading import budget_with_reading, oil_reading
     from ..signals.records import check_set, group_records, read_record
 
     if not 0 < args.level < 0.5:
@@ -55,12 +56,15 @@ def run_diagnose(args) -> dict | list:
         if len(group) > 1:
             check_set(group)
         machine, notes = machine_for(group[0], args.machine)
-        chains, meas = [], []
+        chains, meas, tolerance = [], [], 0.0
         for rec in group:
-            chains.append(ForwardChain(machine, model_speed(machine, rec), rec.nodes,
+            oil_effects, tol, oil_notes = oil_reading(rec, machine)
+            tolerance, notes = max(tolerance, tol), tuple(notes) + oil_notes
+            chains.append(ForwardChain(machine, model_speed(machine, rec), rec.nodes, oil_effects,
                                        probe_angles_deg=rec.probe_angles_deg, progress=bar))
             meas.append(measure(rec))
-        d = diagnose(chains, meas, candidates=candidates, level=args.level, progress=bar)
+        budget = budget_with_reading(None, tolerance) if tolerance > 0 else None
+        d = diagnose(chains, meas, candidates=candidates, level=args.level, progress=bar, budget=budget)
         label = "+".join(str(r.source) for r in group)
         item = diagnosis_dict(d, file=label)
         item["warnings"] = list(notes) + [w for r in group for w in r.warnings]

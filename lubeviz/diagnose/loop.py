@@ -83,7 +83,7 @@ class Diagnosis:
 def _fit_candidate(base_chain, measured, effect, names, budget, level, starts_phase) -> Candidate:
     cand = effect.candidate()
     label = cand.label()
-    chains = [c.with_effects((cand,)) for c in base_chain]
+    chains = [c.adding(cand) for c in base_chain]
     best = None
     phases = [p for p in cand.free if p.endswith("phase_deg")]
     trials = [0.0, 120.0, 240.0] if (phases and starts_phase) else [None]
@@ -92,7 +92,7 @@ def _fit_candidate(base_chain, measured, effect, names, budget, level, starts_ph
             trial = cand if ph is None else cand.copy(**{phases[0]: ph})
             if ph is not None:
                 trial._free = cand.free
-                chains = [c.with_effects((trial,)) for c in base_chain]
+                chains = [c.adding(trial) for c in base_chain]
             res = fit(chains, measured, names=names, budget=budget, level=level, intervals=False)
             if best is None or res.chi2 < best[1].chi2:
                 best = (trial, res)
@@ -116,9 +116,14 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
     chains = list(chain) if isinstance(chain, (list, tuple)) else [chain]
     meas = list(measured) if isinstance(measured, (list, tuple)) else [measured]
     before = fit(chains, meas, names=names, budget=budget, level=level)
+    oil_known = _oil_declared(chains)
     pool = []
     for c in (EFFECTS.values() if candidates is None else candidates):
         e = c() if isinstance(c, type) else c
+        if not e.diagnose_free:  # not fitted by a diagnosis (oil_temperature: `viscosity` told in °C)
+            continue
+        if oil_known and e.effect_name == "viscosity":  # an oil temperature reading settles the viscosity
+            continue
         pool.extend(e.placements())
     tried = []
     for n, e in enumerate(pool, start=1):
@@ -131,7 +136,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         verdict = (f"Explained: the model fits the record within noise and model uncertainty "
                    f"(chi2 = {before.chi2:.1f} for {before.dof} dof); no effect is needed.")
         separated = ()
-        look_alike = _oil_look_alike(chains, meas, before, names, budget, level)
+        look_alike = None if oil_known else _oil_look_alike(chains, meas, before, names, budget, level)
         if look_alike is not None:
             ambiguous = (look_alike[0],)
             separated = (type(look_alike[1]).separated_by,)
@@ -143,7 +148,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         close = [c for c in passing[1:] if c.aic - best.aic < ambiguity_aic]
         added = best
         # the winner added: its parameters free again (started at their fitted values), with intervals
-        after = fit([c.with_effects((best.effect.candidate(),)) for c in chains], meas, names=names,
+        after = fit([c.adding(best.effect.candidate()) for c in chains], meas, names=names,
                     budget=budget, level=level)
         explained = bool(after.explained)
         ambiguous = tuple(c.label for c in close)
@@ -155,7 +160,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
             verdict = (f"Ambiguous: {len(close) + 1} effects explain the record equally well ({flows}). "
                        f"To tell them apart: {'; or '.join(separated)}.")
         else:
-            verdict = (f"{_story(best)} explains the record (chi2 {before.chi2:.1f} -> {after.chi2:.1f} for "
+            verdict = (f"{_story(best)}{_oil_words(chains, best)} explains the record (chi2 {before.chi2:.1f} -> {after.chi2:.1f} for "
                        f"{after.dof} dof). Flows re-identified with it: Q1 = {after.values[0] * 6e7:.0f}, "
                        f"Q2 = {after.values[1] * 6e7:.0f} ml/min (plain model: {before.values[0] * 6e7:.0f}, "
                        f"{before.values[1] * 6e7:.0f}).")
@@ -176,6 +181,11 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
 OIL_RANGE = (0.75, 1.0 / 0.75)
 
 
+def _oil_declared(chains) -> bool:
+    """Whether the chains already declare the oil (a record's temperature reading, or a viscosity effect)."""
+    return any(e.effect_name in ("viscosity", "oil_temperature") for c in chains for e in c.effects)
+
+
 def _oil_look_alike(chains, meas, before: Fit, names, budget, level):
     """For a record the plain model explains: does oil of another viscosity explain it as well with other
     flows? (label, effect, Q1 range, Q2 range) when the flows' profile intervals with the viscosity free
@@ -187,7 +197,7 @@ def _oil_look_alike(chains, meas, before: Fit, names, budget, level):
         return None
     oil = Viscosity(bearing="both").release("factor").limited(factor=OIL_RANGE)
     try:
-        wide = fit([c.with_effects((oil,)) for c in chains], meas, names=names, budget=budget, level=level)
+        wide = fit([c.adding(oil) for c in chains], meas, names=names, budget=budget, level=level)
     except LubevizError:
         return None
     ranges, wider = [], False
@@ -205,6 +215,18 @@ def _story(c: Candidate) -> str:
     main = ", ".join(f"{k} = {p[k]:.4g} +/- {p.get(k + '_std', float('nan')):.2g}" for k in c.effect.diagnose_free
                      if k in p)
     return f"{c.label} ({main})"
+
+
+def _oil_words(chains, c: Candidate) -> str:
+    """', i.e. oil at about 49 °C instead of the declared 38 °C (ISO VG 100)' for a viscosity factor, when
+    the model file declares its oil; '' otherwise."""
+    oil = getattr(chains[0].machine, "oil", None)
+    factor = c.parameters().get("factor")
+    if c.effect.effect_name != "viscosity" or oil is None or factor is None:
+        return ""
+    t = float(oil.temperature_for_factor(float(factor)))
+    return (f", i.e. oil at about {t:.0f} °C instead of the declared {oil.temperature_c:g} °C"
+            f"{' (' + oil.grade + ')' if oil.grade else ''}")
 
 
 def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
@@ -257,7 +279,7 @@ def cost_map(chain, measured, *, effect=None, names=None, budget=None, n: int = 
     chains = list(chain) if isinstance(chain, (list, tuple)) else [chain]
     meas = list(measured) if isinstance(measured, (list, tuple)) else [measured]
     if effect is not None:
-        chains = [c.with_effects((effect.hold(),)) for c in chains]
+        chains = [c.adding(effect.hold()) for c in chains]
     parts, noise = _parts(chains, meas, names)
     ref = chains[0]
     start = ref.start()

@@ -13,14 +13,15 @@ from typing import Iterable
 from .base import STAGES, Effect, Registry
 from .bow import Bow, bow_shape
 from .clearance import Clearance
+from .oil_temperature import OilTemperature
 from .pedestals import Pedestals
 from .probe_gain import ProbeGain
 from .probe_rotation import ProbeRotation
 from .unbalance2 import Unbalance2
-from .viscosity import Viscosity, walther_viscosity_ratio
+from .viscosity import Viscosity
 
 EFFECTS = Registry()
-for _cls in (Viscosity, Clearance, Unbalance2, Pedestals, ProbeRotation, ProbeGain, Bow):
+for _cls in (Viscosity, OilTemperature, Clearance, Unbalance2, Pedestals, ProbeRotation, ProbeGain, Bow):
     EFFECTS.register(_cls)
 
 
@@ -33,5 +34,5 @@ def parse_effects(texts: Iterable[str]) -> tuple[Effect, ...]:
     return tuple(parse_effect(t) for t in texts)
 
 
-__all__ = ["EFFECTS", "STAGES", "Bow", "Clearance", "Effect", "Pedestals", "ProbeGain", "ProbeRotation",
-           "Unbalance2", "Viscosity", "bow_shape", "parse_effect", "parse_effects", "walther_viscosity_ratio"]
+__all__ = ["EFFECTS", "STAGES", "Bow", "Clearance", "Effect", "OilTemperature", "Pedestals", "ProbeGain", "ProbeRotation",
+           "Unbalance2", "Viscosity", "bow_shape", "parse_effect", "parse_effects"]

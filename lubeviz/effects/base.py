@@ -43,6 +43,17 @@ class Effect(param.Parameterized):
         given = set(params)
         self._free = tuple(p for p in self.continuous if p not in given)
 
+    # --- the machine ------------------------------------------------------------------------------
+    def bind(self, machine) -> "Effect":
+        """This effect ready for `machine` (most need nothing of it; an oil temperature needs its oil).
+        Raises InputError when the machine lacks what the effect needs."""
+        return self
+
+    def declared(self, pname: str, machine) -> float:
+        """The value of continuous parameter `pname` at which the machine is as declared (a fit's start
+        when the parameter is None)."""
+        return float(self.neutral.get(pname, 0.0))
+
     # --- fitting ---------------------------------------------------------------------------------
     @property
     def free(self) -> tuple[str, ...]:

@@ -35,6 +35,10 @@ class Clearance(Effect):
             return {}
         return {"clearance": 1e-6 * as_array(values, self, "clearance_um", shape)}
 
+    def declared(self, pname: str, machine) -> float:
+        k = 0 if self.bearing in (1, "both") else 1
+        return machine.bearings[k].clearance * 1e6
+
     def unit(self, pname):
         return "um"
 

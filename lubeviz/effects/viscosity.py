@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import numpy as np
 import param
 
 from ..model.quantity import Quantity
@@ -19,6 +18,8 @@ class Viscosity(Effect):
     less (the flooded threshold Q_T moves). From one record's 1X alone this mimics a change of both
     supply flows almost exactly; the static shaft position, a second speed or an oil temperature tell
     them apart. Changes the bearings stage: the film's Sommerfeld number scales with the viscosity.
+    With an `[oil]` in the model file, a factor is also an oil temperature (`Oil.temperature_for_factor`;
+    the `oil_temperature` effect declares one).
     """
 
     effect_name = "viscosity"
@@ -40,22 +41,3 @@ class Viscosity(Effect):
 
     def placements(self):
         return [self.copy(bearing=b) for b in BEARINGS]
-
-
-def walther_viscosity_ratio(t_c, t_ref_c, nu40_cst: float, nu100_cst: float) -> np.ndarray:
-    """Kinematic viscosity at t_c over that at t_ref_c by the Walther / ASTM D341 law.
-
-    log10(log10(nu + 0.7)) = A - B log10(T), T in kelvin, fitted through nu(40 °C) and nu(100 °C).
-    (The dynamic viscosity ratio also carries the density's ~0.07 %/K, neglected here.)
-    """
-    def loglog(nu):
-        return np.log10(np.log10(nu + 0.7))
-
-    t40, t100 = np.log10(313.15), np.log10(373.15)
-    b = (loglog(nu40_cst) - loglog(nu100_cst)) / (t100 - t40)
-    a = loglog(nu40_cst) + b * t40
-
-    def nu(t):
-        return 10.0 ** (10.0 ** (a - b * np.log10(np.asarray(t, dtype=float) + 273.15))) - 0.7
-
-    return nu(t_c) / nu(t_ref_c)

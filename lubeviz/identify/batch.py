@@ -20,6 +20,7 @@ from .cache import machine_tables
 from .forward import ALL_FEATURES, ForwardModel
 from .measured import measure
 from .newton import Identification, identify
+from .oil_reading import budget_with_reading, oil_reading
 from .settings import IdentificationSettings
 
 
@@ -92,6 +93,10 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
 
     if budget is None and not settings.include_model_error:
         budget = ModelBudget.none()
+    oil_effects, tolerance, oil_notes = oil_reading(record, machine, effects)
+    if oil_effects and settings.include_model_error:
+        budget = budget_with_reading(budget, tolerance)
+    effects = tuple(oil_effects) + tuple(effects)
     tables = model.tables if model is not None and abs(model.omega / (2 * math.pi) - speed) < 1e-9 else None
     chain = ForwardChain(machine, speed, record.nodes, effects, probe_angles_deg=record.probe_angles_deg,
                          tables=tables, progress=progress)
@@ -99,8 +104,10 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
     res = fit(chain, measured, names=tuple(settings.features), budget=budget, lower=settings.lower,
               upper=settings.upper)
     out = _identification(res, chain)
+    if oil_notes:
+        out = dataclasses.replace(out, warnings=out.warnings + oil_notes)
     if settings.oil_check != "never" and not measured.static_names and not any(
-            getattr(e, "effect_name", "") in ("viscosity", "clearance") for e in effects):
+            getattr(e, "effect_name", "") in ("viscosity", "oil_temperature", "clearance") for e in effects):
         if settings.oil_check == "always" or _oil_range_tabled(chain):
             out = _oil_check(out, res, chain, measured, settings, budget)
         else:
@@ -225,21 +232,25 @@ def identify_group(records, machine=None, settings: IdentificationSettings | Non
         from .budget import ModelBudget
 
         budget = ModelBudget.none()
-    chains, meas = [], []
+    chains, meas, notes, tolerance = [], [], [], 0.0
     for n, rec in enumerate(records, start=1):
         speed = model_speed(machine, rec)
         check_model_speed(machine, speed)
-        chain = ForwardChain(machine, speed, rec.nodes, effects, probe_angles_deg=rec.probe_angles_deg,
-                             progress=progress)
+        oil_effects, tol, oil_notes = oil_reading(rec, machine, effects)
+        tolerance, notes = max(tolerance, tol), notes + list(oil_notes)
+        chain = ForwardChain(machine, speed, rec.nodes, tuple(oil_effects) + tuple(effects),
+                             probe_angles_deg=rec.probe_angles_deg, progress=progress)
         m = measure(rec, ALL_FEATURES)
         check_record(_NodesSpeed(chain), m, settings)
         chains.append(chain)
         meas.append(m)
+    if tolerance > 0 and settings.include_model_error:
+        budget = budget_with_reading(budget, tolerance)
     res = fit(chains, meas, names=tuple(settings.features), budget=budget, lower=settings.lower,
               upper=settings.upper)
     result = _identification(res, chains[0])
     files = "+".join(str(r.source or "record") for r in records)
-    warnings = tuple(w for r in records for w in getattr(r, "warnings", ()))
+    warnings = tuple(w for r in records for w in getattr(r, "warnings", ())) + tuple(notes)
     return RecordIdentification(file=files, result=result, nodes=tuple(records[0].nodes),
                                 speed_hz=records[0].speed_hz, warnings=warnings,
                                 speeds_hz=tuple(r.speed_hz for r in records), set_name=records[0].set_name)

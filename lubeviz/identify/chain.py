@@ -180,10 +180,15 @@ class ForwardChain:
         if len(self.nodes) != 2 or self.nodes[0] == self.nodes[1]:
             raise InputError(f"two distinct measurement planes expected, got nodes {tuple(nodes)}")
         self.probe_angles_deg = tuple(tuple(float(a) for a in p) for p in probe_angles_deg)
-        self.effects = tuple(effects)
-        for e in self.effects:
+        for e in effects:
             if getattr(e, "stage", None) not in ("bearings", "rotor", "probes"):
                 raise InputError(f"{e!r} is not an effect (no stage)")
+        self.effects = tuple(e.bind(machine) for e in effects)
+        for k in range(2):  # supports act in series with one film: one pedestal per bearing
+            on_k = [e.label() for e in self.effects if hasattr(e, "support") and e.applies(k)]
+            if len(on_k) > 1:
+                raise InputError(f"bearing {k + 1} is given a pedestal twice ({', '.join(on_k)}); "
+                                 "one pedestals effect per bearing")
         if tables is None:
             from .cache import machine_tables
 
@@ -206,6 +211,10 @@ class ForwardChain:
             s_new.share_views(s_old._views)
         return new
 
+    def adding(self, *effects) -> "ForwardChain":
+        """The same chain with `effects` added after its own (its declared effects stay)."""
+        return self.with_effects(self.effects + tuple(effects))
+
     # --- parameters -------------------------------------------------------------------------------
     def _prefix(self, effect) -> str:
         same = [e for e in self.effects if e.effect_name == effect.effect_name]
@@ -224,10 +233,7 @@ class ForwardChain:
         return np.array(out)
 
     def _declared(self, effect, pname) -> float:
-        if pname == "clearance_um":
-            k = 0 if effect.bearing in (1, "both") else 1
-            return self.machine.bearings[k].clearance * 1e6
-        return float(effect.neutral.get(pname, 0.0))
+        return effect.declared(pname, self.machine)
 
     def bounds(self, lower: float = 0.25, upper: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
         lo = [lower * self.q_threshold[0], lower * self.q_threshold[1]]

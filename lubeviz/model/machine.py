@@ -17,6 +17,7 @@ import param
 
 from ..errors import ModelFileError
 from .bearing import Bearing
+from .oil import Oil, oil_from_table
 from .quantity import Quantity, positive
 
 MODELS_DIR = Path(__file__).resolve().parents[2] / "models"
@@ -64,6 +65,8 @@ class Machine(param.Parameterized):
     bearings = param.List([], item_type=Bearing, doc="Journal bearings (bearing 1 first)")
     center_nodes = param.List([6, 20], item_type=int, doc="Measurement nodes at the bearing centres")
     outside_nodes = param.List([5, 21], item_type=int, doc="Measurement nodes outside the bearings")
+    oil = param.ClassSelector(class_=Oil, default=None, allow_None=True,
+                              doc="The oil's grade and viscosity-temperature law (optional [oil] of the model file)")
     reference = param.Dict({}, doc="Figures the source publication reports (for checks)")
     source = param.String("", doc="File the machine was loaded from")
 
@@ -93,6 +96,8 @@ _SECTIONS = {
 }
 _OPTIONAL = {("machine", "description"), ("material", "name"), ("unbalance", "phase_deg"),
              ("machine", "speed_min_hz"), ("machine", "speed_max_hz")}
+_OIL = {"iso_vg": int, "nu40_cst": float, "nu100_cst": float, "density_kg_m3": float, "temperature_c": float}
+OIL_CONSISTENCY = 0.10  # the bearings' viscosity_pa_s and the [oil] law at temperature_c: ISO 3448's +-10 %
 _DISC = {"node": int, "width_mm": float, "outer_diameter_mm": float, "bore_diameter_mm": float}
 _BEARING = {"name": str, "node": int, "radius_mm": float, "length_mm": float, "clearance_um": float,
             "viscosity_pa_s": float, "groove_angle_deg": float, "groove_length_mm": float,
@@ -138,7 +143,7 @@ def load_machine(path: str | Path | None = None) -> Machine:
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise ModelFileError(f"{path}: not a valid TOML file ({exc})") from None
     where = str(path)
-    unknown = set(raw) - set(_SECTIONS) - {"discs", "bearings"}
+    unknown = set(raw) - set(_SECTIONS) - {"discs", "bearings", "oil"}
     if unknown:
         raise ModelFileError(f"{where}: unknown section(s) {sorted(unknown)}")
     sec = {}
@@ -194,6 +199,20 @@ def load_machine(path: str | Path | None = None) -> Machine:
                 raise ModelFileError(f"{w}: {exc}") from None
         if len(bearings) != 2:
             raise ModelFileError(f"{where}: expected exactly 2 [[bearings]], found {len(bearings)}")
+        oil = None
+        if "oil" in raw:
+            w = f"{where} [oil]"
+            try:
+                oil = oil_from_table(_table(raw["oil"], _OIL, w, set(_OIL)), w)
+            except ValueError as exc:
+                raise ModelFileError(str(exc) if str(exc).startswith(where) else f"{w}: {exc}") from None
+            mu = float(oil.dynamic_viscosity(oil.temperature_c))
+            for k, b in enumerate(bearings, start=1):
+                if abs(b.viscosity / mu - 1.0) > OIL_CONSISTENCY:
+                    raise ModelFileError(
+                        f"{w}: {oil.describe()} has mu = {mu:.4g} Pa*s at {oil.temperature_c:g} °C, but "
+                        f"[[bearings]] #{k} viscosity_pa_s = {b.viscosity:g} (more than "
+                        f"{OIL_CONSISTENCY:.0%} apart): correct temperature_c or the grade")
         m, mat, ub, meas = sec["machine"], sec["material"], sec["unbalance"], sec["measurement"]
         for key in ("center_nodes", "outside_nodes"):
             nodes = meas[key]
@@ -209,7 +228,7 @@ def load_machine(path: str | Path | None = None) -> Machine:
             unbalance_node=node_ok(ub["node"], f"{where} [unbalance].node"),
             unbalance_moment=ub["moment_kg_m"], unbalance_phase=math.radians(ub.get("phase_deg", 0.0)),
             elements=elements, discs=discs, bearings=bearings, center_nodes=list(meas["center_nodes"]),
-            outside_nodes=list(meas["outside_nodes"]), reference=dict(sec["paper"]), source=str(path),
+            outside_nodes=list(meas["outside_nodes"]), oil=oil, reference=dict(sec["paper"]), source=str(path),
         )
     except ModelFileError:
         raise

@@ -13,7 +13,8 @@ Files (`read_record` / `write_record`), the same fields in three formats:
   `probe_angles_deg` ("45, 135" for both planes or "45, 135, 30, 120" plane by plane), `machine`
   (a plain model file name: no folder, no `..`, `NAME` or `NAME.toml`), `t0_s` (time of the first
   sample when there is no `t` column), `set` (records of one machine taken together), `static` and
-  `rest_position` (below). Comment lines without a colon are free comments and are skipped.
+  `rest_position` (below), `oil_temperature_c` (the oil temperature read on the machine, °C, an
+  extension of SPEC §6: with an `[oil]` in the model file it fixes the film's viscosity). Comment lines without a colon are free comments and are skipped.
   Columns, matched by name (case-insensitive, any order): `t` (optional), `x1`, `y1`, `x2`, `y2`
   (probe readings of planes 1 and 2 in `units`), `keyphasor` (optional, stored unscaled).
   Delimiter: comma (or semicolon, tab, whitespace, as the header uses).
@@ -105,7 +106,8 @@ FORMATS = (".csv", ".npz", ".mat")
 CHANNELS = ("x1", "y1", "x2", "y2")  # file names of displacement[plane][probe], row-major
 COLUMNS = ("t", *CHANNELS, "keyphasor")
 META_KEYS = ("speed_hz", "sample_rate_hz", "units", "node1", "node2", "probe_angles_deg",
-             "machine", "t0_s", "set", "static", "rest_position")
+             "machine", "t0_s", "set", "static", "rest_position", "oil_temperature_c")
+OIL_TEMPERATURE_RANGE_C = (-20.0, 150.0)
 RESERVED = frozenset(COLUMNS + META_KEYS)
 # Informational keys `lubeviz simulate` writes, and free-text keys: kept without a warning.
 INFO_KEYS = ("q1_mlmin", "q2_mlmin", "snr_db", "synthetic", "seed", "effects", "method")
@@ -143,6 +145,9 @@ class Record:
     # the mean of each channel means nothing.
     rest_position: np.ndarray | None = None
     set_name: str | None = None  # `set: NAME`, records of one machine taken together
+    # `oil_temperature_c`: the oil temperature read on the machine (°C; an extension of SPEC §6). With an
+    # [oil] in the model file it settles the film's viscosity.
+    oil_temperature_c: float | None = None
     warnings: tuple[str, ...] = ()  # what the reader ignored (unknown keys, columns), for the user
     # Derived when built (never passed): mean reading - rest reading resolved to X, Y (2 planes, 2) in
     # metres, and its standard error; None without `rest_position`.
@@ -211,6 +216,13 @@ class Record:
             put("machine", _machine_name(self.machine, where))
         if self.set_name is not None:
             put("set_name", _text(self.set_name, where, "set", "a set name on one line"))
+        if self.oil_temperature_c is not None:
+            t = _finite(self.oil_temperature_c, where, "oil_temperature_c", "the oil temperature in °C")
+            lo, hi = OIL_TEMPERATURE_RANGE_C
+            if not lo <= t <= hi:
+                raise _fail(where, "oil_temperature_c", f"{t:g} °C is outside {lo:g}..{hi:g} °C",
+                            "the oil temperature in °C (not K or °F)")
+            put("oil_temperature_c", t)
         put("metadata", _metadata(self.metadata, where))
         put("warnings", _warnings(self.warnings, where))
 
@@ -303,9 +315,9 @@ class Record:
             return (a is None) == (b is None) and (a is None or np.array_equal(a, b))
 
         return ((self.speed_hz, self.sample_rate_hz, self.nodes, self.probe_angles_deg, self.t0,
-                 self.machine, self.set_name, dict(self.metadata))
+                 self.machine, self.set_name, self.oil_temperature_c, dict(self.metadata))
                 == (other.speed_hz, other.sample_rate_hz, other.nodes, other.probe_angles_deg,
-                    other.t0, other.machine, other.set_name, dict(other.metadata))
+                    other.t0, other.machine, other.set_name, other.oil_temperature_c, dict(other.metadata))
                 and np.array_equal(self.displacement, other.displacement)
                 and same(self.keyphasor, other.keyphasor)
                 and same(self.rest_position, other.rest_position))
@@ -374,7 +386,7 @@ def record_from_arrays(x1, y1, x2, y2, *, speed_hz: float, sample_rate_hz: float
                        machine: str | None = None, keyphasor=None,
                        metadata: Mapping[str, str] | None = None,
                        source: str | None = None, rest_position=None, static_offset=None,
-                       set_name: str | None = None) -> Record:
+                       set_name: str | None = None, oil_temperature_c: float | None = None) -> Record:
     """A `Record` from probe readings in `units`, validated exactly as a file would be.
 
     Give `sample_rate_hz` or a time array `t` (or both, then they must agree); `t0` (s) only
@@ -396,6 +408,7 @@ def record_from_arrays(x1, y1, x2, y2, *, speed_hz: float, sample_rate_hz: float
     meta = {"speed_hz": speed_hz, "sample_rate_hz": sample_rate_hz, "units": units,
             "node1": nodes[0], "node2": nodes[1], "probe_angles_deg": probe_angles_deg,
             "machine": machine, "t0_s": t0, "set": set_name, "rest_position": rest_position,
+            "oil_temperature_c": oil_temperature_c,
             "static": None if rest_position is None else STATIC_ABSOLUTE}
     extra = {}
     for key, value in dict(metadata or {}).items():  # file fields given as metadata act as in a file
@@ -492,6 +505,8 @@ def write_record(record: Record, path, *, units: str = "m") -> Path:
         meta["machine"] = record.machine
     if record.set_name is not None:
         meta["set"] = record.set_name
+    if record.oil_temperature_c is not None:
+        meta["oil_temperature_c"] = record.oil_temperature_c
     if record.rest_position is not None:  # the readings keep their DC gap: say so, with the rest
         meta["static"] = STATIC_ABSOLUTE
         meta["rest_position"] = record.rest_position if scale == 1.0 else record.rest_position / scale
@@ -669,6 +684,8 @@ def _assemble(columns: dict, meta: dict, extra: dict, origin: _Origin, default_n
                   probe_angles_deg=angles, t0=0.0 if t0 is None else t0,
                   machine=meta.get("machine"), keyphasor=columns.get("keyphasor"),
                   metadata=extra, source=where, rest_position=rest, set_name=meta.get("set"),
+                  oil_temperature_c=(None if meta.get("oil_temperature_c") is None else
+                                     _finite(meta["oil_temperature_c"], where, "oil_temperature_c", "°C")),
                   warnings=tuple(warnings))
 
 

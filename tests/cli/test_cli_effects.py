@@ -127,3 +127,28 @@ def test_a_misspelled_key_is_a_warning_in_the_json(capsys, tmp_path):
     data = json.loads(out)
     assert any("node_1" in w and "node1" in w for w in data["warnings"])
     assert "node_1" in err
+
+
+def test_a_records_oil_temperature_is_used_by_identify_and_diagnose(capsys, tmp_path):
+    """`# oil_temperature_c: 45` in a record of oil hotter than declared: identify uses it (the JSON's
+    effects say so) and diagnose does not offer 'hotter oil' as the explanation of anything."""
+    import dataclasses
+
+    from lubeviz.model.machine import load_machine
+
+    factor = float(load_machine().oil.factor(45.0))
+    spec = IndependentSpec(speed_hz=75.0, q1_mlmin=480.0, q2_mlmin=600.0, effects=(f"viscosity:factor={factor!r}",),
+                           seed=11)
+    path = tmp_path / "hot.csv"
+    write_record(dataclasses.replace(make_record(spec).record, oil_temperature_c=45.0), path)
+    assert "# oil_temperature_c: 45" in path.read_text()
+    code, out, err = run(capsys, "identify", path, "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["effects"]["oil_temperature"]["temperature_c"] == 45.0
+    assert abs(data["q1_mlmin"] / 480.0 - 1) < 0.03 and abs(data["q2_mlmin"] / 600.0 - 1) < 0.03
+    code, out, err = run(capsys, "diagnose", path, "--effects", "viscosity,clearance", "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    assert all(not e["name"].startswith("viscosity") for e in data["effects"])
+    assert data["explained"], data["verdict"]

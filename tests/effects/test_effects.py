@@ -173,3 +173,12 @@ def test_effects_compose(machine, tables):
     free = ForwardChain(machine, 75.0, (6, 20), parse_effects(["probe_gain:channel=x1", "unbalance2:node=15"]),
                         tables=tables)
     assert free.names == ("q1", "q2", "probe_gain.gain", "unbalance2.ratio", "unbalance2.phase_deg")
+
+
+def test_a_bearing_has_at_most_one_pedestal(machine, tables):
+    """Two pedestals on one bearing would put two housings in series with one film (the fast and the
+    assembled paths disagreed by 2x): refused, naming the bearing."""
+    with pytest.raises(InputError, match="bearing 2 is given a pedestal twice"):
+        chain_with(machine, tables, "pedestals:bearing=both,mass_kg=50,stiffness_n_m=2e8,damping_ns_m=1e4",
+                   "pedestals:bearing=2,mass_kg=30,stiffness_n_m=8e7,damping_ns_m=1e4")
+    chain_with(machine, tables, "pedestals:bearing=1", "pedestals:bearing=2")  # one each is fine

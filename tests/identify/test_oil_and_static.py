@@ -69,3 +69,38 @@ def test_a_set_at_three_speeds_pins_the_oil_from_the_dynamic_part_alone(machine)
     assert np.abs(err).max() < 0.02
     assert abs(r.effects["viscosity"]["factor"] / 0.75 - 1) < 0.05
     assert r.model_explains_data
+
+
+def test_an_oil_temperature_reading_separates_hot_oil_from_less_oil(machine, tmp_path):
+    """One record, one speed, no static position: oil at 45 °C instead of the declared 38.3 °C (VG 100:
+    x0.71). Without the reading the flows come out ~20 % low; with the record's `oil_temperature_c` the
+    viscosity is settled (the reading's 1 K uncertainty in the budget) and the flows come back."""
+    import dataclasses
+
+    from lubeviz.model.machine import DEFAULT_MACHINE, load_machine
+
+    t = 45.0
+    factor = float(machine.oil.factor(t))
+    spec = IndependentSpec(speed_hz=75.0, q1_mlmin=Q[0], q2_mlmin=Q[1], effects=(f"viscosity:factor={factor!r}",),
+                           seed=11)
+    rec = make_record(spec).record
+    plain = identify_record(rec, machine, IdentificationSettings(oil_check="never")).result
+    assert np.all(plain.q * 6e7 < 0.85 * np.array(Q))
+    read = dataclasses.replace(rec, oil_temperature_c=t)
+    r = identify_record(read, machine).result
+    assert np.all(np.abs(r.q * 6e7 / np.array(Q) - 1) < 0.03), r.q * 6e7
+    assert all(_inside(r.intervals[k], Q[k]) for k in range(2))
+    assert r.effects["oil_temperature"]["temperature_c"] == t
+    assert not any("viscosity" in w for w in r.warnings)  # no oil-check warning: the oil is known
+    # the budget carries the reading's uncertainty (1 K) as a viscosity tolerance: |d ln mu/dT| ~ 4-5 %/K
+    from lubeviz.identify.oil_reading import oil_reading
+
+    effects, tolerance, notes = oil_reading(read, machine)
+    assert 0.03 < tolerance < 0.06 and not notes and effects[0].temperature_c == t
+    # a machine without an [oil] cannot use the reading, and says so
+    text = DEFAULT_MACHINE.read_text()
+    bare = tmp_path / "bare.toml"
+    bare.write_text(text[:text.index("[oil]")] + text[text.index("[measurement]"):])
+    r = identify_record(read, load_machine(bare), IdentificationSettings(oil_check="never")).result
+    assert any("oil_temperature_c = 45 °C not used" in w for w in r.warnings)
+    assert np.all(r.q * 6e7 < 0.85 * np.array(Q))
