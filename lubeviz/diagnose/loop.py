@@ -154,7 +154,18 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         ambiguous = tuple(c.label for c in close)
         separated = tuple(dict.fromkeys(type(c.effect).separated_by for c in [best, *close]
                                          if type(c.effect).separated_by))
-        if close:
+        if len(chains) == 1 and all(type(c.effect).forcing for c in [best, *close]):
+            # one speed: a fitted 1X force stands for any 1X force, also one from an effect not in the library
+            ambiguous = ambiguous + (OTHER_FORCE,)
+            separated = separated + (FORCE_SEPARATION,)
+            flows = "; ".join(f"{c.label}: {c.fit.values[0] * 6e7:.0f}, {c.fit.values[1] * 6e7:.0f}"
+                              for c in [best, *close])
+            verdict = (f"Ambiguous cause: a synchronous (1X) force on the rotor explains the record "
+                       f"({', '.join(c.label for c in [best, *close])}), or an effect not in the library that acts "
+                       f"as one ({OTHER_FORCE_EXAMPLES}). At one speed these are the same force, so the flows hardly "
+                       f"depend on which: Q1, Q2 = {flows} ml/min (plain model: {before.values[0] * 6e7:.0f}, "
+                       f"{before.values[1] * 6e7:.0f}). To tell the causes apart: {'; or '.join(separated)}.")
+        elif close:
             flows = "; ".join(f"{c.label}: Q1, Q2 = {c.fit.values[0] * 6e7:.0f}, {c.fit.values[1] * 6e7:.0f} ml/min"
                               for c in [best, *close])
             verdict = (f"Ambiguous: {len(close) + 1} effects explain the record equally well ({flows}). "
@@ -179,6 +190,10 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
 
 
 OIL_RANGE = (0.75, 1.0 / 0.75)
+OTHER_FORCE = "another 1X force (not in the library)"
+OTHER_FORCE_EXAMPLES = "a seal's or a rub's cross-coupling, a misaligned coupling, a loose disc"
+FORCE_SEPARATION = ("records at a second speed (an unbalance's force grows with the speed squared, a bow's and "
+                    "a seal's do not)")
 
 
 def _oil_declared(chains) -> bool:

@@ -37,6 +37,9 @@ class Effect(param.Parameterized):
     step: ClassVar[dict] = {}  # finite-difference step of each continuous parameter (its own unit)
     diagnose_free: ClassVar[tuple[str, ...]] = ()  # what a diagnosis fits (the others held at defaults)
     separated_by: ClassVar[str] = ""  # the measurement that tells this effect from look-alikes
+    # True for an effect that acts as a synchronous (1X) force on the rotor with a free magnitude and
+    # phase: at one speed it can stand for any other such force, including effects not in the library
+    forcing: ClassVar[bool] = False
 
     def __init__(self, **params):
         super().__init__(**params)

@@ -54,6 +54,7 @@ class Bow(Effect):
     step = {"amplitude_um": 0.01, "phase_deg": 0.05}
     diagnose_free = ("amplitude_um", "phase_deg")
     separated_by = "a slow-roll record (a bow reads at low speed, an unbalance does not) or a second speed"
+    forcing = True
 
     node = param.Integer(13, bounds=(1, None), doc="Node where the bow's amplitude is given (between the bearings)")
     amplitude_um = param.Number(10.0, bounds=(0.0, 1000.0), doc="Bow at `node` (um)")

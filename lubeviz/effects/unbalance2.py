@@ -25,6 +25,7 @@ class Unbalance2(Effect):
     step = {"ratio": 1e-3, "phase_deg": 0.05}
     diagnose_free = ("ratio", "phase_deg")
     separated_by = "a trial weight run or a record at a second speed (the mode shapes change the mix)"
+    forcing = True
 
     node = param.Integer(10, bounds=(1, None), doc="Rotor node of the second unbalance (paper numbering)")
     ratio = param.Number(0.3, bounds=(0.0, 5.0), doc="Its moment over the main unbalance's")

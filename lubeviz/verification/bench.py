@@ -114,6 +114,7 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
     """For each effect and two strengths, independent records (12 dB, flows 75-125 % Q_T, seeded): plain
     identification, then diagnosis; the named effect, the residual and the flow errors before and after."""
     from ..diagnose import diagnose
+    from ..diagnose.loop import OTHER_FORCE
     from ..identify.chain import ForwardChain
     from ..identify.measured import measure
     from ..model.machine import load_machine
@@ -150,6 +151,7 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
                              "chi2_after": None if d.after is None else d.after.chi2,
                              "dof_after": None if d.after is None else d.after.dof,
                              "flow_error_pct_before": err_b.tolist(), "flow_error_pct_after": err_a.tolist(),
+                             "not_forced": bool((d.added is None and not d.explained) or OTHER_FORCE in d.ambiguous),
                              "verdict": d.verdict, "seconds": d.seconds})
                 progress(i, total, f"{name} {level}")
     summary = {}
@@ -161,6 +163,7 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
                 "plain_flagged": sum(not r["plain_explained"] for r in rr),
                 "right_first": sum(r["right_first"] for r in rr), "right_in_set": sum(r["right_in_set"] for r in rr),
                 "unexplained": sum(r["added"] is None and not r["plain_explained"] for r in rr),
+                "not_forced": sum(r["not_forced"] for r in rr),
                 "flow_error_pct_before_max": float(max(max(r["flow_error_pct_before"]) for r in rr)),
                 "flow_error_pct_after_max": float(max(max(r["flow_error_pct_after"]) for r in rr)),
                 "chi2_before_median": float(np.median([r["plain_chi2"] for r in rr])),

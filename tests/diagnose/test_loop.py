@@ -96,3 +96,19 @@ def test_an_effect_not_in_the_library_is_unexplained_over_a_set(machine):
     d = diagnose(chains, [measure(r) for r in records])
     assert not d.explained and d.added is None
     assert d.verdict.startswith("Unexplained")
+
+
+@pytest.mark.parametrize("effect", ["seal:node=10,kxy_n_m=2e6,kxx_n_m=2e7", "unbalance2:node=15,ratio=0.6,phase_deg=200"])
+def test_at_one_speed_a_force_is_never_named_alone(chain, effect):
+    """At one speed a fitted second unbalance stands for any 1X force (an equivalent force system): a seal
+    (not in the library) and a true second unbalance both get the set of forcing effects plus 'another 1X
+    force (not in the library)', the second speed as the separating measurement, and flows within 1 %."""
+    from lubeviz.diagnose.loop import OTHER_FORCE
+
+    d = _diagnose(chain, (effect,))
+    assert not d.before.explained
+    assert d.added is not None and d.added.effect.forcing
+    assert OTHER_FORCE in d.ambiguous and all(a == OTHER_FORCE or a.startswith(("unbalance2", "bow"))
+                                              for a in d.ambiguous)
+    assert "second speed" in d.verdict and "not in the library" in d.verdict
+    assert _flow_errors(d.after).max() < 1.0
