@@ -38,7 +38,7 @@ def _candidates(text):
 
 def run_diagnose(args) -> dict | list:
     from ..diagnose import diagnose, diagnosis_dict
-    from ..identify.batch import machine_for, model_speed
+    from ..identify.batch import beyond_1x, machine_for, model_speed
     from ..identify.chain import ForwardChain
     from ..identify.measured import measure
     from ..identify.oil_reading import budget_with_reading, oil_reading
@@ -64,7 +64,8 @@ def run_diagnose(args) -> dict | list:
                                        probe_angles_deg=rec.probe_angles_deg, progress=bar))
             meas.append(measure(rec))
         budget = budget_with_reading(None, tolerance) if tolerance > 0 else None
-        d = diagnose(chains, meas, candidates=candidates, level=args.level, progress=bar, budget=budget)
+        lines, line_notes = beyond_1x(group)
+        d = diagnose(chains, meas, candidates=candidates, level=args.level, progress=bar, budget=budget, lines=lines)
         label = "+".join(str(r.source) for r in group)
         item = diagnosis_dict(d, file=label)
         item["warnings"] = list(notes) + [w for r in group for w in r.warnings]

@@ -74,6 +74,7 @@ class Diagnosis:
     separated_by: tuple[str, ...] = ()
     seconds: float = 0.0
     truth: dict = field(default_factory=dict)
+    lines: tuple = ()  # lines beyond 1X present in the record(s) (`signals.lines`): no model or effect has them
 
     @property
     def final(self) -> Fit:
@@ -105,11 +106,12 @@ def _fit_candidate(base_chain, measured, effect, names, budget, level, starts_ph
 
 def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level: float = 0.01,
              ambiguity_aic: float = AMBIGUITY_AIC, progress: ProgressFn = silent, truth: dict | None = None,
-             phase_starts: bool = True) -> Diagnosis:
+             phase_starts: bool = True, lines=()) -> Diagnosis:
     """Diagnose a record (or the records of one set: sequences of chains and measured features).
 
     `chain`: the plain forward chain(s) (no effects); `candidates`: Effect instances or classes to try in
-    every placement (default: the whole library)."""
+    every placement (default: the whole library); `lines`: the record's lines beyond 1X
+    (`signals.lines.present_lines`), which the linear model and every effect lack: named in the verdict."""
     from ..effects import EFFECTS
 
     t0 = time.perf_counter()
@@ -184,9 +186,18 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         verdict = ("Unexplained: the model does not fit the record and no effect in the library brings the "
                    f"residual back to noise (plain chi2 = {before.chi2:.1f} for {before.dof} dof)." + left +
                    " Do not trust the flows; check the machine and the measurement.")
+    from ..signals.lines import LINE_NOTICE
+
+    big = [line for line in lines if line.relative_to_1x > LINE_NOTICE]
+    if big:
+        from ..signals.lines import CAUSES
+
+        verdict += (" Beyond 1X the record also holds " + "; ".join(line.describe() for line in big) +
+                    ", which neither the linear model nor any effect in the library produces (" +
+                    "; ".join(dict.fromkeys(CAUSES[line.kind] for line in big)) + "): the flows rest on the 1X part.")
     return Diagnosis(before=before, candidates=tuple(tried), added=added, after=after, explained=explained,
                      ambiguous=ambiguous, verdict=verdict, separated_by=separated,
-                     seconds=time.perf_counter() - t0, truth=dict(truth or {}))
+                     seconds=time.perf_counter() - t0, truth=dict(truth or {}), lines=tuple(lines))
 
 
 OIL_RANGE = (0.75, 1.0 / 0.75)
@@ -273,7 +284,8 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
     out = {"before": fit_dict(d.before), "effects": effects,
            "added": None if d.added is None else d.added.label,
            "after": fit_dict(d.after), "explained": d.explained, "ambiguous": list(d.ambiguous),
-           "separated_by": list(d.separated_by), "verdict": d.verdict, "seconds": d.seconds}
+           "separated_by": list(d.separated_by), "verdict": d.verdict, "seconds": d.seconds,
+           "lines_beyond_1x": [line.as_dict() for line in d.lines]}
     if file is not None:
         out["file"] = file
     if d.truth:

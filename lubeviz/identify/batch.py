@@ -35,6 +35,7 @@ class RecordIdentification:
     warnings: tuple[str, ...] = ()  # the record reader's (e.g. an unknown metadata key)
     speeds_hz: tuple[float, ...] = ()  # a set: every record's speed
     set_name: str | None = None
+    lines: tuple = ()  # `signals.lines.Line`s present beyond 1X (the linear model has none)
 
 
 def check_model_speed(machine, speed_hz: float) -> None:
@@ -80,8 +81,32 @@ def identify_record(record, machine=None, settings: IdentificationSettings | Non
         result = identify(model, measured, settings)
     else:
         result = _fit_record(record, machine, speed, measured, settings, effects, budget, progress, model)
+    lines, notes = beyond_1x(record)
     return RecordIdentification(file=str(record.source or "record"), result=result, nodes=tuple(record.nodes),
-                                speed_hz=record.speed_hz, warnings=tuple(getattr(record, "warnings", ())))
+                                speed_hz=record.speed_hz, warnings=tuple(getattr(record, "warnings", ())) + notes,
+                                lines=lines)
+
+
+def beyond_1x(records) -> tuple[tuple, tuple[str, ...]]:
+    """The lines beyond 1X present in `records` (one or several) and a warning for each one above
+    LINE_NOTICE of 1X: the linear model produces none, so the flows rest on the 1X part alone."""
+    from ..signals.lines import CAUSES, LINE_NOTICE, present_lines
+
+    records = records if isinstance(records, (list, tuple)) else [records]
+    lines, notes = [], []
+    for rec in records:
+        try:
+            found = present_lines(rec)
+        except LubevizError:  # too short for a spectrum: the 1X fit has already judged the record
+            continue
+        lines += found
+        where = str(getattr(rec, "source", None) or "record")
+        notes += [f"{where}: {line.describe()}; the linear model has none ({CAUSES[line.kind]}): the flows rest on "
+                  "the 1X part" for line in found if line.relative_to_1x > LINE_NOTICE]
+    return tuple(lines), tuple(notes)
+
+
+
 
 
 def _fit_record(record, machine, speed, measured, settings, effects, budget, progress, model) -> Identification:
@@ -251,8 +276,9 @@ def identify_group(records, machine=None, settings: IdentificationSettings | Non
     result = _identification(res, chains[0])
     files = "+".join(str(r.source or "record") for r in records)
     warnings = tuple(w for r in records for w in getattr(r, "warnings", ())) + tuple(notes)
+    lines, line_notes = beyond_1x(records)
     return RecordIdentification(file=files, result=result, nodes=tuple(records[0].nodes),
-                                speed_hz=records[0].speed_hz, warnings=warnings,
+                                speed_hz=records[0].speed_hz, warnings=warnings + line_notes, lines=lines,
                                 speeds_hz=tuple(r.speed_hz for r in records), set_name=records[0].set_name)
 
 
@@ -266,7 +292,7 @@ def identify_file(path, machine=None, settings: IdentificationSettings | None = 
         machine, notes = machine_for(rec)
     out = identify_record(rec, machine, settings, progress=progress, model=model, effects=effects)
     return RecordIdentification(file=str(path), result=out.result, nodes=out.nodes, speed_hz=out.speed_hz,
-                                warnings=notes + out.warnings)
+                                warnings=notes + out.warnings, lines=out.lines)
 
 
 def result_dict(item: RecordIdentification) -> dict:
@@ -295,6 +321,7 @@ def result_dict(item: RecordIdentification) -> dict:
         "q2_interval_any_oil_mlmin": _interval(r, 1, r.intervals_any_oil), "oil_degeneracy": r.oil_degeneracy,
         "chi2": r.chi2, "dof": r.dof, "p_value": r.p_value, "level": r.level,
         "model_explains_data": r.model_explains_data, "effects": r.effects,
+        "lines_beyond_1x": [line.as_dict() for line in getattr(item, "lines", ())],
         "warnings": list(r.warnings) + list(getattr(item, "warnings", ())),
         "message": r.message, "seconds": r.seconds,
     }
@@ -362,7 +389,7 @@ def identify_files(paths, machine_path=None, mode: str = "best", *, workers: int
                 mach, notes = machine_for(rec, machine_path)
                 r = identify_record(rec, mach, settings, model=model, effects=effects)
                 r = RecordIdentification(file=p, result=r.result, nodes=r.nodes, speed_hz=r.speed_hz,
-                                         warnings=notes + r.warnings)
+                                         warnings=notes + r.warnings, lines=r.lines)
                 model = None
                 out[p] = (r, None)
             except LubevizError as exc:

@@ -152,3 +152,38 @@ def test_a_records_oil_temperature_is_used_by_identify_and_diagnose(capsys, tmp_
     data = json.loads(out)
     assert all(not e["name"].startswith("viscosity") for e in data["effects"])
     assert data["explained"], data["verdict"]
+
+
+def test_a_2x_line_is_reported_by_identify_and_diagnose(capsys, tmp_path):
+    """An independent record plus a forward 2X line of 10 % of 1X at plane 1 (what misalignment or a large
+    orbit adds): both commands list it with its size and say the flows rest on the 1X part; the clean
+    record lists no line (the independent source is linear: its 2X is noise)."""
+    import dataclasses
+    import math
+
+    spec = IndependentSpec(speed_hz=75.0, q1_mlmin=480.0, q2_mlmin=600.0, seed=5)
+    rec = make_record(spec).record
+    clean = tmp_path / "clean.csv"
+    write_record(rec, clean)
+    code, out, err = run(capsys, "identify", clean, "--json")
+    assert code == 0, err
+    assert json.loads(out)["lines_beyond_1x"] == []
+    d = rec.displacement.copy()
+    t = rec.t
+    x1 = d[0, 0]
+    amp = 0.1 * np.sqrt(2) * x1.std()  # 10 % of plane 1's x amplitude (its 1X dominates)
+    d[0, 0] = x1 + amp * np.cos(2 * 2 * math.pi * 75.0 * t)
+    d[0, 1] = d[0, 1] + amp * np.sin(2 * 2 * math.pi * 75.0 * t)
+    path = tmp_path / "twox.csv"
+    write_record(dataclasses.replace(rec, displacement=d), path)
+    code, out, err = run(capsys, "identify", path, "--json")
+    assert code == 0, err
+    lines = json.loads(out)["lines_beyond_1x"]
+    plus = [ln for ln in lines if ln["kind"] == "+2X" and ln["plane"] == 1]
+    assert plus and plus[0]["present"] and 0.05 < plus[0]["relative_to_1x"] < 0.2
+    assert any("forward 2X line at plane 1" in w and "the linear model has none" in w
+               for w in json.loads(out)["warnings"])
+    code, out, err = run(capsys, "diagnose", path, "--effects", "probe_gain", "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    assert "forward 2X line at plane 1" in data["verdict"] and data["lines_beyond_1x"]
