@@ -457,8 +457,8 @@ def test_misspelled_optional_key_warns_naming_the_closest_known_key(tmp_path, ke
 
 
 def test_unknown_key_far_from_any_known_key_says_how_to_keep_it_silently(tmp_path):
-    rec = read_record(write_csv(tmp_path / "r.csv", {**META, "temperature_c": "41"}))
-    assert len(rec.warnings) == 1 and "'temperature_c' ignored; not a record field" in rec.warnings[0]
+    rec = read_record(write_csv(tmp_path / "r.csv", {**META, "humidity_pct": "41"}))
+    assert len(rec.warnings) == 1 and "'humidity_pct' ignored; not a record field" in rec.warnings[0]
     assert "'x_'" in rec.warnings[0]
 
 
@@ -610,3 +610,8 @@ def test_an_npz_that_unpacks_beyond_the_limit_is_refused_before_unpacking(tmp_pa
     with pytest.raises(DataFormatError, match="unpacks to") as err:
         read_record(path)
     assert str(path) in str(err.value)
+
+
+def test_a_temperature_key_points_to_the_oil_temperature(tmp_path):
+    rec = read_record(write_csv(tmp_path / "r.csv", {**META, "temperature_c": "41"}))
+    assert rec.oil_temperature_c is None and "did you mean 'oil_temperature_c'?" in rec.warnings[0]
