@@ -18,11 +18,12 @@ Calibration. The terms above are sizes stated from the mesh study and a guess fo
 stated they over-predict the differences between the model and an honest independent implementation
 (the `lubeviz.verification` source: finer film mesh, another linearization, another rotor mesh and
 damping, time integration) by a factor of about 1.4, and the 95 % intervals held the truth on 99-100 %
-of records. `calibration` multiplies those terms (mesh and shaft damping; not the
-tolerances a user declares, nor the static terms) by one number, its maximum-likelihood value from the
+of records. `calibration` multiplies those terms (mesh and shaft damping; not the tolerances a user
+declares, nor the static terms) by one number; its maximum-likelihood value comes from the
 clean model-vs-source differences of a calibration corpus, sqrt(sum chi2_r / sum n_r) over the records r
-(`lubeviz bench budget`, seed 2026, 120 records), and the coverage it gives is checked on records the
-calibration never saw (`lubeviz bench coverage --seed 7`). A record from a real machine that differs
+(`lubeviz bench budget`, seed 2026, 120 records: 0.70), and the coverage it gives is to be checked on
+records the calibration never saw (`lubeviz bench coverage --seed 7`) before it ships: until then the
+default stays 1 (see CALIBRATION). A record from a real machine that differs
 from the model by more than two implementations do is flagged by the chi2 test, and its uncertainty is
 then inflated (Birge) and a diagnosis suggested: the calibration does not hide it.
 """
@@ -37,7 +38,11 @@ from ..model.quantity import Quantity
 from .forward import wrap_difference
 
 
-CALIBRATION = 0.70  # `lubeviz bench budget` (seed 2026, 120 records): sqrt(sum chi2 / sum n) of the clean differences
+# `lubeviz bench budget` (seed 2026, 120 records) gives 0.70 (sqrt(sum chi2 / sum n) of the clean differences).
+# Shipped at 1 until the held-out coverage check (`lubeviz bench coverage --seed 7 --calibrations 0.7`)
+# confirms it: the smaller budget also weighs the dynamic features more against the static position, and
+# moved one-record hot-oil-with-static answers from 1.3-2.0 % to 2.2-3.4 % off (intervals still holding).
+CALIBRATION = 1.0
 
 
 class ModelBudget(param.Parameterized):
