@@ -37,7 +37,7 @@ from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .session import SessionState
-from .widgets import newest_upload, parameter_widgets, quantity_slider
+from .widgets import RecordDropper, parameter_widgets, quantity_slider
 
 hv.extension("bokeh", logo=False)
 
@@ -84,12 +84,12 @@ class DiagnosePage(pn.viewable.Viewer):
         self.jobs = JobPanel()
         self._record = self._measured = self._truth = None
         self._result = None
-        self._seen_uploads: set = set()
-        self._upload = pn.widgets.FileDropper(
+        self._record_name: str | None = None  # what the page calls the record on screen (file or sample)
+        self._upload = RecordDropper(
             accepted_filetypes=[".csv", ".npz", ".mat", "text/csv", "application/octet-stream"],
-            max_file_size=f"{UPLOAD_LIMIT_MB}MB", multiple=True, sizing_mode="stretch_width",
+            max_file_size=f"{UPLOAD_LIMIT_MB}MB", sizing_mode="stretch_width",
             css_classes=["lubeviz-diagnose-upload"])
-        self._upload.param.watch(self._on_upload, "value")
+        self._upload.param.watch(self._on_upload, "upload")
         self._effect_story = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["lubeviz-effect-story"],
                                               styles={"font-size": "0.9em"})
         self._effect_widgets = pn.Column(sizing_mode="stretch_width")
@@ -150,11 +150,20 @@ class DiagnosePage(pn.viewable.Viewer):
 
     # --- loading ----------------------------------------------------------------------------------------
     def _show_error(self, text: str):
+        """The page's one place for a failure (the job status would repeat it: cleared)."""
         self._message.object = text
         self._message.visible = True
+        self.jobs.status = ""
 
-    def _loaded(self, record, measured, truth):
+    def _not_loaded(self, filename: str, problem: str):
+        """Say that `filename` was rejected, and which record (named) the page still shows, if any."""
+        still = (f"The page still shows the previous record, **{self._record_name}**."
+                 if self._record_name is not None else "No record is loaded.")
+        self._show_error(f"**{filename} was not loaded.** {problem}\n\n{still}")
+
+    def _loaded(self, record, measured, truth, name: str):
         self._record, self._measured, self._truth = record, measured, truth
+        self._record_name = name
         self._result = None
         self._verdict.visible = False
         self._flows.object = ""
@@ -165,7 +174,7 @@ class DiagnosePage(pn.viewable.Viewer):
         self._run.disabled = False
         n = record.displacement.shape[-1]
         dur = n / record.sample_rate_hz
-        lines = [f"**{record.source}**", "",
+        lines = [f"**{name}**", "",
                  f"speed {record.speed_hz:g} Hz; {dur:.2f} s ({dur * record.speed_hz:.0f} revolutions); planes at "
                  f"nodes {record.nodes[0]} and {record.nodes[1]}"]
         if truth:
@@ -189,7 +198,7 @@ class DiagnosePage(pn.viewable.Viewer):
         except Exception as exc:  # noqa: BLE001 - shown on the page
             self._show_error(f"**No sample**: unexpected problem: {exc}")
             return
-        self._loaded(*loaded)
+        self._loaded(*loaded, name=loaded[0].source)
 
     def _simulate(self, effect, theta, snr_db, seed, progress):
         m = self.machine
@@ -202,12 +211,12 @@ class DiagnosePage(pn.viewable.Viewer):
         return record, measure(record), truth
 
     async def _on_upload(self, event):
-        upload = newest_upload(event.new, self._seen_uploads)
-        if upload is None:
+        if event.new is None:
             return
-        filename, content = upload
+        filename, content = event.new  # every drop, the same file again included
         if content is not None and len(content) > MAX_RECORD_BYTES:
-            self._show_error(f"**The record was not loaded.** {filename}: {len(content) / 1e6:.1f} MB is too large")
+            self._not_loaded(filename, f"{filename}: {len(content) / 1e6:.1f} MB is too large")
+            self._upload.rejected = True
             return
         self._message.visible = False
         try:
@@ -215,12 +224,15 @@ class DiagnosePage(pn.viewable.Viewer):
         except Cancelled:
             return
         except LubevizError as exc:
-            self._show_error(f"**The record was not loaded.** {exc}")
+            self._not_loaded(filename, str(exc))
+            self._upload.rejected = True
             return
         except Exception as exc:  # noqa: BLE001 - never let a bad upload stop the app
-            self._show_error(f"**The record was not loaded.** {filename}: unexpected problem: {exc}")
+            self._not_loaded(filename, f"{filename}: unexpected problem: {exc}")
+            self._upload.rejected = True
             return
-        self._loaded(*loaded)
+        self._upload.rejected = False
+        self._loaded(*loaded, name=filename)
 
     def _read(self, content, filename, progress):
         record = read_record_bytes(content, filename, default_nodes=tuple(self.machine.center_nodes))
@@ -242,6 +254,7 @@ class DiagnosePage(pn.viewable.Viewer):
             return
         self._message.visible = False
         self._run.disabled = True
+        name = self._record_name
         try:
             result = await self.jobs.run(self._diagnose, self._record, self._measured, self._truth, chosen,
                                          label="diagnosis")
@@ -255,8 +268,8 @@ class DiagnosePage(pn.viewable.Viewer):
             return
         finally:
             self._run.disabled = False
-        self._result = result
-        self._show(result)
+        self._result = dict(result, name=name)
+        self._show(self._result)
 
     def _diagnose(self, record, measured, truth, chosen, progress):
         m = self.machine
@@ -280,7 +293,7 @@ class DiagnosePage(pn.viewable.Viewer):
         self._verdict.alert_type = kind
         self._verdict.object = added + d.verdict
         self._verdict.visible = True
-        self._flows.object = self._flows_text(d, s, r["truth"])
+        self._flows.object = self._flows_text(d, s, r["truth"], r["name"])
         self._residuals.object = self._residual_plot(d)
         self._candidates.objects = [pn.widgets.Tabulator(self._candidates_table(d, s), disabled=True, show_index=False,
                                                          sizing_mode="stretch_width",
@@ -289,13 +302,13 @@ class DiagnosePage(pn.viewable.Viewer):
                                                 css_classes=["lubeviz-diagnose-map"]) for title, grid, fit in r["maps"]]
         self._download.disabled = False
 
-    def _flows_text(self, d, s, truth) -> str:
+    def _flows_text(self, d, s, truth, record_name: str) -> str:
         qt = d.before.q_threshold
         cols = [("plain model", d.before, s["before"])] + ([("with " + d.added.label, d.after, s["after"])]
                                                           if d.after is not None else [])
         head = "| bearing | " + " | ".join(f"{name}: flow (95 % interval) | verdict" for name, _, _ in cols) + \
                (" | truth |" if truth else " |")
-        lines = ["### Supply flows before and after", head,
+        lines = [f"### Supply flows of {record_name}, before and after", head,
                  "|---" * (1 + 2 * len(cols) + (1 if truth else 0)) + "|"]
         for k in range(2):
             cells = [f"{k + 1} (node {self.machine.bearings[k].node})"]

@@ -30,7 +30,7 @@ from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .session import SessionState
-from .widgets import newest_upload
+from .widgets import RecordDropper
 
 hv.extension("bokeh", logo=False)
 
@@ -66,12 +66,11 @@ class IdentifyPage(pn.viewable.Viewer):
         self.settings = IdentificationSettings(name="identification")
         self.jobs = JobPanel()
         self._item = None
-        self._seen_uploads: set = set()
-        self._upload = pn.widgets.FileDropper(
+        self._record_name: str | None = None  # what the page calls the record on screen (file or sample)
+        self._upload = RecordDropper(
             accepted_filetypes=[".csv", ".npz", ".mat", "text/csv", "application/octet-stream"],
-            max_file_size=f"{UPLOAD_LIMIT_MB}MB", multiple=True, sizing_mode="stretch_width",
-            css_classes=["lubeviz-upload"])
-        self._upload.param.watch(self._on_upload, "value")
+            max_file_size=f"{UPLOAD_LIMIT_MB}MB", sizing_mode="stretch_width", css_classes=["lubeviz-upload"])
+        self._upload.param.watch(self._on_upload, "upload")
         self._sample = pn.widgets.Button(name="Load the sample record", button_type="default",
                                          css_classes=["lubeviz-sample"])
         self._sample.on_click(self._on_sample)
@@ -116,22 +115,33 @@ class IdentifyPage(pn.viewable.Viewer):
 
     # --- loading ----------------------------------------------------------------------------------------
     def _show_error(self, text: str):
+        """The page's one place for a failure (the job status would repeat it: cleared)."""
         self._message.object = text
         self._message.visible = True
+        self.jobs.status = ""
 
-    async def _load(self, content, filename: str):
+    def _not_loaded(self, filename: str, problem: str):
+        """Say that `filename` was rejected, and which record (named) the page still shows, if any."""
+        still = (f"The page still shows the previous record, **{self._record_name}**."
+                 if self._record_name is not None else "No record is loaded.")
+        self._show_error(f"**{filename} was not loaded.** {problem}\n\n{still}")
+
+    async def _load(self, content, filename: str, name: str | None = None) -> bool | None:
+        """Read and show a record; `name` is what the page calls it (default: the file's name).
+        True when loaded, False when rejected (the message says why), None when superseded or cancelled."""
         self._message.visible = False
         try:
             record, measured = await self.jobs.run(self._read, content, filename, label=f"reading {filename}",
                                                    quiet=True)
         except Cancelled:
-            return
+            return None
         except LubevizError as exc:
-            self._show_error(f"**The record was not loaded.** {exc}")
-            return
+            self._not_loaded(filename, str(exc))
+            return False
         except Exception as exc:  # noqa: BLE001 - never let a bad upload stop the app
-            self._show_error(f"**The record was not loaded.** {filename}: unexpected problem: {exc}")
-            return
+            self._not_loaded(filename, f"{filename}: unexpected problem: {exc}")
+            return False
+        self._record_name = name or filename
         self.state.record, self.state.measured = record, measured
         self.state.identification = None
         self._item = None
@@ -142,31 +152,34 @@ class IdentifyPage(pn.viewable.Viewer):
         self._run.disabled = False
         self._record_info.object = self._info(record, measured)
         self._draw_record(record, measured)
+        return True
 
     def _read(self, content, filename, progress):
         record = read_record_bytes(content, filename, default_nodes=tuple(self.machine.center_nodes))
         return record, measure(record)
 
     async def _on_upload(self, event):
-        upload = newest_upload(event.new, self._seen_uploads)
-        if upload is None:
+        if event.new is None:
             return
-        filename, content = upload
+        filename, content = event.new  # every drop, the same file again included
         size = len(content) if content is not None else 0
         if size > MAX_RECORD_BYTES:
-            self._show_error(f"**The record was not loaded.** {filename}: {size / 1e6:.1f} MB is too large")
+            self._not_loaded(filename, f"{filename}: {size / 1e6:.1f} MB is too large")
+            self._upload.rejected = True
             return
-        await self._load(content, filename)
+        loaded = await self._load(content, filename)
+        if loaded is not None:
+            self._upload.rejected = not loaded
 
     async def _on_sample(self, event):
-        await self._load(SAMPLE.read_bytes(), SAMPLE.name)
+        await self._load(SAMPLE.read_bytes(), SAMPLE.name, name=f"sample record ({SAMPLE.name})")
 
     def _info(self, record, measured) -> str:
         n = record.displacement.shape[-1]
         dur = n / record.sample_rate_hz
         snr = measured.line_snr
         return "\n".join([
-            f"**{record.source}**", "",
+            f"**{self._record_name}**", "",
             f"speed {record.speed_hz:g} Hz; {record.sample_rate_hz:g} samples/s; {dur:.2f} s "
             f"({dur * record.speed_hz:.0f} revolutions)", "",
             f"planes at nodes {record.nodes[0]} and {record.nodes[1]}; probes at "
@@ -178,7 +191,7 @@ class IdentifyPage(pn.viewable.Viewer):
     async def _on_run(self, event):
         if self.state.record is None:
             return
-        record, measured = self.state.record, self.state.measured
+        record, measured, name = self.state.record, self.state.measured, self._record_name
         settings = IdentificationSettings(**{k: getattr(self.settings, k) for k in self.settings.param
                                              if k != "name"})
         self._message.visible = False
@@ -199,7 +212,7 @@ class IdentifyPage(pn.viewable.Viewer):
         self.state.settings = settings
         self.state.identification = item.result
         self._download_json.disabled = self._download_csv.disabled = False
-        self._show_result(item)
+        self._show_result(item, name)
 
     def _identify(self, record, measured, settings, progress):
         speed = model_speed(self.machine, record)
@@ -207,12 +220,12 @@ class IdentifyPage(pn.viewable.Viewer):
         model = resources.forward_model(self.machine, speed, record.nodes, progress=progress)
         return identify_record(record, self.machine, settings, model=model, measured=measured, progress=progress)
 
-    def _show_result(self, item):
+    def _show_result(self, item, name: str):
         r = item.result
         q = r.q / M3S_PER_MLMIN
         qt = r.q_threshold / M3S_PER_MLMIN
         std = None if r.q_std is None else r.q_std / M3S_PER_MLMIN
-        lines = ["### Identified supply flows",
+        lines = [f"### Identified supply flows of {name}",
                  "| bearing | flow | 95 % interval (noise and model) | Q_T | Q / Q_T | verdict |",
                  "|---|---|---|---|---|---|"]
         for k in range(2):

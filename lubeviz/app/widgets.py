@@ -5,6 +5,9 @@ and scale, bounds and doc) and returns a slider in display units (ml/min, mm, um
 the unit and whose tooltip is the doc; the slider and the parameter are linked both ways, converting
 at the edge. Bounds the declaration leaves open (a flow has no upper bound) are given by the page,
 in SI, where it knows a sensible range (e.g. 25-200 % of Q_T).
+
+`RecordDropper` is the record upload of the Identify and Diagnose pages: one file at a time, every drop
+reported (the same file again too), a file the page rejects shown as failed.
 """
 
 from __future__ import annotations
@@ -133,15 +136,55 @@ def parameter_widgets(obj: param.Parameterized, names, **kwargs) -> list[pn.widg
     return [parameter_widget(obj, n, **kwargs) for n in names]
 
 
-def newest_upload(files, seen: set):
-    """(name, content) of the file in a FileDropper's value not seen before in this session, or None.
+# FilePond (the dropper's browser side) marks a file "Upload complete" in green once its bytes are sent,
+# before the page has read them; these rules show the last file dropped in its own error colours when the
+# page rejected it (the dropper's host carries REJECTED_CLASS then).
+REJECTED_CLASS = "lubeviz-upload-rejected"
+_DONE = f":host(.{REJECTED_CLASS}) .filepond--item[data-filepond-item-state='processing-complete']"
+_REJECTED_CSS = f"""
+{_DONE} .filepond--item-panel {{ background-color: #c44e47; }}
+{_DONE} .filepond--processing-complete-indicator, {_DONE} .filepond--file-status-main {{ display: none; }}
+{_DONE} .filepond--file-status::before {{ content: "Not loaded (see the message)"; font-size: 0.75em; font-weight: 600; }}
+"""
 
-    The dropper keeps every file dropped in the session (a single-file dropper does not report a second
-    drop, and the dict may be updated in place); `seen` holds the (name, size, head) tags already loaded."""
-    new = []
-    for name, content in (files or {}).items():
-        tag = (name, len(content or b""), hash(content[:4096]) if content else 0)
-        if tag not in seen:
-            seen.add(tag)
-            new.append((name, content))
-    return new[-1] if new else None
+
+class RecordDropper(pn.widgets.FileDropper):
+    """A file dropper for one record at a time that reports every upload, the same file again included.
+
+    Watch `upload`: it is set to (name, content) each time a file has arrived, whether or not a file of
+    that name and content came before in the session. (FileDropper's own `value` cannot tell: it keeps the
+    files in a dict updated in place, so a second drop of the same file leaves it as it was, and a file
+    removed from the dropper triggers it too.) One file at a time: a new drop replaces the one shown.
+    The page sets `rejected` when it could not load the file dropped last; the dropper then shows that
+    file as failed instead of FilePond's green "Upload complete". A new drop clears it.
+    """
+
+    upload = param.Parameter(default=None, doc="(name, content) of the file dropped last; set on every upload")
+    rejected = param.Boolean(default=False, doc="The page could not load the file dropped last")
+
+    _rename = {"upload": None, "rejected": None}
+
+    def __init__(self, **params):
+        # Single file: a new drop reverts the last file (a delete event) and uploads itself; the dropper
+        # shows just the file the page last took or refused.
+        params.setdefault("multiple", False)
+        params["stylesheets"] = [*params.get("stylesheets", []), _REJECTED_CSS]
+        super().__init__(**params)
+        self.param.watch(self._show_rejected, "rejected")
+
+    def _process_event(self, event):
+        data = event.data
+        if event.event_name == "upload_event" and data.get("chunk") == 1:
+            self.rejected = False  # a new file is arriving: the last one's verdict no longer applies
+        super()._process_event(event)
+        name = data.get("name")
+        if event.event_name == "upload_event" and data.get("chunk") == data.get("total_chunks") \
+                and name in self.value:
+            # Set anew even when equal to the last upload: param calls watchers only on a change.
+            with param.discard_events(self):
+                self.upload = None
+            self.upload = (name, self.value[name])
+
+    def _show_rejected(self, event):
+        others = [c for c in self.css_classes if c != REJECTED_CLASS]
+        self.css_classes = [*others, REJECTED_CLASS] if event.new else others
