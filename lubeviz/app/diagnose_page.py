@@ -37,7 +37,7 @@ from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .session import SessionState
-from .widgets import RecordDropper, parameter_widgets, quantity_slider
+from .widgets import RecordDropper, demo_effect, not_loaded_message, parameter_widgets, quantity_slider
 
 hv.extension("bokeh", logo=False)
 
@@ -64,6 +64,9 @@ def _verdict_badge(v: str) -> str:
     return {"starved": "🟠 starved", "normal": "🟢 normal", "over-supplied": "🔵 over-supplied"}.get(v, v)
 
 
+DIAGNOSABLE = [n for n, cls in EFFECTS.items() if cls.diagnose_free]  # oil_temperature is `viscosity` in °C
+
+
 class DiagnosePage(pn.viewable.Viewer):
     """The Diagnose page of one session."""
 
@@ -71,7 +74,7 @@ class DiagnosePage(pn.viewable.Viewer):
                                  doc="Effect the simulated sample record carries")
     snr_db = param.Number(12.0, bounds=(0.0, 40.0), doc="Signal-to-noise ratio of the sample's probes (dB)")
     seed = param.Integer(1, bounds=(0, 1_000_000), doc="Seed of the sample's noise")
-    candidates = param.ListSelector(default=list(EFFECTS), objects=list(EFFECTS),
+    candidates = param.ListSelector(default=DIAGNOSABLE, objects=DIAGNOSABLE,
                                     doc="Effects the diagnosis tries (each in every placement)")
 
     def __init__(self, machine: Machine, state: SessionState, **params):
@@ -139,10 +142,13 @@ class DiagnosePage(pn.viewable.Viewer):
 
     # --- the sample's effect ----------------------------------------------------------------------------
     def _choose_effect(self, name: str):
-        effect = EFFECTS[name]()
-        if getattr(effect, "clearance_um", 0) is None:  # wear: start from the declared clearance, worn by 25 %
-            k = 0 if effect.bearing in (1, "both") else 1
-            effect.clearance_um = 1.25 * self.machine.bearings[k].clearance * 1e6
+        try:
+            effect = demo_effect(name, self.machine)
+        except LubevizError as exc:  # e.g. an oil temperature on a machine that declares no oil
+            self.effect = None
+            self._effect_story.object = f"**{name}** is not available for this machine: {exc}"
+            self._effect_widgets.objects = []
+            return
         self.effect = effect
         self._effect_story.object = f"**{effect.effect_name}**: {effect.describe()}"
         self._effect_widgets.objects = parameter_widgets(
@@ -156,10 +162,7 @@ class DiagnosePage(pn.viewable.Viewer):
         self.jobs.status = ""
 
     def _not_loaded(self, filename: str, problem: str):
-        """Say that `filename` was rejected, and which record (named) the page still shows, if any."""
-        still = (f"The page still shows the previous record, **{self._record_name}**."
-                 if self._record_name is not None else "No record is loaded.")
-        self._show_error(f"**{filename} was not loaded.** {problem}\n\n{still}")
+        self._show_error(not_loaded_message(filename, problem, self._record_name))
 
     def _loaded(self, record, measured, truth, name: str):
         self._record, self._measured, self._truth = record, measured, truth
@@ -276,7 +279,7 @@ class DiagnosePage(pn.viewable.Viewer):
         speed = model_speed(m, record)
         check_model_speed(m, speed)
         base = resources.chain(m, speed, record.nodes, record.probe_angles_deg, progress=progress)
-        pool = None if len(chosen) == len(EFFECTS) else [EFFECTS[n] for n in chosen]
+        pool = None if len(chosen) == len(DIAGNOSABLE) else [EFFECTS[n] for n in chosen]
         d = diagnose(base, measured, candidates=pool, progress=progress, truth=truth)
         maps = [("plain model", cost_map(base, measured, n=MAP_POINTS), d.before)]
         if d.added is not None:

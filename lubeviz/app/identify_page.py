@@ -30,7 +30,7 @@ from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .session import SessionState
-from .widgets import RecordDropper
+from .widgets import RecordDropper, not_loaded_message
 
 hv.extension("bokeh", logo=False)
 
@@ -121,10 +121,7 @@ class IdentifyPage(pn.viewable.Viewer):
         self.jobs.status = ""
 
     def _not_loaded(self, filename: str, problem: str):
-        """Say that `filename` was rejected, and which record (named) the page still shows, if any."""
-        still = (f"The page still shows the previous record, **{self._record_name}**."
-                 if self._record_name is not None else "No record is loaded.")
-        self._show_error(f"**{filename} was not loaded.** {problem}\n\n{still}")
+        self._show_error(not_loaded_message(filename, problem, self._record_name))
 
     async def _load(self, content, filename: str, name: str | None = None) -> bool | None:
         """Read and show a record; `name` is what the page calls it (default: the file's name).

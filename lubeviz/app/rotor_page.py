@@ -35,7 +35,7 @@ from ..signals.synthesize import steady_signals
 from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
-from .widgets import parameter_widgets, quantity_slider
+from .widgets import demo_effect, parameter_widgets, quantity_slider
 
 hv.extension("bokeh", logo=False)
 
@@ -235,20 +235,13 @@ class RotorPage(pn.viewable.Viewer):
             self._effect_widgets.objects = []
         else:
             try:
-                effect = EFFECTS[name]().bind(self.machine)
+                effect = demo_effect(name, self.machine)
             except LubevizError as exc:  # e.g. an oil temperature on a machine that declares no oil
                 self.effect = None
                 self._effect_story.object = f"**{name}** is not available for this machine: {exc}"
                 self._effect_widgets.objects = []
                 await self._refresh()
                 return
-            if name == "oil_temperature":  # 15 °C hotter than declared
-                effect.temperature_c = round(self.machine.oil.temperature_c + 15.0, 1)
-            if getattr(effect, "clearance_um", 0) is None:  # wear: start 25 % above the declared clearance
-                k = 0 if effect.bearing in (1, "both") else 1
-                effect.clearance_um = round(1.25 * self.machine.bearings[k].clearance * 1e6, 1)
-            if name == "viscosity":
-                effect.factor = 0.7  # oil hotter than declared
             self.effect = effect
             self._effect_story.object = effect.describe()
             self._effect_widgets.objects = parameter_widgets(

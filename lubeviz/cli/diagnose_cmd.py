@@ -33,6 +33,9 @@ def _candidates(text):
     for n in names:
         if n not in EFFECTS:
             EFFECTS.parse(n)  # raises with the closest name
+        if not EFFECTS[n].diagnose_free:
+            raise InputError(f"--effects: {n} is not fitted by a diagnosis (oil_temperature is the viscosity "
+                             "in °C: give viscosity; a diagnosed factor is also told as a temperature)")
     return [EFFECTS[n] for n in names]
 
 
@@ -64,7 +67,7 @@ def run_diagnose(args) -> dict | list:
                                        probe_angles_deg=rec.probe_angles_deg, progress=bar))
             meas.append(measure(rec))
         budget = budget_with_reading(None, tolerance) if tolerance > 0 else None
-        lines, line_notes = beyond_1x(group)
+        lines = beyond_1x(group)[0]  # named in the verdict (identify's warnings say the same)
         d = diagnose(chains, meas, candidates=candidates, level=args.level, progress=bar, budget=budget, lines=lines)
         label = "+".join(str(r.source) for r in group)
         item = diagnosis_dict(d, file=label)

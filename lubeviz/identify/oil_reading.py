@@ -45,6 +45,5 @@ def budget_with_reading(budget, tolerance: float):
 
     budget = ModelBudget() if budget is None else budget
     if tolerance > budget.viscosity:
-        budget = ModelBudget(**{**{k: getattr(budget, k) for k in budget.param if k != "name"},
-                                "viscosity": float(tolerance)})
+        budget = ModelBudget(**{**budget.param.values(), "name": None, "viscosity": float(tolerance)})
     return budget

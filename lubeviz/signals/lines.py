@@ -9,7 +9,8 @@ only. A record holds more, and what it holds beyond 1X is evidence of something 
 
 Each line is read from the full spectrum of z = x + i y (SPEC §1: positive orders forward, negative
 backward) over whole revolutions, where 2X falls exactly on a bin. Its noise comes from the same
-record: the median |Z|^2 of the bins around it (lines excluded), so an amplitude is given with its SNR.
+record: the median |Z|^2 of the bins around it (lines excluded; for the sub-synchronous line, of the whole
+band searched), so an amplitude is given with its SNR.
 A line counts as present when it exceeds its noise at a 1 % false-alarm level: for a single bin
 (2X, -2X) |Z| > sigma sqrt(ln 100); for the sub-synchronous search over N bins, |Z| > sigma sqrt(ln(100 N))
 (the largest of N noise bins exceeds that with probability 1 %). Present is a statement about the
@@ -101,12 +102,18 @@ def record_lines(record) -> list[Line]:
         sub = (np.abs(order) > SUB_BAND[0]) & (np.abs(order) < SUB_BAND[1])
         if sub.sum() >= 8:
             i = int(np.flatnonzero(sub)[np.argmax(np.abs(amp[sub]))])
-            peak = float(abs(amp[i]))
-            a, o = _zoom(xy[k, 0] + 1j * xy[k, 1], spec, float(order[i]), record)
-            noise = _noise_rms(amp, order, o, lines + (o,))
-            # presence is decided on the bin maximum (the statistic the threshold is for); the zoomed
-            # amplitude (>= peak) is what is reported, so the threshold is scaled alike
-            thr = noise * math.sqrt(math.log(sub.sum() / FALSE_ALARM)) * (a / peak if peak > 0 else 1.0)
+            peak, o = float(abs(amp[i])), float(order[i])
+            # the noise from the whole band searched (the largest bin left out): a threshold at ln(100 N)
+            # noise powers is sensitive to the noise estimate, so use as many bins as there are
+            rest = np.abs(np.delete(amp[sub], int(np.argmax(np.abs(amp[sub]))))) ** 2
+            noise = float(math.sqrt(np.median(rest) / math.log(2.0)))
+            thr = noise * math.sqrt(math.log(sub.sum() / FALSE_ALARM))
+            # presence is decided on the bin maximum (the statistic the threshold is for); a present line
+            # is then read by the zoom (>= the bin value) and the threshold scaled alike
+            a = peak
+            if peak > thr:
+                a, o = _zoom(xy[k, 0] + 1j * xy[k, 1], spec, o, record)
+                thr *= a / peak
             out.append(Line(k + 1, "sub", o, a, noise, a / one, thr))
     return out
 

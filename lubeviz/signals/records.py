@@ -684,8 +684,7 @@ def _assemble(columns: dict, meta: dict, extra: dict, origin: _Origin, default_n
                   probe_angles_deg=angles, t0=0.0 if t0 is None else t0,
                   machine=meta.get("machine"), keyphasor=columns.get("keyphasor"),
                   metadata=extra, source=where, rest_position=rest, set_name=meta.get("set"),
-                  oil_temperature_c=(None if meta.get("oil_temperature_c") is None else
-                                     _finite(meta["oil_temperature_c"], where, "oil_temperature_c", "°C")),
+                  oil_temperature_c=meta.get("oil_temperature_c"),  # checked by Record
                   warnings=tuple(warnings))
 
 

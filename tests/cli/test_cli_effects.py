@@ -81,6 +81,8 @@ def test_diagnose_names_a_rotated_probe_pair_and_writes_its_report(capsys, tmp_p
     assert "<svg" in report.read_text()
     code, _, err = run(capsys, "diagnose", rec, "--effects", "pedestal")
     assert code == 2 and "did you mean 'pedestals'" in err
+    code, _, err = run(capsys, "diagnose", rec, "--effects", "oil_temperature")  # would try nothing
+    assert code == 2 and "not fitted by a diagnosis" in err and "give viscosity" in err
 
 
 def test_records_of_a_set_are_identified_together(capsys, tmp_path):

@@ -133,7 +133,7 @@ def _record(**kw):
 @pytest.mark.parametrize("suffix", [".csv", ".npz", ".mat"])
 def test_the_oil_temperature_round_trips_through_every_format(tmp_path, suffix):
     rec = _record(oil_temperature_c=52.5)
-    back = read_record(write_record(rec, tmp_path / f"r{suffix}") or tmp_path / f"r{suffix}")
+    back = read_record(write_record(rec, tmp_path / f"r{suffix}"))
     assert back.oil_temperature_c == 52.5 and back == rec and not back.warnings
 
 

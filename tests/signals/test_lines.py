@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from lubeviz.signals.lines import FALSE_ALARM, present_lines, record_lines
+from lubeviz.signals.lines import FALSE_ALARM, record_lines
 from lubeviz.signals.records import record_from_arrays
 
 FS, SPEED = 10000.0, 75.0
@@ -47,11 +47,10 @@ def test_a_backward_sub_synchronous_line_has_a_negative_order():
 
 
 def test_noise_alone_rarely_shows_a_line():
-    """1X plus white noise, 60 seeds x 2 planes x 3 lines: the 1 % false-alarm level holds (<= 4 %)."""
+    """1X plus white noise, 60 seeds x 2 planes x 3 lines: the 1 % false-alarm level holds (<= 3 %)."""
     flags = []
     for seed in range(60):
         flags += [line.present for line in record_lines(_record([(1.0, 20.0), (-1.0, 4.0)], noise_um=2.0,
                                                                seed=seed, seconds=2.0))]
     rate = np.mean(flags)
-    assert rate <= 4 * FALSE_ALARM, rate
-    assert present_lines(_record([(1.0, 20.0)], noise_um=2.0, seed=3, seconds=2.0)) == [] or rate > 0
+    assert rate <= 3 * FALSE_ALARM, rate  # measured 1.2 % [0.8, 1.8] over 300 seeds
