@@ -19,7 +19,8 @@ import pandas as pd
 import panel as pn
 
 from ..errors import LubevizError
-from ..identify.batch import check_model_speed, identify_record, model_speed, result_csv, result_dict
+from ..identify.batch import (check_model_speed, feature_unit, identify_record, model_speed, result_csv,
+                              result_dict)
 from ..identify.measured import measure
 from ..identify.settings import IdentificationSettings
 from ..model.machine import Machine
@@ -260,14 +261,26 @@ class IdentifyPage(pn.viewable.Viewer):
         meas = r.features_measured
         model = r.features_model
         std_m = self.state.measured.subset(names).std if self.state.measured is not None else np.full(len(names), np.nan)
-        deg = [n.startswith("phi") or n.startswith("arg") for n in names]
-        conv = np.where(deg, 180 / math.pi, 1.0)
+        units = [feature_unit(n) for n in names]  # as the CSV export writes them
+        conv = np.array([u[1] for u in units])
+        sig = r.features_sigma if r.features_sigma is not None else std_m
+        z = (model - meas) / sig
         table = pd.DataFrame({
-            "feature": names, "unit": ["deg" if d else "–" for d in deg],
-            "measured": np.round(meas * conv, 5), "± (1σ noise)": np.round(std_m * conv, 5),
-            "model": np.round(model * conv, 5), "difference / σ": np.round((model - meas) / std_m, 2)})
-        self._features.objects = [pn.widgets.Tabulator(table, disabled=True, show_index=False,
-                                                       sizing_mode="stretch_width", css_classes=["lubeviz-features"])]
+            "feature": names, "unit": [u[0] for u in units],
+            "measured": np.round(meas * conv, 5), "σ noise": np.round(std_m * conv, 5),
+            "σ noise + model": np.round(sig * conv, 5), "model": np.round(model * conv, 5),
+            "difference / σ": np.round(z, 2)})
+        beyond = [n for n, v in zip(names, z) if abs(v) > 3]
+        tab = pn.widgets.Tabulator(table, disabled=True, show_index=False, sizing_mode="stretch_width",
+                                   css_classes=["lubeviz-features"])
+        # a feature the model misses by more than 3 sigma (noise and model) is marked, and named below
+        tab.style.apply(lambda row: ["background-color: #f8d7da; color: #58151c" if abs(row["difference / σ"]) > 3
+                                     else "" for _ in row], axis=1)
+        note = pn.pane.Markdown(
+            f"Beyond 3σ (noise and model): **{', '.join(beyond)}** — the **Diagnose** page looks for the cause."
+            if beyond else "Every feature is within 3σ of the model (noise and model uncertainty).",
+            sizing_mode="stretch_width", css_classes=["lubeviz-beyond"])
+        self._features.objects = [tab, note]
 
     def _export_json(self):
         return io.StringIO(json.dumps(result_dict(self._item), indent=2)) if self._item else io.StringIO("{}")

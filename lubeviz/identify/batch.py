@@ -111,7 +111,7 @@ def beyond_1x(records) -> tuple[tuple, tuple[str, ...]]:
 
 def _fit_record(record, machine, speed, measured, settings, effects, budget, progress, model) -> Identification:
     from .chain import ForwardChain
-    from .fit import fit
+    from .fit import fit, to_identification
     from .newton import check_record
 
     from .budget import ModelBudget
@@ -128,7 +128,7 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
     check_record(_NodesSpeed(chain), measured, settings)
     res = fit(chain, measured, names=tuple(settings.features), budget=budget, lower=settings.lower,
               upper=settings.upper)
-    out = _identification(res, chain)
+    out = to_identification(res, chain)
     if oil_notes:
         out = dataclasses.replace(out, warnings=out.warnings + oil_notes)
     if settings.oil_check != "never" and not measured.static_names and not any(
@@ -191,30 +191,6 @@ def _oil_check(out: Identification, res, chain, measured, settings, budget) -> I
                                                "range": list(OIL_RANGE)})
 
 
-def _identification(res, chain) -> Identification:
-    """The `Identification` (the app's and the JSON's shape) of a `fit.Fit`."""
-    q = res.values[:2]
-    effect_values = {}
-    for j, name in enumerate(res.names[2:], start=2):
-        head, _, pname = name.rpartition(".")
-        effect_values.setdefault(head, {})[pname] = float(res.values[j])
-        effect_values[head][pname + "_std"] = float(res.std[j])
-    for e in chain.effects:  # the held parameters, as given
-        head = chain._prefix(e)
-        for pname, v in e.values().items():
-            effect_values.setdefault(head, {}).setdefault(pname, v)
-    alternatives = tuple(a[0][:2] for a in res.alternatives)
-    return Identification(
-        q=q, q_std=res.std[:2], converged=res.status in (0, 1), iterations=res.iterations,
-        starts_tried=len(res.paths), paths=res.paths, features_names=res.features_names,
-        features_measured=res.features_measured, features_model=res.features_model, residual=res.residual,
-        total_error=res.chi2, mode="best", evaluations=res.evaluations, seconds=res.seconds,
-        message="; ".join([res.message, *res.warnings]), q_threshold=chain.q_threshold.copy(), chi2=res.chi2,
-        dof=res.dof, p_value=res.p_value, unique=not alternatives, alternatives=alternatives,
-        intervals=tuple(res.intervals.get(n) for n in ("q1", "q2")), level=res.level, warnings=res.warnings,
-        effects=effect_values, alternatives_chi2=tuple(a[1] for a in res.alternatives))
-
-
 class _NodesSpeed:
     """What `newton.check_record` reads of a model: its speed and planes."""
 
@@ -245,7 +221,7 @@ def identify_group(records, machine=None, settings: IdentificationSettings | Non
     parameters) at every speed, one forward chain per record, residuals stacked (`fit.fit`)."""
     from ..signals.records import check_set
     from .chain import ForwardChain
-    from .fit import fit
+    from .fit import fit, to_identification
     from .newton import check_record
 
     records = check_set(list(records))
@@ -273,7 +249,7 @@ def identify_group(records, machine=None, settings: IdentificationSettings | Non
         budget = budget_with_reading(budget, tolerance)
     res = fit(chains, meas, names=tuple(settings.features), budget=budget, lower=settings.lower,
               upper=settings.upper)
-    result = _identification(res, chains[0])
+    result = to_identification(res, chains[0])
     files = "+".join(str(r.source or "record") for r in records)
     warnings = tuple(w for r in records for w in getattr(r, "warnings", ())) + tuple(notes)
     lines, line_notes = beyond_1x(records)
@@ -309,6 +285,7 @@ def result_dict(item: RecordIdentification) -> dict:
         "path": (r.path * 6e7).tolist(), "paths": [(p * 6e7).tolist() for p in r.paths],
         "features_measured": dict(zip(names, r.features_measured.tolist())),
         "features_model": dict(zip(names, r.features_model.tolist())),
+        "features_sigma": None if r.features_sigma is None else dict(zip(names, r.features_sigma.tolist())),
         "residual": r.residual.tolist(), "total_error": r.total_error, "mode": r.mode,
         "model_evaluations": r.evaluations, "nodes": list(item.nodes), "speed_hz": item.speed_hz,
         "set": item.set_name, "speeds_hz": list(item.speeds_hz) or [item.speed_hz],
@@ -335,19 +312,51 @@ def _interval(r, k, intervals=None):
     return [low * 6e7, None if high is None else high * 6e7]
 
 
+CSV_COLUMNS = ("quantity", "bearing_or_feature", "value", "unit", "sigma", "model", "low_95", "high_95")
+
+
+def feature_unit(name: str) -> tuple[str, float]:
+    """The unit a feature is written in (as the pages show it) and the factor from its SI value."""
+    base = name.rsplit(":", 1)[-1]
+    if base.startswith(("phi", "arg")):
+        return "deg", 180.0 / math.pi
+    if base in ("sx1", "sy1", "sx2", "sy2"):  # the static position (identify.chain.STATIC_FEATURES), m
+        return "um", 1e6
+    return "-", 1.0
+
+
 def result_csv(item: RecordIdentification) -> str:
-    """A small CSV of an identification: one row per bearing, then one row per feature."""
+    """The identification as one CSV table, every number with its unit (as the pages show it): the flows
+    with their 1 sigma and 95 % interval, Q_T and the verdict of each bearing, then each feature (measured
+    value, its 1 sigma with the model budget, the model's value), then the test's statistics."""
+    import csv
+    import io
+
     d = result_dict(item)
-    rows = ["quantity,bearing_or_feature,value,std_or_model"]
+    r = item.result
+    out = io.StringIO()
+    w = csv.writer(out, lineterminator="\n")
+    w.writerow(CSV_COLUMNS)
+
+    def g(v, fmt=".6g"):
+        return "" if v is None else format(v, fmt)
+
     for k in (1, 2):
-        rows.append(f"supply_flow_mlmin,{k},{d[f'q{k}_mlmin']:.6g},"
-                    f"{'' if d[f'q{k}_std_mlmin'] is None else format(d[f'q{k}_std_mlmin'], '.6g')}")
-        rows.append(f"verdict,{k},{d['verdict'][k - 1]},{d['q_threshold_mlmin'][k - 1]:.6g}")
+        iv = d[f"q{k}_interval_mlmin"] or [None, None]
+        w.writerow(["supply_flow", k, g(d[f"q{k}_mlmin"]), "ml/min", g(d[f"q{k}_std_mlmin"]), "", g(iv[0]),
+                    "open" if d[f"q{k}_interval_mlmin"] and iv[1] is None else g(iv[1])])
+        w.writerow(["flow_threshold_Q_T", k, g(d["q_threshold_mlmin"][k - 1]), "ml/min", "", "", "", ""])
+        w.writerow(["verdict", k, d["verdict"][k - 1], "", "", "", "", ""])
+    sigma = d.get("features_sigma") or {}
     for name, value in d["features_measured"].items():
-        rows.append(f"feature,{name},{value:.9g},{d['features_model'][name]:.9g}")
-    for key in ("mode", "converged", "iterations", "chi2", "p_value", "unique", "speed_hz"):
-        rows.append(f"{key},,{d[key]},")
-    return "\n".join(rows) + "\n"
+        unit, f = feature_unit(name)
+        w.writerow(["feature", name, g(value * f, ".9g"), unit, g(None if name not in sigma else sigma[name] * f),
+                    g(d["features_model"][name] * f, ".9g"), "", ""])
+    for key, unit in (("chi2", ""), ("dof", ""), ("p_value", ""), ("level", ""), ("model_explains_data", ""),
+                      ("mode", ""), ("converged", ""), ("iterations", ""), ("unique", ""), ("speed_hz", "Hz")):
+        w.writerow([key, "", d[key], unit, "", "", "", ""])
+    del r
+    return out.getvalue()
 
 
 def _worker(path, machine_path, mode, effect_specs=(), oil_check="if-tabled"):

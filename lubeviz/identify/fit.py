@@ -72,6 +72,7 @@ class Fit:
     inflation: float = 1.0
     warnings: tuple[str, ...] = field(default=())
     q_threshold: np.ndarray | None = None
+    features_sigma: np.ndarray | None = None  # 1 sigma of each feature: noise + model budget (the fit's weights)
 
     @property
     def message(self) -> str:
@@ -353,7 +354,7 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
                seconds=time.perf_counter() - t0, features_names=all_names, features_measured=fm,
                features_model=fs, residual=r, intervals=ivals, alternatives=tuple(alternatives),
                paths=tuple(x[5] for x in reversed(refined)), inflation=inflation, warnings=tuple(warnings),
-               q_threshold=ref.q_threshold.copy())
+               q_threshold=ref.q_threshold.copy(), features_sigma=np.sqrt(np.sum(prob.L ** 2, axis=1)))
 
 
 def _profile(problem: _Problem, theta, chi2_min, k, lo, hi, scale, sigma, threshold, q_t):
@@ -420,3 +421,47 @@ def _profile(problem: _Problem, theta, chi2_min, k, lo, hi, scale, sigma, thresh
         bounds.append(found)
     low = bounds[0] if bounds[0] is not None else float(lo[k])
     return (float(low), None if bounds[1] is None else float(bounds[1]))
+
+
+def to_identification(res: Fit, chain) -> "Identification":
+    """The `Identification` (the app's and the JSON's shape) of a `Fit` of `chain`."""
+    from .newton import Identification
+
+    q = res.values[:2]
+    effect_values = {}
+    for j, name in enumerate(res.names[2:], start=2):
+        head, _, pname = name.rpartition(".")
+        effect_values.setdefault(head, {})[pname] = float(res.values[j])
+        effect_values[head][pname + "_std"] = float(res.std[j])
+    for e in chain.effects:  # the held parameters, as given
+        head = chain._prefix(e)
+        for pname, v in e.values().items():
+            effect_values.setdefault(head, {}).setdefault(pname, v)
+    alternatives = tuple(a[0][:2] for a in res.alternatives)
+    return Identification(
+        q=q, q_std=res.std[:2], converged=res.status in (0, 1), iterations=res.iterations,
+        starts_tried=len(res.paths), paths=res.paths, features_names=res.features_names,
+        features_measured=res.features_measured, features_model=res.features_model, residual=res.residual,
+        total_error=res.chi2, mode="best", evaluations=res.evaluations, seconds=res.seconds,
+        message="; ".join([res.message, *res.warnings]), q_threshold=chain.q_threshold.copy(), chi2=res.chi2,
+        dof=res.dof, p_value=res.p_value, unique=not alternatives, alternatives=alternatives,
+        intervals=tuple(res.intervals.get(n) for n in ("q1", "q2")), level=res.level, warnings=res.warnings,
+        effects=effect_values, alternatives_chi2=tuple(a[1] for a in res.alternatives),
+        features_sigma=res.features_sigma)
+
+
+def identify_features(model, measured, settings=None) -> "Identification":
+    """Best mode on measured features and a `ForwardModel` (its tables, rotor and planes; no record, so
+    the declared probe angles and no effects): the same fit as a record's (`batch.identify_record`)."""
+    from .chain import ForwardChain
+    from .newton import check_record
+    from .settings import IdentificationSettings
+
+    settings = settings or IdentificationSettings()
+    check_record(model, measured, settings)
+    chain = ForwardChain(model.machine, model.omega / (2 * math.pi), model.nodes, tables=model.tables,
+                         rotor=model.rotor)
+    budget = None if settings.include_model_error else ModelBudget.none()
+    res = fit(chain, measured, names=tuple(settings.features), budget=budget, lower=settings.lower,
+              upper=settings.upper)
+    return to_identification(res, chain)

@@ -1,4 +1,4 @@
-"""The search for Q1, Q2 (SPEC §5): the paper's generalized Newton-Raphson, and our weighted trust region.
+"""The search for Q1, Q2 (SPEC §5): the paper's generalized Newton-Raphson, and the route to our fit (best mode).
 
 Paper mode (Sec. 2.3, Eq. 11-14): errors eps = (f_s - f_m)/f_m for fb1, fb2 and, for the angles,
 eps_phi = (phi_s - phi_m)/s with a fixed angular scale s (`settings.phi_scale`, 30 deg by default;
@@ -8,14 +8,9 @@ Q_T; 3 x 3 starts {0.7, 1, 1.3} Q_T ordered by eps_T = sum |eps|; 15 iterations 
 leaves the bounds or stalls with eps_T above `accept_total_error` is abandoned for the next. Every
 start's path is kept.
 
-Best mode (ours): residuals r = L^-1 (f_s(q) - f_m), L L^T the features' noise covariance estimated from
-the record itself, over all invariant features (fb, phi at both planes and Zf2/Zf1), minimized by a
-Levenberg-Marquardt trust region inside the bounds with the exact Jacobian of the table model (one
-evaluation per iteration). Uncertainty: cov(q) = (J^T J)^-1 of the whitened residuals, plus (sandwich)
-the spread that the tables' own error (`ForwardModel.model_error_cov`) propagates into q. chi^2 = |r|^2
-with n - 2 degrees of freedom says whether the model explains the data. The 3 x 3 starts are
-evaluated; the search runs from the best, and from the best start far from it, so a second minimum
-that fits as well (phi's closed contours, Fig. 10) is flagged rather than hidden.
+Best mode (ours) is the fit on named parameters, `fit.fit`: global search over the flow box, noise +
+model-budget weights, profile intervals. `identify` routes it there (`fit.identify_features`), so one
+record has one best-mode answer whichever page or command asks.
 """
 
 from __future__ import annotations
@@ -25,7 +20,6 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
 
 from ..errors import InputError
 from .forward import PAPER_FEATURES, ForwardModel, wrap_difference
@@ -69,6 +63,8 @@ class Identification:
     # a record at one speed without the static position cannot tell a viscosity change from a supply change
     intervals_any_oil: tuple | None = None
     oil_degeneracy: dict = field(default_factory=dict)
+    # best mode: 1 sigma of each feature with the model budget (noise + model), what the fit weighs by
+    features_sigma: np.ndarray | None = None
 
     @property
     def path(self) -> np.ndarray:
@@ -173,112 +169,6 @@ def identify_paper(model: ForwardModel, measured: MeasuredFeatures,
                           q_threshold=qt.copy())
 
 
-def _lm(fun, q0, lo, hi, scale, max_iter, step_tol):
-    """Levenberg-Marquardt in scaled variables u = q/scale, projected onto the bounds.
-
-    fun(q) -> (r, J) with J = dr/dq. Returns (q, r, J, iterations, path)."""
-    q = np.clip(q0, lo, hi)
-    r, J = fun(q)
-    cost = r @ r
-    lam = 1e-3
-    path = [q.copy()]
-    it = 0
-    for it in range(1, max_iter + 1):
-        Js = J * scale
-        A = Js.T @ Js
-        g = Js.T @ r
-        while True:
-            du = -np.linalg.solve(A + lam * np.diag(np.diag(A) + 1e-12), g)
-            q_new = np.clip(q + du * scale, lo, hi)
-            r_new, J_new = fun(q_new)
-            cost_new = r_new @ r_new
-            if cost_new <= cost:
-                lam = max(lam / 10.0, 1e-9)
-                break
-            lam *= 10.0
-            if lam > 1e8:
-                return q, r, J, it, np.array(path)
-        moved = np.abs(q_new - q) / scale
-        q, r, J, cost = q_new, r_new, J_new, cost_new
-        path.append(q.copy())
-        if np.all(moved < step_tol):
-            break
-    return q, r, J, it, np.array(path)
-
-
-def identify_best(model: ForwardModel, measured: MeasuredFeatures,
-                  settings: IdentificationSettings | None = None) -> Identification:
-    """Noise-weighted least squares on all invariant features, with uncertainty and uniqueness check."""
-    t0 = time.perf_counter()
-    settings = settings or IdentificationSettings()
-    names = tuple(settings.features)
-    meas = measured.subset(names)
-    L = np.linalg.cholesky(meas.cov)
-    lo, hi = _bounds(model, settings)
-    qt = model.q_threshold
-    ev0 = model.evaluations
-
-    def fun(q):
-        g, J = model.features_jacobian(q[0], q[1], names)
-        d = wrap_difference(g - meas.values, names)
-        return np.linalg.solve(L, d), np.linalg.solve(L, J)
-
-    def cost_many(q):
-        g = model.features(q[:, 0], q[:, 1], names)
-        d = wrap_difference(g - meas.values, names)
-        w = np.linalg.solve(L, d.T)
-        return np.sum(w**2, axis=0)
-
-    starts = _grid_starts(model, settings)
-    c0 = cost_many(starts)
-    order = np.argsort(c0)
-    first = starts[order[0]]
-    far = [s for s in order[1:] if np.max(np.abs(starts[s] - first) / qt) > 0.45]
-    runs = []
-    iterations = 0
-    for s in [order[0]] + far[:1]:
-        q, r, J, it, path = _lm(fun, starts[s], lo, hi, qt, settings.max_iterations, settings.step_tolerance)
-        iterations += it
-        runs.append((float(r @ r), q, r, J, path))
-    runs_sorted = sorted(runs, key=lambda t: t[0])
-    chi2, q, r, J, _ = runs_sorted[0]
-    try:
-        H = np.linalg.inv(J.T @ J)  # J: whitened Jacobian, so H is the noise-only covariance of q
-        cov_q = H
-        if settings.include_model_error:
-            # sandwich: the estimator weights by the noise only; the tables' own error adds to its spread
-            A = H @ J.T @ np.linalg.inv(L)  # dq = A d(features)
-            cov_q = H + A @ model.model_error_cov(names) @ A.T
-        q_std = np.sqrt(np.diag(cov_q))
-    except np.linalg.LinAlgError:
-        q_std = np.full(2, np.inf)
-    alternatives = []
-    for c, qa, *_ in runs_sorted[1:]:
-        separated = np.any(np.abs(qa - q) > 3 * np.maximum(q_std, 1e-3 * qt))
-        if separated and c - chi2 < stats.chi2.ppf(0.95, 2):
-            alternatives.append(qa)
-    dof = len(names) - 2
-    # goodness of fit against noise *and* the tables' own resolution: does the model explain the record?
-    d = wrap_difference(model.features(q[0], q[1], names) - meas.values, names)
-    cov_fit = meas.cov + (model.model_error_cov(names) if settings.include_model_error else 0.0)
-    chi2_fit = float(d @ np.linalg.solve(cov_fit, d))
-    p = float(stats.chi2.sf(chi2_fit, dof)) if dof > 0 else None
-    at_bound = np.any(np.isclose(q, lo, rtol=1e-6)) or np.any(np.isclose(q, hi, rtol=1e-6))
-    converged = not at_bound
-    msg = "converged" if converged else "the best fit lies on the search bound"
-    if alternatives:
-        msg += f"; not unique: another minimum fits as well at {np.round(alternatives[0] * 6e7, 1).tolist()} ml/min"
-    if p is not None and p < 1e-3:
-        msg += f"; the model does not explain the record (chi2 = {chi2_fit:.1f} for {dof} dof)"
-    fs = model.features(q[0], q[1], names)
-    paths = tuple(run[4] for run in sorted(runs, key=lambda t: -t[0]))  # the answer's path last
-    return Identification(q=q, q_std=q_std, converged=converged, iterations=iterations, starts_tried=len(runs),
-                          paths=paths, features_names=names, features_measured=meas.values, features_model=fs,
-                          residual=r, total_error=chi2, mode="best", evaluations=model.evaluations - ev0,
-                          seconds=time.perf_counter() - t0, message=msg, q_threshold=qt.copy(), chi2=chi2_fit, dof=dof,
-                          p_value=p, unique=not alternatives, alternatives=tuple(alternatives))
-
-
 def check_record(model: ForwardModel, measured: MeasuredFeatures, settings: IdentificationSettings) -> None:
     """Refuse, with a message and no number, records the identification cannot use."""
     speed = model.omega / (2 * math.pi)
@@ -304,4 +194,6 @@ def identify(model: ForwardModel, measured: MeasuredFeatures,
     check_record(model, measured, settings)
     if settings.mode == "paper":
         return identify_paper(model, measured, settings)
-    return identify_best(model, measured, settings)
+    from .fit import identify_features
+
+    return identify_features(model, measured, settings)

@@ -1,0 +1,60 @@
+"""The identification's CSV export: every number with its unit, angles in degrees as the pages show them,
+the flows' 1 sigma and 95 % interval in their own columns (no Q_T where a sigma belongs)."""
+
+import csv
+import io
+import math
+from pathlib import Path
+
+import pytest
+
+from lubeviz.identify.batch import CSV_COLUMNS, identify_file, result_csv, result_dict
+
+SAMPLE = Path(__file__).resolve().parents[2] / "assets" / "sample_record.csv"
+
+
+@pytest.fixture(scope="module")
+def item():
+    return identify_file(SAMPLE)
+
+
+def test_csv_rows_carry_units_and_the_json_values(item):
+    d = result_dict(item)
+    rows = list(csv.DictReader(io.StringIO(result_csv(item))))
+    assert tuple(rows[0].keys()) == CSV_COLUMNS
+    flows = [r for r in rows if r["quantity"] == "supply_flow"]
+    assert [r["bearing_or_feature"] for r in flows] == ["1", "2"]
+    for k, r in enumerate(flows, start=1):
+        assert r["unit"] == "ml/min"
+        assert float(r["value"]) == pytest.approx(d[f"q{k}_mlmin"], rel=1e-5)
+        assert float(r["sigma"]) == pytest.approx(d[f"q{k}_std_mlmin"], rel=1e-5)
+        low, high = d[f"q{k}_interval_mlmin"]
+        assert float(r["low_95"]) == pytest.approx(low, rel=1e-5)
+        assert r["high_95"] == "open" if high is None else float(r["high_95"]) == pytest.approx(high, rel=1e-5)
+        assert float(r["low_95"]) <= float(r["value"])
+    thresholds = [r for r in rows if r["quantity"] == "flow_threshold_Q_T"]
+    assert [float(r["value"]) for r in thresholds] == pytest.approx(d["q_threshold_mlmin"], rel=1e-5)
+    assert all(r["sigma"] == "" for r in thresholds)  # Q_T is not an uncertainty of anything
+
+
+def test_angles_in_degrees_and_sigmas_with_the_model_budget(item):
+    d = result_dict(item)
+    feats = {r["bearing_or_feature"]: r for r in csv.DictReader(io.StringIO(result_csv(item)))
+             if r["quantity"] == "feature"}
+    assert set(feats) == set(d["features_measured"])
+    for name, r in feats.items():
+        angle = name.startswith(("phi", "arg"))
+        f = 180 / math.pi if angle else 1.0
+        assert r["unit"] == ("deg" if angle else "-")
+        assert float(r["value"]) == pytest.approx(d["features_measured"][name] * f, rel=1e-6)
+        assert float(r["model"]) == pytest.approx(d["features_model"][name] * f, rel=1e-6)
+    # the fit's sigma includes the model budget: above the record's noise alone, feature by feature
+    from lubeviz.identify.forward import ALL_FEATURES
+    from lubeviz.identify.measured import measure
+    from lubeviz.signals.records import read_record
+
+    names = list(item.result.features_names)
+    noise = measure(read_record(SAMPLE), ALL_FEATURES).subset(names).std
+    for name, s in zip(names, noise):
+        f = 180 / math.pi if name.startswith(("phi", "arg")) else 1.0
+        assert float(feats[name]["sigma"]) > s * f * 1.01, name
