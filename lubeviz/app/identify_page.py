@@ -53,8 +53,24 @@ drawn on the Maps page (choose "the record of the Identify page" there).
 """
 
 
-def _verdict_text(v: str) -> str:
-    return {"starved": "🟠 starved", "normal": "🟢 normal", "over-supplied": "🔵 over-supplied"}.get(v, v)
+ICONS = {"starved": "🟠 starved", "normal": "🟢 normal", "over-supplied": "🔵 over-supplied"}
+
+
+def verdict_text(r, k: int) -> str:
+    """Bearing k's verdict as far as the record supports it: the verdict at both ends of the flow's 95 %
+    interval (an open upper end counts as over-supplied); 'starved or normal' when the interval spans the
+    band around Q_T; marked uncertain when the model does not explain the record."""
+    v = r.verdict(k)
+    iv = None if r.intervals is None else r.intervals[k]
+    if iv is not None:
+        from ..identify.newton import lubrication_verdict
+
+        ends = [lubrication_verdict(iv[0], r.q_threshold[k]),
+                "over-supplied" if iv[1] is None else lubrication_verdict(iv[1], r.q_threshold[k])]
+        if ends[0] != ends[1]:
+            return f"{ICONS[ends[0]]} to {ends[1]} (the interval spans the band around Q_T)"
+    text = ICONS.get(v, v)
+    return text + " (uncertain: the model does not explain the record)" if r.model_explains_data is False else text
 
 
 class IdentifyPage(pn.viewable.Viewer):
@@ -234,7 +250,7 @@ class IdentifyPage(pn.viewable.Viewer):
             else:
                 interval = "—" if std is None else f"± {1.96 * std[k]:.1f} ml/min"
             lines.append(f"| {k + 1} (node {self.machine.bearings[k].node}) | **Q{k + 1} = {q[k]:.1f} ml/min** | "
-                         f"{interval} | {qt[k]:.0f} ml/min | {q[k] / qt[k]:.2f} | {_verdict_text(r.verdict(k))} |")
+                         f"{interval} | {qt[k]:.0f} ml/min | {q[k] / qt[k]:.2f} | {verdict_text(r, k)} |")
         lines.append("")
         extra = f"{r.mode} mode; {'converged' if r.converged else '**not converged**'} in {r.iterations} iterations, " \
                 f"{r.starts_tried} start(s), {r.evaluations} model evaluations, {r.seconds * 1e3:.0f} ms."
