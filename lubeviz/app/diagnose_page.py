@@ -21,11 +21,11 @@ import panel as pn
 import param
 
 from ..diagnose import diagnose, diagnosis_dict
+from ..diagnose.inputs import diagnosis_inputs
 from ..diagnose.loop import cost_map
 from ..diagnose.report import report_html
 from ..effects import EFFECTS
 from ..errors import LubevizError
-from ..identify.batch import check_model_speed, model_speed
 from ..identify.chain import simulate
 from ..identify.measured import measure
 from ..identify.newton import lubrication_verdict
@@ -180,6 +180,14 @@ class DiagnosePage(pn.viewable.Viewer):
         lines = [f"**{name}**", "",
                  f"speed {record.speed_hz:g} Hz; {dur:.2f} s ({dur * record.speed_hz:.0f} revolutions); planes at "
                  f"nodes {record.nodes[0]} and {record.nodes[1]}"]
+        t_oil = getattr(record, "oil_temperature_c", None)
+        if t_oil is not None:
+            oil = getattr(self.machine, "oil", None)
+            lines += ["", f"oil temperature read: {t_oil:g} °C" + (
+                f" (the diagnosis holds the oil at it: viscosity × {float(oil.factor(t_oil)):.2f} of the declared)"
+                if oil is not None else " (not used: the model file declares no [oil])")]
+        if getattr(record, "static_offset", None) is not None:
+            lines += ["", "static shaft position: present (it separates hotter oil, wear and less oil)"]
         if truth:
             q = truth["q_mlmin"]
             lines += ["", f"Truth: Q1 = {q[0]:.0f}, Q2 = {q[1]:.0f} ml/min" +
@@ -275,17 +283,19 @@ class DiagnosePage(pn.viewable.Viewer):
         self._show(self._result)
 
     def _diagnose(self, record, measured, truth, chosen, progress):
-        m = self.machine
-        speed = model_speed(m, record)
-        check_model_speed(m, speed)
-        base = resources.chain(m, speed, record.nodes, record.probe_angles_deg, progress=progress)
+        inputs = diagnosis_inputs([record], self.machine, measured=[measured], progress=progress,
+                                  chain_for=lambda m, speed, nodes, angles, p: resources.chain(m, speed, nodes, angles,
+                                                                                               progress=p))
+        chains, meas = inputs.chains, inputs.measured
         pool = None if len(chosen) == len(DIAGNOSABLE) else [EFFECTS[n] for n in chosen]
-        d = diagnose(base, measured, candidates=pool, progress=progress, truth=truth)
-        maps = [("plain model", cost_map(base, measured, n=MAP_POINTS), d.before)]
+        d = diagnose(chains, meas, candidates=pool, progress=progress, truth=truth, budget=inputs.budget,
+                     lines=inputs.lines)
+        maps = [("plain model", cost_map(chains, meas, n=MAP_POINTS), d.before)]
         if d.added is not None:
-            maps.append((f"with {d.added.label}", cost_map(base, measured, effect=d.added.effect, n=MAP_POINTS),
+            maps.append((f"with {d.added.label}", cost_map(chains, meas, effect=d.added.effect, n=MAP_POINTS),
                          d.after))
-        return dict(diagnosis=d, summary=diagnosis_dict(d), record=record, maps=maps, truth=truth)
+        return dict(diagnosis=d, summary=diagnosis_dict(d), record=record, maps=maps, truth=truth,
+                    notes=inputs.notes)
 
     # --- showing ----------------------------------------------------------------------------------------
     def _show(self, r):
@@ -294,7 +304,8 @@ class DiagnosePage(pn.viewable.Viewer):
         added = f"**Effect added: {d.added.label}.** " if d.added is not None else (
             "**No effect needed.** " if d.explained else "**No effect explains the record.** ")
         self._verdict.alert_type = kind
-        self._verdict.object = added + d.verdict
+        notes = r.get("notes", ())
+        self._verdict.object = added + d.verdict + ("".join(f"\n\n_Note: {n}_" for n in notes) if notes else "")
         self._verdict.visible = True
         self._flows.object = self._flows_text(d, s, r["truth"], r["name"])
         self._residuals.object = self._residual_plot(d)

@@ -41,10 +41,8 @@ def _candidates(text):
 
 def run_diagnose(args) -> dict | list:
     from ..diagnose import diagnose, diagnosis_dict
-    from ..identify.batch import beyond_1x, machine_for, model_speed
-    from ..identify.chain import ForwardChain
-    from ..identify.measured import measure
-    from ..identify.oil_reading import budget_with_reading, oil_reading
+    from ..diagnose.inputs import diagnosis_inputs
+    from ..identify.batch import machine_for
     from ..signals.records import check_set, group_records, read_record
 
     if not 0 < args.level < 0.5:
@@ -59,19 +57,13 @@ def run_diagnose(args) -> dict | list:
         if len(group) > 1:
             check_set(group)
         machine, notes = machine_for(group[0], args.machine)
-        chains, meas, tolerance = [], [], 0.0
-        for rec in group:
-            oil_effects, tol, oil_notes = oil_reading(rec, machine)
-            tolerance, notes = max(tolerance, tol), tuple(notes) + oil_notes
-            chains.append(ForwardChain(machine, model_speed(machine, rec), rec.nodes, oil_effects,
-                                       probe_angles_deg=rec.probe_angles_deg, progress=bar))
-            meas.append(measure(rec))
-        budget = budget_with_reading(None, tolerance) if tolerance > 0 else None
-        lines = beyond_1x(group)[0]  # named in the verdict (identify's warnings say the same)
-        d = diagnose(chains, meas, candidates=candidates, level=args.level, progress=bar, budget=budget, lines=lines)
+        inputs = diagnosis_inputs(group, machine, progress=bar)
+        chains, meas = inputs.chains, inputs.measured
+        d = diagnose(chains, meas, candidates=candidates, level=args.level, progress=bar, budget=inputs.budget,
+                     lines=inputs.lines)
         label = "+".join(str(r.source) for r in group)
         item = diagnosis_dict(d, file=label)
-        item["warnings"] = list(notes) + [w for r in group for w in r.warnings]
+        item["warnings"] = list(notes) + list(inputs.notes)
         for w in item["warnings"]:
             sys.stderr.write(f"lubeviz diagnose: warning: {w}\n")
         if args.report:
