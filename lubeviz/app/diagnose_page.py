@@ -342,6 +342,11 @@ class DiagnosePage(pn.viewable.Viewer):
         if d.ambiguous:
             lines += ["", f"**Look-alikes**: {', '.join(d.ambiguous)} fit as well. To tell them apart: "
                           f"{'; or '.join(d.separated_by)}."]
+            if d.set_intervals is not None:
+                words = " and ".join(f"Q{k + 1} in [{lo / M3S_PER_MLMIN:.0f}, "
+                                     f"{'open' if hi is None else format(hi / M3S_PER_MLMIN, '.0f')}] ml/min"
+                                     for k, (lo, hi) in enumerate(d.set_intervals))
+                lines += ["", f"**Flows over all the look-alikes** (until a measurement separates them): {words}."]
         elif d.separated_by:
             lines += ["", f"To confirm it: {'; or '.join(d.separated_by)}."]
         return "\n".join(lines)

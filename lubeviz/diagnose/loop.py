@@ -75,6 +75,10 @@ class Diagnosis:
     seconds: float = 0.0
     truth: dict = field(default_factory=dict)
     lines: tuple = ()  # lines beyond 1X present in the record(s) (`signals.lines`): no model or effect has them
+    # an ambiguity's flows: per flow (low, high or None) in m^3/s, the union over the set of each candidate's
+    # 95 % interval (the winner's profile interval, the others' +-1.96 sigma): what the flows are known to be
+    # until a measurement separates the causes. None when nothing is ambiguous.
+    set_intervals: tuple | None = None
 
     @property
     def final(self) -> Fit:
@@ -133,6 +137,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         tried.append(_fit_candidate(chains, meas, e, names, budget, level, phase_starts))
     tried.sort(key=lambda c: c.aic)
     passing = [c for c in tried if c.passes]
+    set_intervals = None
     if before.explained:
         added, after, explained, ambiguous = None, None, True, ()
         verdict = (f"Explained: the model fits the record within noise and model uncertainty "
@@ -162,6 +167,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
             separated = separated + (FORCE_SEPARATION,)
             flows = "; ".join(f"{c.label}: {c.fit.values[0] * 6e7:.0f}, {c.fit.values[1] * 6e7:.0f}"
                               for c in [best, *close])
+            set_intervals = _set_intervals(after, close)
             verdict = (f"Ambiguous cause: a synchronous (1X) force on the rotor explains the record "
                        f"({', '.join(c.label for c in [best, *close])}), or an effect not in the library that acts "
                        f"as one ({OTHER_FORCE_EXAMPLES}). At one speed these are the same force, so the flows hardly "
@@ -170,8 +176,10 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         elif close:
             flows = "; ".join(f"{c.label}: Q1, Q2 = {c.fit.values[0] * 6e7:.0f}, {c.fit.values[1] * 6e7:.0f} ml/min"
                               for c in [best, *close])
+            set_intervals = _set_intervals(after, close)
             verdict = (f"Ambiguous: {len(close) + 1} effects explain the record equally well ({flows}). "
-                       f"To tell them apart: {'; or '.join(separated)}.")
+                       f"Until a measurement tells them apart the flows are known only within "
+                       f"{_interval_words(set_intervals)}. To tell them apart: {'; or '.join(separated)}.")
         else:
             verdict = (f"{_story(best)}{_oil_words(chains, best)} explains the record (chi2 {before.chi2:.1f} -> {after.chi2:.1f} for "
                        f"{after.dof} dof). Flows re-identified with it: Q1 = {after.values[0] * 6e7:.0f}, "
@@ -197,7 +205,26 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
                     "; ".join(dict.fromkeys(CAUSES[line.kind] for line in big)) + "): the flows rest on the 1X part.")
     return Diagnosis(before=before, candidates=tuple(tried), added=added, after=after, explained=explained,
                      ambiguous=ambiguous, verdict=verdict, separated_by=separated,
-                     seconds=time.perf_counter() - t0, truth=dict(truth or {}), lines=tuple(lines))
+                     seconds=time.perf_counter() - t0, truth=dict(truth or {}), lines=tuple(lines),
+                     set_intervals=set_intervals)
+
+
+def _set_intervals(after: Fit, others) -> tuple:
+    """Per flow, the union of the winner's 95 % profile interval and the other candidates' +-1.96 sigma."""
+    out = []
+    for k, n in enumerate(("q1", "q2")):
+        low, high = after.intervals.get(n) or (after.values[k] - 1.96 * after.std[k], after.values[k] + 1.96 * after.std[k])
+        for c in others:
+            v, s = c.fit.values[k], c.fit.std[k]
+            low = min(low, v - 1.96 * s)
+            high = None if high is None else max(high, v + 1.96 * s)
+        out.append((float(low), None if high is None else float(high)))
+    return tuple(out)
+
+
+def _interval_words(iv) -> str:
+    return " and ".join(f"Q{k + 1} in [{lo * 6e7:.0f}, {'open' if hi is None else format(hi * 6e7, '.0f')}] ml/min"
+                        for k, (lo, hi) in enumerate(iv))
 
 
 OIL_RANGE = (0.75, 1.0 / 0.75)
@@ -286,6 +313,9 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
            "after": fit_dict(d.after), "explained": d.explained, "ambiguous": list(d.ambiguous),
            "separated_by": list(d.separated_by), "verdict": d.verdict, "seconds": d.seconds,
            "lines_beyond_1x": [line.as_dict() for line in d.lines]}
+    for k, n in enumerate(("q1", "q2")):  # an ambiguity: the flows over the whole set (None: not ambiguous)
+        iv = None if d.set_intervals is None else d.set_intervals[k]
+        out[f"{n}_interval_set_mlmin"] = None if iv is None else [iv[0] * 6e7, None if iv[1] is None else iv[1] * 6e7]
     if file is not None:
         out["file"] = file
     if d.truth:

@@ -63,6 +63,11 @@ def _flow(fit, k: int) -> str:
     return f"{_mlmin(fit.values[k]):.0f} ± {_mlmin(fit.std[k]):.0f} ml/min"
 
 
+def _set_words(iv) -> str:
+    return " and ".join(f"Q{k + 1} in [{lo * 6e7:.0f}, {'open' if hi is None else format(hi * 6e7, '.0f')}] ml/min"
+                        for k, (lo, hi) in enumerate(iv))
+
+
 def _interval(fit, k: int) -> str:
     iv = fit.intervals.get(("q1", "q2")[k]) if fit.intervals else None
     if iv is None:
@@ -139,7 +144,10 @@ def _actions(d, nodes) -> list[str]:
     if outcome == "ambiguous":
         out.append(f"<b>Several explanations fit equally well</b> ({escape(', '.join((d.added.label,) + d.ambiguous))}). "
                    "Before acting on them, take one of the measurements that separate them (listed under “Telling "
-                   "look-alikes apart”). The flows below are those of the best-ranked, provisionally.")
+                   "look-alikes apart”). The flows below are those of the best-ranked, provisionally"
+                   + ("." if d.set_intervals is None else
+                      "; over all of them the flows are known only within " + escape(_set_words(d.set_intervals))
+                      + "."))
     elif d.added is not None:
         story = escape(_story(d.added.effect))
         sep = escape(type(d.added.effect).separated_by)

@@ -143,6 +143,7 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
                     lab.split("[")[0] for lab in d.ambiguous]
                 err_b = np.abs(d.before.values[:2] * 6e7 / q - 1) * 100
                 err_a = np.abs(d.final.values[:2] * 6e7 / q - 1) * 100
+                held = _held(d, q / 6e7)
                 rows.append({"effect": name, "strength": level, "spec": text, "q_mlmin": q.tolist(),
                              "plain_chi2": d.before.chi2, "plain_explained": bool(d.before.explained),
                              "named": named, "added": None if d.added is None else d.added.label,
@@ -151,6 +152,7 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
                              "chi2_after": None if d.after is None else d.after.chi2,
                              "dof_after": None if d.after is None else d.after.dof,
                              "flow_error_pct_before": err_b.tolist(), "flow_error_pct_after": err_a.tolist(),
+                             "truth_held": held,
                              "not_forced": bool((d.added is None and not d.explained) or OTHER_FORCE in d.ambiguous),
                              "verdict": d.verdict, "seconds": d.seconds})
                 progress(i, total, f"{name} {level}")
@@ -164,6 +166,7 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
                 "right_first": sum(r["right_first"] for r in rr), "right_in_set": sum(r["right_in_set"] for r in rr),
                 "unexplained": sum(r["added"] is None and not r["plain_explained"] for r in rr),
                 "not_forced": sum(r["not_forced"] for r in rr),
+                "truth_held": sum(r["truth_held"] for r in rr),
                 "flow_error_pct_before_max": float(max(max(r["flow_error_pct_before"]) for r in rr)),
                 "flow_error_pct_after_max": float(max(max(r["flow_error_pct_after"]) for r in rr)),
                 "chi2_before_median": float(np.median([r["plain_chi2"] for r in rr])),
@@ -173,6 +176,16 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
     return {"speed_hz": speed_hz, "seeds": seeds, "summary": summary, "rows": rows,
             "diagnose_seconds_median": float(np.median([r["seconds"] for r in rows])),
             "seconds": time.perf_counter() - t0}
+
+
+def _held(d, q_true) -> bool:
+    """Whether the flows' reported 95 % intervals hold the truth (both flows): the ambiguity set's interval
+    when the diagnosis is ambiguous, else the final fit's profile interval."""
+    ivs = d.set_intervals or tuple(d.final.intervals.get(n) for n in ("q1", "q2"))
+    for k, iv in enumerate(ivs):
+        if iv is None or q_true[k] < iv[0] or (iv[1] is not None and q_true[k] > iv[1]):
+            return False
+    return True
 
 
 def bench_budget(machine_path=None, *, n: int = 120, seed: int = 2026, progress: ProgressFn = silent) -> dict:

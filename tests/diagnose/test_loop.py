@@ -112,3 +112,22 @@ def test_at_one_speed_a_force_is_never_named_alone(chain, effect):
                                               for a in d.ambiguous)
     assert "second speed" in d.verdict and "not in the library" in d.verdict
     assert _flow_errors(d.after).max() < 1.0
+
+
+def test_a_worn_bearing_at_one_speed_reports_flows_that_hold_the_truth(chain):
+    """A worn bearing 1 (clearance x1.375) at one speed, flows near Q_T (the `bench diagnose` record where a
+    soft pedestal ranked first and its flows were 48 % off): a pedestal, a 1X force and the wear all explain
+    it, so the loop reports the set, and the flows' interval over the set holds the true flows."""
+    from lubeviz.verification.bench import _held
+
+    q = (546.3, 559.6)
+    d = _diagnose(chain, ("clearance:bearing=1,clearance_um=165",), seed=108, q=q)
+    assert not d.before.explained
+    labels = [d.added.label, *d.ambiguous]
+    assert "clearance[bearing=1]" in labels
+    if d.ambiguous:
+        assert d.set_intervals is not None and "known only within" in d.verdict
+        assert "static shaft position" in d.verdict
+        out = diagnosis_dict(d)
+        assert out["q1_interval_set_mlmin"][0] <= q[0]
+    assert _held(d, np.array(q) / 6e7)
