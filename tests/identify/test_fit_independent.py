@@ -58,6 +58,8 @@ def test_clean_independent_records_are_explained_and_their_intervals_hold(machin
     "unbalance2:node=15,ratio=0.5,phase_deg=90",
     "pedestals:bearing=2,mass_kg=50,stiffness_n_m=1e8,damping_ns_m=1e4",
     "bow:node=13,amplitude_um=60,phase_deg=45",
+    "viscosity:factor=0.75",  # hotter oil: the plain fit is ~20 % low and yet explained (one speed)
+    "clearance:bearing=1,clearance_um=165",  # a worn bearing 1 (x1.375): plain Q1 ~46 % low
 ])
 def test_a_declared_effect_recovers_the_flows_on_independent_records(machine, spec_text):
     spec = IndependentSpec(speed_hz=75.0, q1_mlmin=480.0, q2_mlmin=600.0, effects=(spec_text,), seed=5, total_s=8.0)
