@@ -65,11 +65,12 @@ class FilmTimeResponse:
 
 def film_time_response(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unbalance], *,
                        duration: float, dt: float = 1e-4, nodes: Sequence[int] = (6, 20),
-                       start: str = "steady", progress: ProgressFn = silent) -> FilmTimeResponse:
+                       start="steady", progress: ProgressFn = silent) -> FilmTimeResponse:
     """Integrate the rotor on its p-theta films for `duration` s from the linear steady state (or rest).
 
     `bearings`: the equilibria (position, film, K0, C0) of each bearing at this speed and supply.
-    start="steady" starts from the linear model's steady orbit (short transients); "rest" from rest.
+    start="steady" starts from the linear model's steady orbit (short transients); "rest" from rest; or a
+    state vector (q, q') from the static equilibrium (`orbit_balance.OrbitBalance.state`).
     """
     t_start = time.perf_counter()
     omega = bearings.omega
@@ -80,13 +81,15 @@ def film_time_response(rotor: Rotor, bearings: FilmBearings, unbalances: Sequenc
     system = linear_system(rotor, omega, coeffs)
     n = system.n_dof
     F = unbalance_force(rotor, omega, unbalances)
-    if start == "steady":
+    if isinstance(start, str) and start == "steady":
         Q = unbalance_response(rotor, omega, unbalances, coeffs).q
         z0 = np.concatenate([Q.real, (1j * omega * Q).real])
-    elif start == "rest":
+    elif isinstance(start, str) and start == "rest":
         z0 = np.zeros(2 * n)
+    elif not isinstance(start, str) and np.shape(start) == (2 * n,):
+        z0 = np.asarray(start, dtype=float)  # a given state (q, q'), e.g. a periodic orbit's
     else:
-        raise InputError(f"start {start!r}; expected 'steady' or 'rest'")
+        raise InputError(f"start {start!r}; expected 'steady', 'rest' or a state vector of {2 * n} values")
 
     b_dofs = np.array([node_dofs(nd)[[X, Y]] for nd in rotor.bearing_nodes])  # (n_b, 2)
     flat_b = b_dofs.ravel()

@@ -1,0 +1,222 @@
+"""The periodic orbit on the p-theta films: harmonic balance with the film solved along the orbit.
+
+The linear model (Sec. 2.1) replaces each film by its tangent K0, C0 at the static equilibrium. For
+larger orbits the film force is not linear in the journal's motion: the cavitated region breathes with
+the orbit, the squeeze term redistributes the supplied oil. The steady response to an unbalance is then
+still periodic at the shaft speed, but holds the harmonics 2X, 3X, ... and a static shift (0X) of the
+journals. This module finds that periodic orbit by alternating frequency-time harmonic balance:
+
+    D(h Omega) Q_h = F_h + L^T R_h,   h = 0 .. H,
+
+with D the rotor's dynamic stiffness at h Omega (spin Omega) including K0, C0, F the unbalance force
+(h = 1), L the bearings' x, y rows, and R_h the harmonics of the residual film force
+
+    r(t) = f_film(e0 + q_b(t), q_b'(t)) - f_film(e0) + K0 q_b(t) + C0 q_b'(t),
+
+sampled at N points of one revolution (the film re-solved at each: a quasi-static p-theta solve with the
+journal's squeeze velocity and the bearing's supply flow, as `film_transient` does step by step). r is
+zero to first order, so the fixed point Q_b = A + B R(Q_b) (A: the linear orbit at the bearings, B: the
+receptance there) starts at the linear orbit and is solved with Anderson acceleration. The harmonics at
+the probe planes follow from the converged R. As the unbalance shrinks the orbit tends to the linear one
+and 2X/1X grows in proportion to the amplitude (`tests/rotor/test_orbit_balance.py`, against the time
+integration of `film_transient` as the independent reference).
+
+Sub-synchronous whirl is not periodic at the shaft speed and is outside this method: the linear
+stability at the equilibrium (`rotor.stability`) says whether it is to be expected.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import ConvergenceError, InputError
+from ..film.feed import Feed, setup_problem
+from ..film.solver import solve
+from ..progress import ProgressFn, silent
+from .assembly import Rotor, bearing_matrices
+from .elements import X, Y, node_dofs
+from .film_bearings import FilmBearings
+from .response import Unbalance, unbalance_force
+
+CONTACT = 0.95  # eccentricity ratio beyond which the orbit is refused (the journal nearly touches)
+
+
+@dataclass(frozen=True)
+class OrbitBalance:
+    """The periodic orbit: complex harmonic amplitudes, x(t) = Re sum_h X_h e^{i h Omega t}."""
+
+    omega: float
+    nodes: tuple[int, ...]
+    x: np.ndarray  # (H + 1, n_nodes) complex; h = 0 is the static shift (real)
+    y: np.ndarray
+    bearing_x: np.ndarray  # (H + 1, n_bearings) at the journals
+    bearing_y: np.ndarray
+    linear_x: np.ndarray  # (n_nodes,) the linear model's 1X at the nodes, for comparison
+    linear_y: np.ndarray
+    iterations: int
+    film_solves: int
+    residual: float  # last relative change of the journals' harmonics
+    max_eccentricity: float
+    seconds: float
+    dofs: np.ndarray | None = None  # (H + 1, n_dof) every degree of freedom's harmonics (the initial state)
+
+    @property
+    def harmonics(self) -> int:
+        return self.x.shape[0] - 1
+
+    def harmonic_ratio(self, h: int, node_index: int = 0) -> float:
+        """|hX| / |1X| of the orbit at a node: the larger axis of each harmonic's ellipse."""
+        def size(a, b):
+            zf, zb = (a - 1j * b) / 2, (a + 1j * b) / 2
+            return abs(zf) + abs(zb)
+        return size(self.x[h, node_index], self.y[h, node_index]) / size(self.x[1, node_index], self.y[1, node_index])
+
+    def state(self, t: float = 0.0) -> np.ndarray:
+        """(q, q') of every degree of freedom at time t, measured from the static equilibrium: the state to
+        start a time integration on this orbit."""
+        h = np.arange(self.harmonics + 1)
+        e = np.exp(1j * h * self.omega * t)
+        return np.concatenate([np.real(e @ self.dofs), np.real((1j * h * self.omega * e) @ self.dofs)])
+
+    def signals(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """x(t), y(t) at every node: (n_nodes, len(t)) each."""
+        e = np.exp(1j * np.outer(np.arange(self.harmonics + 1), self.omega * np.asarray(t, dtype=float)))
+        return np.real(self.x.T @ e), np.real(self.y.T @ e)
+
+
+def _dynamic_stiffness(rotor: Rotor, omega: float, frequency: float, K, C) -> np.ndarray:
+    """At `frequency` with the shaft spinning at `omega`; K, C: shaft + bearings (`bearing_matrices`)."""
+    return K - frequency**2 * rotor.M + 1j * frequency * (C + omega * rotor.G)
+
+
+def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unbalance], *,
+                  nodes: Sequence[int] = (6, 20), harmonics: int = 3, points: int = 16, tol: float = 1e-5,
+                  max_iter: int = 60, memory: int = 5, progress: ProgressFn = silent) -> OrbitBalance:
+    """The periodic orbit of `rotor` on the films of `bearings` under `unbalances` (harmonic balance).
+
+    `harmonics` H (>= 1) and `points` N per revolution (>= 2H + 2, so no harmonic aliases onto another).
+    Raises ConvergenceError when the iteration does not settle (an orbit too large for a periodic
+    solution near the linear one) or the journal approaches the bearing wall.
+    """
+    t0 = time.perf_counter()
+    H, N = int(harmonics), int(points)
+    if H < 1 or N < 2 * H + 2:
+        raise InputError(f"{H} harmonics need at least {2 * H + 2} points per revolution, got {N}")
+    omega = bearings.omega
+    eqs = bearings.equilibria
+    nb = len(eqs)
+    n = rotor.n_dof
+    Kt, Ct = bearing_matrices(rotor, bearings.coefficients)
+    Lb = np.array([node_dofs(nd)[[X, Y]] for nd in rotor.bearing_nodes]).ravel()
+    Lo = np.array([node_dofs(rotor.check_node(int(nd), "node"))[[X, Y]] for nd in nodes]).ravel()
+    F1 = unbalance_force(rotor, omega, unbalances)
+    B, Bo, A, Ao, full_b, full_a = [], [], [], [], [], []
+    for h in range(H + 1):
+        D = _dynamic_stiffness(rotor, omega, h * omega, Kt, Ct)
+        Xb = np.linalg.solve(D, np.eye(n)[:, Lb])  # response to unit forces at the bearings
+        B.append(Xb[Lb])
+        Bo.append(Xb[Lo])
+        full_b.append(Xb)
+        if h == 1:
+            u = np.linalg.solve(D, F1)
+        else:
+            u = np.zeros(n, complex)
+        A.append(u[Lb])
+        Ao.append(u[Lo])
+        full_a.append(u)
+    A, B = np.array(A), np.array(B)  # (H+1, 2nb), (H+1, 2nb, 2nb)
+    phase = 2 * math.pi * np.arange(N) / N  # Omega t_n over one revolution
+    E = np.exp(1j * np.outer(np.arange(H + 1), phase))  # (H+1, N)
+    hw = 1j * omega * np.arange(H + 1)
+    f0 = [e.film.force.copy() for e in eqs]
+    K0 = [e.coefficients.K for e in eqs]
+    C0 = [e.coefficients.C for e in eqs]
+    films = [[e.film] * N for e in eqs]  # warm starts: each phase point from its own last solve
+    solves = 0
+    max_eps = 0.0
+
+    def residual_harmonics(qb):
+        nonlocal solves, max_eps
+        q_t = np.real(qb.T @ E)  # (2nb, N)
+        v_t = np.real((qb * hw[:, None]).T @ E)
+        r = np.empty((2 * nb, N))
+        for j, e in enumerate(eqs):
+            c = e.bearing.clearance
+            for k in range(N):
+                q, v = q_t[2 * j:2 * j + 2, k], v_t[2 * j:2 * j + 2, k]
+                pos = e.position + q
+                eps = math.hypot(*pos) / c
+                max_eps = max(max_eps, eps)
+                if eps >= CONTACT:
+                    raise ConvergenceError(f"bearing {j + 1}: the orbit reaches {eps:.2f} of the clearance; no "
+                                           "periodic orbit near the linear one (the journal nearly touches)")
+                sol = solve(setup_problem(e.bearing, omega, pos, Feed.flow(bearings.flows[j]), velocity=v),
+                            warm=films[j][k])
+                solves += 1
+                if not sol.converged:  # the active set can cycle under strong squeeze: projected SOR does not
+                    sol = solve(setup_problem(e.bearing, omega, pos, Feed.flow(bearings.flows[j]), velocity=v),
+                                method="sor", warm=films[j][k], relax=1.9, tol=1e-10)
+                if not sol.converged:
+                    raise ConvergenceError(f"film {j + 1} at phase {360 * k / N:.0f} deg: {sol.message}")
+                films[j][k] = sol
+                r[2 * j:2 * j + 2, k] = sol.force - f0[j] + K0[j] @ q + C0[j] @ v
+        R = (r @ E.conj().T) / N  # (2nb, H+1)
+        R[:, 1:] *= 2.0
+        R[:, 0] = R[:, 0].real
+        return R
+
+    def pack(qb):
+        return np.concatenate([qb.real.ravel(), qb[1:].imag.ravel()])
+
+    def unpack(z):
+        m = (H + 1) * 2 * nb
+        re = z[:m].reshape(H + 1, 2 * nb)
+        im = np.zeros_like(re)
+        im[1:] = z[m:].reshape(H, 2 * nb)
+        return re + 1j * im
+
+    def G(z):
+        R = residual_harmonics(unpack(z))
+        return pack(A + np.einsum("hij,jh->hi", B, R)), R
+
+    scale = max(np.abs(A[1]).max(), 1e-12)
+    z = pack(A)
+    hist_z, hist_f = [], []
+    change = math.inf
+    R = None
+    for it in range(1, max_iter + 1):
+        g, R = G(z)
+        f = g - z
+        change = float(np.abs(f).max() / scale)
+        progress(it, max_iter, f"harmonic balance: change {change:.1e}")
+        if change < tol:
+            z = g
+            break
+        hist_z.append(z.copy())
+        hist_f.append(f.copy())
+        if len(hist_z) > memory + 1:
+            hist_z.pop(0)
+            hist_f.pop(0)
+        if len(hist_f) >= 2:  # Anderson (type II) on the fixed-point map
+            dF = np.array([hist_f[i + 1] - hist_f[i] for i in range(len(hist_f) - 1)]).T
+            dZ = np.array([hist_z[i + 1] - hist_z[i] for i in range(len(hist_z) - 1)]).T
+            gamma = np.linalg.lstsq(dF, f, rcond=None)[0]
+            z = z + f - (dZ + dF) @ gamma
+        else:
+            z = g
+    else:
+        raise ConvergenceError(f"harmonic balance did not settle in {max_iter} iterations (last change "
+                               f"{change:.1e} of the 1X orbit): the orbit is too large for a periodic solution "
+                               "near the linear one")
+    qb = unpack(z)
+    out = np.array([Ao[h] + Bo[h] @ R[:, h] for h in range(H + 1)])  # (H+1, 2 n_nodes)
+    dofs = np.array([full_a[h] + full_b[h] @ R[:, h] for h in range(H + 1)])
+    return OrbitBalance(omega=omega, nodes=tuple(int(v) for v in nodes), x=out[:, 0::2], y=out[:, 1::2],
+                        bearing_x=qb[:, 0::2], bearing_y=qb[:, 1::2], linear_x=np.asarray(Ao[1][0::2]),
+                        linear_y=np.asarray(Ao[1][1::2]), iterations=it, film_solves=solves, residual=change,
+                        max_eccentricity=max_eps, seconds=time.perf_counter() - t0, dofs=dofs)
