@@ -172,7 +172,18 @@ def run_simulate(args) -> dict:
     if effects and method != "steady":
         raise InputError("--method time with --effect: effects are simulated through the steady forward chain; "
                          "use --method steady (or leave --method out)")
-    if effects:
+    if any(e.stage == "response" for e in effects):  # large orbits: the film solved along the orbit
+        if len(effects) > 1:
+            raise InputError("--effect large_orbit: combine it with no other effect (not supported yet)")
+        method = "orbit"
+        rec = synthesize_record(machine, _flows(args), nodes=nodes, snr_db=snr, rng=np.random.default_rng(args.seed),
+                                duration_s=args.duration_s, total_s=args.duration_s,
+                                sample_rate_hz=args.sample_rate_hz, speed_hz=speed_hz, method="orbit",
+                                progress=StderrBar())
+        import dataclasses
+
+        rec = dataclasses.replace(rec, metadata={**rec.metadata, "effects": "large_orbit", "seed": str(args.seed)})
+    elif effects:
         from ..identify.chain import ForwardChain, simulate
 
         held = tuple(e.hold() for e in effects)

@@ -201,7 +201,10 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         from ..signals.lines import CAUSES
 
         verdict += (" Beyond 1X the record also holds " + "; ".join(line.describe() for line in big) +
-                    ", which neither the linear model nor any effect in the library produces (" +
+                    ", which the linear model does not produce" +
+                    (" (the library's large_orbit effect, the film solved along the orbit, makes 2X lines in "
+                     "`simulate`; a fit cannot use it yet)" if any("2X" in line.kind for line in big) else "") +
+                    " (usual causes: " +
                     "; ".join(dict.fromkeys(CAUSES[line.kind] for line in big)) + "): the flows rest on the 1X part.")
     return Diagnosis(before=before, candidates=tuple(tried), added=added, after=after, explained=explained,
                      ambiguous=ambiguous, verdict=verdict, separated_by=separated,

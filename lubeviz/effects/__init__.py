@@ -13,6 +13,7 @@ from typing import Iterable
 from .base import STAGES, Effect, Registry
 from .bow import Bow, bow_shape
 from .clearance import Clearance
+from .large_orbit import LargeOrbit
 from .oil_temperature import OilTemperature
 from .pedestals import Pedestals
 from .probe_gain import ProbeGain
@@ -21,7 +22,7 @@ from .unbalance2 import Unbalance2
 from .viscosity import Viscosity
 
 EFFECTS = Registry()
-for _cls in (Viscosity, OilTemperature, Clearance, Unbalance2, Pedestals, ProbeRotation, ProbeGain, Bow):
+for _cls in (Viscosity, OilTemperature, Clearance, Unbalance2, Pedestals, ProbeRotation, ProbeGain, Bow, LargeOrbit):
     EFFECTS.register(_cls)
 
 
@@ -34,5 +35,5 @@ def parse_effects(texts: Iterable[str]) -> tuple[Effect, ...]:
     return tuple(parse_effect(t) for t in texts)
 
 
-__all__ = ["EFFECTS", "STAGES", "Bow", "Clearance", "Effect", "OilTemperature", "Pedestals", "ProbeGain", "ProbeRotation",
+__all__ = ["EFFECTS", "STAGES", "Bow", "Clearance", "Effect", "LargeOrbit", "OilTemperature", "Pedestals", "ProbeGain", "ProbeRotation",
            "Unbalance2", "Viscosity", "bow_shape", "parse_effect", "parse_effects"]

@@ -23,7 +23,7 @@ import param
 
 from ..errors import InputError
 
-STAGES = ("bearings", "rotor", "probes")
+STAGES = ("bearings", "rotor", "probes", "response")  # response: replaces the linear response (large_orbit)
 
 
 class Effect(param.Parameterized):

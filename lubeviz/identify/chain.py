@@ -181,6 +181,10 @@ class ForwardChain:
             raise InputError(f"two distinct measurement planes expected, got nodes {tuple(nodes)}")
         self.probe_angles_deg = tuple(tuple(float(a) for a in p) for p in probe_angles_deg)
         for e in effects:
+            if getattr(e, "stage", None) == "response":
+                raise InputError(f"{e.label()} replaces the linear response (the film solved along the orbit): "
+                                 "`lubeviz simulate --effect` uses it alone; an identification, a diagnosis or a "
+                                 "combination with other effects cannot yet")
             if getattr(e, "stage", None) not in ("bearings", "rotor", "probes"):
                 raise InputError(f"{e!r} is not an effect (no stage)")
         self.effects = tuple(e.bind(machine) for e in effects)

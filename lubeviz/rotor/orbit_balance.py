@@ -39,6 +39,7 @@ from ..film.feed import Feed, setup_problem
 from ..film.solver import solve
 from ..progress import ProgressFn, silent
 from .assembly import Rotor, bearing_matrices
+from .directional import directional_components
 from .elements import X, Y, node_dofs
 from .film_bearings import FilmBearings
 from .response import Unbalance, unbalance_force
@@ -70,11 +71,11 @@ class OrbitBalance:
         return self.x.shape[0] - 1
 
     def harmonic_ratio(self, h: int, node_index: int = 0) -> float:
-        """|hX| / |1X| of the orbit at a node: the larger axis of each harmonic's ellipse."""
-        def size(a, b):
-            zf, zb = (a - 1j * b) / 2, (a + 1j * b) / 2
-            return abs(zf) + abs(zb)
-        return size(self.x[h, node_index], self.y[h, node_index]) / size(self.x[1, node_index], self.y[1, node_index])
+        """(|Zf| + |Zb|) of harmonic h over the forward 1X |Zf| at a node: the +hX and -hX lines summed,
+        each relative to the forward 1X as `signals.lines` reports them."""
+        zf1, _ = directional_components(self.x[1, node_index], self.y[1, node_index])
+        zf, zb = directional_components(self.x[h, node_index], self.y[h, node_index])
+        return float((abs(zf) + abs(zb)) / abs(zf1))
 
     def state(self, t: float = 0.0) -> np.ndarray:
         """(q, q') of every degree of freedom at time t, measured from the static equilibrium: the state to

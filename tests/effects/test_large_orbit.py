@@ -1,0 +1,62 @@
+"""The large_orbit effect: a record of the periodic orbit on the p-theta films (harmonic balance, another
+path than the identification's linear tables), what the linear identification and the diagnosis make of
+it, and the refusals where the effect cannot be used yet."""
+
+import numpy as np
+import pytest
+
+from lubeviz.cli.main import main
+from lubeviz.effects import parse_effect
+from lubeviz.errors import InputError
+from lubeviz.identify.batch import identify_record
+from lubeviz.identify.chain import ForwardChain
+from lubeviz.signals.lines import present_lines
+from lubeviz.signals.synthesize import synthesize_record
+
+pytestmark = pytest.mark.slow
+
+Q = (450.0, 600.0)
+
+
+@pytest.fixture(scope="module")
+def record(machine):
+    return synthesize_record(machine, np.array(Q) / 6e7, snr_db=12.0, rng=np.random.default_rng(11),
+                             duration_s=5.0, total_s=5.0, method="orbit")
+
+
+def test_the_record_holds_the_orbits_2x_and_the_line_detector_reads_it(record):
+    """At the paper's unbalance (orbits to ~half the clearance at plane 1) the periodic orbit has a 2X of
+    ~20 % of 1X at plane 1; the record's +2X and -2X lines, measured by `signals.lines`, add up to it."""
+    ratio = [float(v) for v in record.metadata["ratio_2x"].split()]
+    assert ratio[0] > 0.1
+    lines = {(ln.kind, ln.plane): ln.relative_to_1x for ln in present_lines(record)}
+    both = lines.get(("+2X", 1), 0.0) + lines.get(("-2X", 1), 0.0)
+    assert both == pytest.approx(ratio[0], rel=0.1)
+
+
+def test_the_linear_identification_flags_it_and_its_intervals_hold_the_truth(machine, record):
+    r = identify_record(record, machine)
+    res = r.result
+    assert res.model_explains_data is False
+    for k in range(2):
+        low, high = res.intervals[k]
+        assert low * 6e7 <= Q[k] and (high is None or Q[k] <= high * 6e7)
+    assert any("2X" in w and "large orbits" in w for w in r.warnings)
+
+
+def test_the_diagnosis_names_the_2x_lines_and_their_causes(machine, record):
+    from lubeviz.diagnose import diagnose
+    from lubeviz.diagnose.inputs import diagnosis_inputs
+
+    inputs = diagnosis_inputs([record], machine)
+    d = diagnose(inputs.chains, inputs.measured, lines=inputs.lines)
+    assert not d.before.explained
+    assert "2X" in d.verdict and "large_orbit" in d.verdict and "film nonlinearity" in d.verdict
+
+
+def test_where_it_cannot_be_used_yet_it_says_so(machine, tmp_path, capsys):
+    with pytest.raises(InputError, match="replaces the linear response"):
+        ForwardChain(machine, 75.0, (6, 20), (parse_effect("large_orbit"),))
+    code = main(["simulate", "--q1-mlmin", "450", "--q2-mlmin", "600", "--effect", "large_orbit",
+                 "--effect", "viscosity:factor=0.8", "-o", str(tmp_path / "x.csv")])
+    assert code == 2 and "no other effect" in capsys.readouterr().err
