@@ -3,6 +3,11 @@ mid-plane profiles, the shaft-centre locus from starved to flooded, and the eigh
 
 Display only: every number comes from `lubeviz.film.explore` through `resources` (frames shared by all
 sessions, computed in the background and reused).
+
+Teaching views that do not mislead: one colour means one value at every flow. By default θ is drawn on
+0–1 and the pressure on 0 to the largest peak over the slider's range (the colour scale "fixed"); "auto"
+lets each field span its own frame, for detail. Axes of the sweep plots span the slider's range from the
+start, so the curves fill in without the axes moving.
 """
 
 from __future__ import annotations
@@ -42,6 +47,8 @@ and below 1 where it holds oil streamers and air.
   identification reads from the vibration.
 
 Drag the slider from flooded down to starved and watch the pressure zone shrink and the centre drop.
+The tick on the slider marks Q_T. With the colour scale *fixed*, a colour means the same pressure or oil
+fraction at every Q; *auto* stretches each field over its own range, to see detail.
 The dashed curve is what a non-mass-conserving (half-Sommerfeld) model says at the same journal
 position: it has no supply flow among its inputs, so it shows the same film at every Q — it cannot starve.
 """
@@ -51,6 +58,17 @@ FIELD_OPTS = dict(cmap="viridis", colorbar=True, responsive=True, min_height=260
                   framewise=True, toolbar="above")
 COEF_COLORS = {"xx": "#1f77b4", "xy": "#ff7f0e", "yx": "#2ca02c", "yy": "#d62728"}
 VIEW_START_DEG = -90.0  # fields shown over alpha in [-90, 270): the groove (0) and the loaded zone (180) whole
+AUTO = (math.nan, math.nan)  # HoloViews' "no limits": the colour or axis range follows the frame
+THETA_RANGE = (0.0, 1.0)  # the oil fraction's whole range: 0 (no oil) to 1 (full film)
+FILM_RATIO_RANGE = (0.0, 2.0)  # h/c = 1 + ε cos(...) stays within 0-2 for any ε < 1
+LOCUS_LIMIT = 1.1  # e/c axes: the whole clearance circle (|e| = c) and a margin
+
+
+def nice_ceiling(x: float) -> float:
+    """`x` > 0 rounded up to a half or whole unit of its decade (2.33 -> 2.5, 1.39 -> 1.5, 0.47 -> 0.5), so a
+    colour bar ends on a round number."""
+    step = 10.0 ** math.floor(math.log10(x)) / 2.0
+    return math.ceil(x / step - 1e-9) * step
 
 
 def _view_order(alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -77,6 +95,10 @@ class BearingPage(pn.viewable.Viewer):
 
     bearing = param.Selector(default=0, objects={"Bearing 1": 0, "Bearing 2": 1},
                              doc="Which bearing of the machine to show")
+    colour_scale = param.Selector(
+        default="fixed", objects=["fixed", "auto"], label="Colour scale",
+        doc="fixed: θ on 0–1 and the pressure on 0 to the largest peak over the slider's range, the same at "
+            "every flow (one colour, one value); auto: each field spans its own frame's range")
 
     def __init__(self, machine: Machine, operating: OperatingPoint, **params):
         super().__init__(**params)
@@ -84,7 +106,8 @@ class BearingPage(pn.viewable.Viewer):
         self.op = operating
         self.jobs = JobPanel()
         self.sweep_jobs = JobPanel()
-        self._q_threshold: dict[int, float] = {}
+        self._q_threshold: dict[tuple[int, float], float] = {}
+        self._scales: dict[tuple[int, float], dict[str, float]] = {}  # (bearing, speed) -> fixed ranges (MPa)
         self._frame: SupplyFrame | None = None
         self._frame_pipe = hv.streams.Pipe(data=None)  # the two fields
         self._detail_pipe = hv.streams.Pipe(data=None)  # profiles and current-Q markers, drawn just after
@@ -96,9 +119,15 @@ class BearingPage(pn.viewable.Viewer):
         names = {f"Bearing {k + 1} (node {b.node})": k for k, b in enumerate(machine.bearings)}
         self.param.bearing.objects = names
         self._bearing_select = pn.widgets.RadioButtonGroup.from_param(self.param.bearing, button_type="primary")
+        self._scale_select = pn.Row(
+            pn.pane.Markdown(f"{self.param.colour_scale.label}:", margin=(0, 5, 0, 10), align="center"),
+            pn.widgets.RadioButtonGroup.from_param(self.param.colour_scale, button_type="default",
+                                                   description=self.param.colour_scale.doc, align="center"),
+            css_classes=["lubeviz-colour-scale"])
         self._ready = False
         self._layout = self._build()
         self.param.watch(self._on_bearing, "bearing")
+        self.param.watch(self._on_colour_scale, "colour_scale")
         self.op.param.watch(self._on_flow, ["q1", "q2"])
         self.op.param.watch(self._on_speed, "speed")
 
@@ -110,24 +139,31 @@ class BearingPage(pn.viewable.Viewer):
         profile_t = hv.DynamicMap(self._profile_theta, streams=[self._detail_pipe])
         # The sweep curves and the current-Q markers are separate DynamicMaps, so moving the slider
         # redraws only the markers.
+        # The plot's size and legend are options of the product of the two DynamicMaps (the overlay drawn),
+        # not of the overlays their callbacks return. Legends outside the frames never cover a curve.
         locus = (hv.DynamicMap(self._locus, streams=[self._sweep_pipe])
-                 * hv.DynamicMap(self._locus_marker, streams=[self._detail_pipe]))
+                 * hv.DynamicMap(self._locus_marker, streams=[self._detail_pipe])).opts(
+            frame_width=280, frame_height=280, legend_position="bottom", legend_cols=2)
+        coef = dict(responsive=True, min_height=245, legend_position="right")
         coef_k = (hv.DynamicMap(lambda data: self._coefficients(data, "K"), streams=[self._sweep_pipe])
-                  * hv.DynamicMap(self._q_line, streams=[self._detail_pipe]))
+                  * hv.DynamicMap(self._q_line, streams=[self._detail_pipe])).opts(**coef)
         coef_c = (hv.DynamicMap(lambda data: self._coefficients(data, "C"), streams=[self._sweep_pipe])
-                  * hv.DynamicMap(self._q_line, streams=[self._detail_pipe]))
+                  * hv.DynamicMap(self._q_line, streams=[self._detail_pipe])).opts(**coef)
         pane = dict(sizing_mode="stretch_width", linked_axes=False)
         controls = pn.Column(
-            "### Bearing", self._bearing_select, self._slider_box, self._summary, self.jobs, self.sweep_jobs,
-            width=330)
+            "### Bearing", self._bearing_select, self._slider_box, self._scale_select, self._summary, self.jobs,
+            self.sweep_jobs, width=330)
         fields = pn.Column(
             pn.pane.HoloViews(pressure, css_classes=["lubeviz-pressure"], **pane),
             pn.pane.HoloViews(theta, css_classes=["lubeviz-theta"], **pane),
             sizing_mode="stretch_width")
         profiles = pn.Row(pn.pane.HoloViews(profile_p, **pane), pn.pane.HoloViews(profile_t, **pane),
                           sizing_mode="stretch_width")
-        sweep = pn.Row(pn.pane.HoloViews(locus, css_classes=["lubeviz-locus"], width=380, linked_axes=False),
-                       pn.pane.HoloViews(coef_k, **pane), pn.pane.HoloViews(coef_c, **pane),
+        # The coefficient plots stacked beside the locus: each as wide as the row allows, so their legends
+        # fit at the right of the frames; the locus keeps its square frame (e/c equal on both axes).
+        sweep = pn.Row(pn.pane.HoloViews(locus, css_classes=["lubeviz-locus"], linked_axes=False),
+                       pn.Column(pn.pane.HoloViews(coef_k, **pane), pn.pane.HoloViews(coef_c, **pane),
+                                 sizing_mode="stretch_width"),
                        sizing_mode="stretch_width")
         return pn.Column(
             self._error,
@@ -156,7 +192,8 @@ class BearingPage(pn.viewable.Viewer):
 
     async def _prepare(self):
         k, speed = self.bearing, self.speed
-        for step in (lambda: self._threshold(k, speed), self._show_current, self._fill_sweep):
+        for step in (lambda: self._threshold(k, speed), lambda: self._fixed_scales(k, speed), self._show_current,
+                     self._fill_sweep):
             try:
                 await step()
             except Cancelled:
@@ -173,17 +210,34 @@ class BearingPage(pn.viewable.Viewer):
 
     def _make_slider(self, k: int):
         qt = self._q_threshold[(k, self.speed)]
-        grid = resources.frame_grid(qt)
+        grid = resources.frame_grid(qt)  # multiples of FRAME_STEP_MLMIN: the slider moves on round flows
         name = "q1" if k == 0 else "q2"
         key = (k, self.speed)
         if key not in self._sliders:
             setattr(self.op, name, resources.snap(min(max(getattr(self.op, name), grid[0]), grid[-1])))
             self._sliders[key] = quantity_slider(
                 self.op, name, start=float(grid[0]), end=float(grid[-1]),
-                step=resources.FRAME_STEP_MLMIN * M3S_PER_MLMIN,
-                label=f"Supply flow Q{k + 1} (ml/min); Q_T = {qt / M3S_PER_MLMIN:.0f}",
-                sizing_mode="stretch_width", css_classes=["lubeviz-supply"])
+                step=resources.FRAME_STEP_MLMIN * M3S_PER_MLMIN, format="0",
+                label=f"Supply flow Q{k + 1} (ml/min)", sizing_mode="stretch_width",
+                css_classes=["lubeviz-supply"], margin=(5, 10, 24, 10), tooltips=False,  # the title shows Q
+                stylesheets=[_threshold_tick_css(qt, grid)])
         self._slider_box.objects = [self._sliders[key]]
+
+    async def _fixed_scales(self, k: int, speed: float):
+        """The fixed colour and axis ranges of this bearing and speed, from the films at both ends of the
+        slider's range. The peak pressure is largest at one end: starving shrinks the pressure zone that
+        carries the same load, over-supply pressurizes the groove. Checked over the whole range for the
+        paper's machine at 75 Hz (both bearings): 2.33 MPa at 140 ml/min, falling to 1.10 MPa near
+        640 ml/min (above Q_T = 545), rising again to 1.39 MPa at 1090 ml/min: the most starved end holds
+        the peak, not the flooded one. Should a frame of the sweep exceed these, `_send_sweep` widens them once."""
+        if (k, speed) in self._scales:
+            return
+        grid = resources.frame_grid(self._q_threshold[(k, speed)])
+        ends = [float(grid[0]), float(grid[-1])]
+        got = await self.sweep_jobs.run(
+            resources.frames, self.machine, k, speed, ends, quiet=True,
+            label=f"colour scale: film at {ends[0] / M3S_PER_MLMIN:.0f} and {ends[1] / M3S_PER_MLMIN:.0f} ml/min")
+        self._scales[(k, speed)] = _scales_of(got.values())
 
     async def _show_current(self):
         k, speed, q = self.bearing, self.speed, resources.snap(self._q())
@@ -228,7 +282,24 @@ class BearingPage(pn.viewable.Viewer):
         k, speed = self.bearing, self.speed
         store = resources.cached_frames(self.machine, k, speed)
         qs = sorted(store)
-        self._sweep_pipe.send(dict(frames=[store[q] for q in qs], q_threshold=self._q_threshold.get((k, speed))))
+        qt = self._q_threshold.get((k, speed))
+        grid = resources.frame_grid(qt) if qt else np.zeros(0)
+        self._widen_scales(k, speed, [store[q] for q in qs])
+        self._sweep_pipe.send(dict(frames=[store[q] for q in qs], q_threshold=qt,
+                                   q_range=(float(grid[0]), float(grid[-1])) if len(grid) else None))
+
+    def _widen_scales(self, k: int, speed: float, frames):
+        """Raise the fixed ranges to cover `frames` if one exceeds them (not expected: see _fixed_scales)."""
+        old = self._scales.get((k, speed))
+        if old is None or not frames:
+            return
+        new = _scales_of(frames)
+        if all(new[name] <= old[name] for name in old):
+            return
+        self._scales[(k, speed)] = {name: max(old[name], new[name]) for name in old}
+        if self._frame is not None and self.colour_scale == "fixed":
+            self._frame_pipe.send(self._frame)
+            self._detail_pipe.send(self._frame)
 
     def _fail(self, exc: Exception):
         self._error.object = f"**Could not solve the film**: {exc}"
@@ -253,11 +324,21 @@ class BearingPage(pn.viewable.Viewer):
         if self._ready:
             await self._prepare()
 
+    def _on_colour_scale(self, event):
+        if self._frame is not None:
+            self._frame_pipe.send(self._frame)
+            self._detail_pipe.send(self._frame)
+
+    def _fixed(self, name: str) -> tuple[float, float]:
+        """The range `name` ("pressure", "profile") on the fixed scale, or AUTO (auto mode, or not known yet)."""
+        scales = self._scales.get((self.bearing, self.speed))
+        if self.colour_scale != "fixed" or scales is None:
+            return AUTO
+        return (0.0, scales[name])
+
     # --- plots -----------------------------------------------------------------------------------------
-    def _field(self, frame, values, label, clabel, cmap, clim=None):
-        opts = dict(FIELD_OPTS, cmap=cmap, clabel=clabel)
-        if clim is not None:
-            opts["clim"] = clim
+    def _field(self, frame, values, label, clabel, cmap, clim=AUTO):
+        opts = dict(FIELD_OPTS, cmap=cmap, clabel=clabel, clim=clim)  # always given: AUTO resets a fixed one
         if frame is None:  # same element types as below: a DynamicMap must keep one type
             img = hv.Image(np.zeros((2, 2)), bounds=(-90, 0, 270, 70), kdims=["alpha", "z"], vdims=[clabel])
             return (img.opts(title=f"{label}: computing …", **opts) * hv.Bounds((0, 0, 0, 0))).opts(framewise=True)
@@ -271,84 +352,97 @@ class BearingPage(pn.viewable.Viewer):
 
     def _pressure_image(self, data):
         f = data
-        return self._field(f, None if f is None else f.pressure / 1e6, "Pressure p(α, z)", "p (MPa)", "inferno")
+        return self._field(f, None if f is None else f.pressure / 1e6, "Pressure p(α, z)", "p (MPa)", "inferno",
+                           clim=self._fixed("pressure"))
 
     def _theta_image(self, data):
         f = data
         return self._field(f, None if f is None else f.theta, "Oil fraction θ(α, z) (1: full film)", "θ (–)",
-                           "Blues_r")
+                           "Blues_r", clim=THETA_RANGE if self.colour_scale == "fixed" else AUTO)
 
     def _profile_pressure(self, data):
-        opts = dict(responsive=True, min_height=220, framewise=True, legend_position="top_left",
+        opts = dict(responsive=True, min_height=280, framewise=True, legend_position="top",
                     title="Mid-plane pressure" + ("" if data is None else f" at Q = {data.q / M3S_PER_MLMIN:.0f} ml/min"))
+        fixed = dict(ylim=self._fixed("profile"))  # on both curves: framewise would follow the data
         deg, p, hs = [], [], []
         if data is not None:
             deg, order = _view_order(data.alpha)
             p = data.mid_plane()[0][order] / 1e6
             hs = data.half_sommerfeld[order] / 1e6
         return (hv.Curve((deg, p), "α (deg)", "p (MPa)", label="p–θ (mass-conserving)").opts(
-                    color="#b2182b", tools=["hover"])
+                    color="#b2182b", tools=["hover"], **fixed)
                 * hv.Curve((deg, hs), "α (deg)", "p (MPa)", label="half-Sommerfeld (ignores Q)").opts(
-                    color="gray", line_dash="dashed")).opts(**opts)
+                    color="gray", line_dash="dashed", **fixed)).opts(**opts)
 
     def _profile_theta(self, data):
-        opts = dict(responsive=True, min_height=220, xlabel="α (deg)", ylabel="θ and h/c (–)",
+        opts = dict(responsive=True, min_height=280, xlabel="α (deg)", ylabel="θ and h/c (–)",
                     title="Mid-plane oil fraction θ and film thickness h/c", framewise=True,
-                    legend_position="top_right")
+                    legend_position="top")
+        fixed = dict(ylim=FILM_RATIO_RANGE if self.colour_scale == "fixed" else AUTO)
         deg, th, h = [], [], []
         if data is not None:
             deg, order = _view_order(data.alpha)
             th = data.mid_plane()[1][order]
             h = data.film_thickness[order] / data.clearance
-        theta = hv.Curve((deg, th), "α (deg)", "θ and h/c (–)", label="θ").opts(color="#2166ac", tools=["hover"])
-        film = hv.Curve((deg, h), "α (deg)", "θ and h/c (–)", label="h/c").opts(color="gray", line_dash="dashed")
+        theta = hv.Curve((deg, th), "α (deg)", "θ and h/c (–)", label="θ").opts(
+            color="#2166ac", tools=["hover"], **fixed)
+        film = hv.Curve((deg, h), "α (deg)", "θ and h/c (–)", label="h/c").opts(
+            color="gray", line_dash="dashed", **fixed)
         return (theta * film).opts(**opts)
 
     def _locus(self, data):
-        opts = dict(frame_width=300, frame_height=300, title="Shaft-centre locus (Y up, gravity down)",
-                    legend_position="bottom_left", framewise=True)
-        kd = ["e_X / c", "e_Y / c"]
+        opts = dict(title="Shaft-centre locus over Q (Y up, gravity down)", framewise=True)
+        kd = ["e_X/c (–)", "e_Y/c (–)"]
         t = np.linspace(0, 2 * math.pi, 181)
-        circle = hv.Curve((np.cos(t), np.sin(t)), kd[0], kd[1], label="clearance").opts(color="black", line_width=1)
-        frames = (data or {}).get("frames") or []
+        circle = hv.Curve((np.cos(t), np.sin(t)), kd[0], kd[1], label="clearance circle (e = c)").opts(
+            color="black", line_width=1)
+        data = data or {}
+        frames = data.get("frames") or []
         pos, q, qt_pt = np.zeros((0, 2)), np.zeros(0), []
+        qt = data.get("q_threshold")
         if frames:
             c = frames[0].clearance
             pos = np.array([f.position for f in frames]) / c
             q = np.array([f.q for f in frames]) / M3S_PER_MLMIN
-            qt = data.get("q_threshold")
             if qt:
                 qt_pt = [tuple(pos[int(np.argmin(np.abs(q - qt / M3S_PER_MLMIN)))])]
-        locus = hv.Curve((pos[:, 0], pos[:, 1]), kd[0], kd[1], label="locus").opts(color="#555555")
+        q_range = data.get("q_range")
+        q_lim = AUTO if q_range is None else tuple(v / M3S_PER_MLMIN for v in q_range)
+        locus = hv.Curve((pos[:, 0], pos[:, 1]), kd[0], kd[1], label="centre path").opts(color="#555555")
         pts = hv.Points((pos[:, 0], pos[:, 1], q), kd, ["Q (ml/min)"]).opts(
-            color="Q (ml/min)", cmap="viridis", size=4, tools=["hover"])
-        threshold = hv.Points(qt_pt, kd, label="Q_T").opts(color="black", size=12, marker="star")
-        lim = max(0.3, float(np.abs(pos).max()) * 1.3) if len(pos) else 1.05
-        box = dict(xlim=(-lim, lim), ylim=(-lim, lim))  # on every layer: framewise would zoom out to the circle
+            color="Q (ml/min)", cmap="viridis", size=5, tools=["hover"], colorbar=True, clim=q_lim,
+            clabel="Supply flow Q (ml/min)")
+        threshold = hv.Points(qt_pt, kd, label=_qt_label(qt)).opts(color="black", size=12, marker="star")
+        box = dict(xlim=(-LOCUS_LIMIT, LOCUS_LIMIT), ylim=(-LOCUS_LIMIT, LOCUS_LIMIT))  # the whole circle, always
         return (circle * locus * pts * threshold).opts(
             hv.opts.Curve(**box), hv.opts.Points(**box), hv.opts.Overlay(**opts))
 
     def _locus_marker(self, data):
         cur = [] if data is None else [tuple(data.position / data.clearance)]
-        return hv.Points(cur, ["e_X / c", "e_Y / c"], label="current Q").opts(color="red", size=10)
+        return hv.Points(cur, ["e_X/c (–)", "e_Y/c (–)"], label="current Q").opts(color="red", size=10)
 
     def _q_line(self, data):
-        q = math.nan if data is None else data.q / M3S_PER_MLMIN
-        return hv.VLine(q, label="current Q").opts(color="red")
+        q = [] if data is None else [data.q / M3S_PER_MLMIN]
+        return hv.VLines(q, label="current Q").opts(color="red", line_width=2)
 
     def _coefficients(self, data, which):
         unit, scale = ("MN/m", 1e-6) if which == "K" else ("kN·s/m", 1e-3)
-        opts = dict(responsive=True, min_height=340,
-                    title=f"{'Stiffness' if which == 'K' else 'Damping'} coefficients (Lund's sign)",
-                    legend_position="right", framewise=True)
-        frames = (data or {}).get("frames") or []
+        data = data or {}
+        q_range = data.get("q_range")
+        opts = dict(title=f"{'Stiffness' if which == 'K' else 'Damping'} coefficients (Lund's sign)",
+                    framewise=True)
+        frames = data.get("frames") or []
         q = np.array([f.q for f in frames]) / M3S_PER_MLMIN
         m = np.array([getattr(f, which) for f in frames]).reshape(-1, 2, 2) * scale
-        curves = [hv.Curve((q, m[:, i, j]), "supply flow Q (ml/min)", f"{which} ({unit})",
-                           label=f"{which}{a}").opts(color=COEF_COLORS[a], tools=["hover"])
+        # x over the slider's range from the start: the curves fill in as the sweep runs, the axis stays
+        xlim = AUTO if q_range is None else tuple(v / M3S_PER_MLMIN for v in q_range)
+        curves = [hv.Curve((q, m[:, i, j]), "Supply flow Q (ml/min)", f"{which} ({unit})",
+                           label=f"{which}{a}").opts(color=COEF_COLORS[a], tools=["hover"], xlim=xlim)
                   for (i, j), a in zip([(0, 0), (0, 1), (1, 0), (1, 1)], COEF_COLORS)]
-        qt = (data or {}).get("q_threshold") or math.nan
-        line = hv.VLine(qt / M3S_PER_MLMIN, label="Q_T").opts(color="black", line_dash="dashed")
+        qt = data.get("q_threshold")
+        # VLines (not VLine): a glyph, so the line has its legend entry with the value
+        line = hv.VLines([qt / M3S_PER_MLMIN] if qt else [], label=_qt_label(qt)).opts(
+            color="black", line_dash="dashed", line_width=2)
         return hv.Overlay(curves + [line]).opts(**opts)
 
     def _summary_text(self, f: SupplyFrame) -> str:
@@ -363,7 +457,7 @@ class BearingPage(pn.viewable.Viewer):
             f"#### Q = {f.q / M3S_PER_MLMIN:.0f} ml/min — {state}",
             "| quantity | value |", "|---|---|",
             f"| eccentricity ratio ε | {s.eccentricity_ratio:.3f} |",
-            f"| attitude angle | {math.degrees(s.attitude_angle):.1f}° |",
+            f"| attitude angle φ | {math.degrees(s.attitude_angle):.1f}° |",
             f"| minimum film h_min | {s.min_film * 1e6:.1f} µm |",
             f"| maximum pressure | {s.max_pressure / 1e6:.2f} MPa |",
             f"| cavitated / starved area | {100 * s.cavitated_fraction:.1f} % / {100 * s.starved_fraction:.1f} % |",
@@ -372,3 +466,26 @@ class BearingPage(pn.viewable.Viewer):
             f"| friction power loss | {s.power_loss:.0f} W |",
         ])
 
+
+def _qt_label(q_threshold: float | None) -> str:
+    return "Q_T" if not q_threshold else f"Q_T = {q_threshold / M3S_PER_MLMIN:.0f} ml/min"
+
+
+def _scales_of(frames) -> dict[str, float]:
+    """Fixed ranges (MPa) covering `frames`: the field's peak pressure, and the profile plot's (the p–θ and
+    the half-Sommerfeld mid-plane pressures), each rounded up to a round number."""
+    frames = list(frames)
+    peak = max(float(f.pressure.max()) for f in frames) / 1e6
+    profile = max(peak, max(float(f.half_sommerfeld.max()) for f in frames) / 1e6)
+    return {"pressure": nice_ceiling(peak), "profile": nice_ceiling(profile)}
+
+
+def _threshold_tick_css(q_threshold: float, grid: np.ndarray) -> str:
+    """A stylesheet for the supply slider: a tick on its track at Q_T, labelled with the value."""
+    at = 100.0 * (q_threshold - grid[0]) / (grid[-1] - grid[0])
+    return f"""
+.noUi-base::before {{ content: ""; position: absolute; left: {at:.2f}%; top: -5px; width: 2px; height: 18px;
+  background: #222; z-index: 0; }}
+.noUi-base::after {{ content: "Q_T = {q_threshold / M3S_PER_MLMIN:.0f} ml/min"; position: absolute; left: {at:.2f}%;
+  top: 14px; transform: translateX(-50%); font-size: 11px; white-space: nowrap; color: #222; }}
+"""
