@@ -60,15 +60,12 @@ def verdict_text(r, k: int) -> str:
     """Bearing k's verdict as far as the record supports it: the verdict at both ends of the flow's 95 %
     interval (an open upper end counts as over-supplied); 'starved or normal' when the interval spans the
     band around Q_T; marked uncertain when the model does not explain the record."""
-    v = r.verdict(k)
-    iv = None if r.intervals is None else r.intervals[k]
-    if iv is not None:
-        from ..identify.newton import lubrication_verdict
+    from ..identify.newton import verdict_over_interval
 
-        ends = [lubrication_verdict(iv[0], r.q_threshold[k]),
-                "over-supplied" if iv[1] is None else lubrication_verdict(iv[1], r.q_threshold[k])]
-        if ends[0] != ends[1]:
-            return f"{ICONS[ends[0]]} to {ends[1]} (the interval spans the band around Q_T)"
+    v = r.verdict(k)
+    ends = verdict_over_interval(r.q[k], None if r.intervals is None else r.intervals[k], r.q_threshold[k])
+    if ends[0] != ends[1]:
+        return f"{ICONS[ends[0]]} to {ends[1]} (the interval spans the band around Q_T)"
     text = ICONS.get(v, v)
     return text + " (uncertain: the model does not explain the record)" if r.model_explains_data is False else text
 

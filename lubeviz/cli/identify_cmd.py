@@ -35,7 +35,7 @@ def register(sub) -> None:
 
 
 def run_identify(args) -> dict:
-    from ..identify.batch import identify_files, result_dict
+    from ..identify.batch import identify_files, result_dict, result_text
 
     from ..effects import parse_effects
 
@@ -52,13 +52,26 @@ def run_identify(args) -> dict:
             raise InputError(err)
         out = result_dict(item)
         out["seconds_total"] = time.perf_counter() - t0
+        _text(args, [out])
         return out
     records = [result_dict(item) if err is None else {"file": path, "error": err} for path, item, err in results]
     failed = [r for r in records if "error" in r]
     if failed:
         sys.stderr.write(f"lubeviz identify: {len(failed)} of {len(records)} records failed: "
                          + "; ".join(f"{r['file']}: {r['error']}" for r in failed)[:500] + "\n")
+    _text(args, records)
     return {"records": records, "failed": len(failed), "seconds": time.perf_counter() - t0}
+
+
+def _text(args, records) -> None:
+    """Without --json: what a person reads (every number of the JSON stays in --json)."""
+    if args.json:
+        return
+    from ..identify.batch import result_text
+
+    for d in records:
+        print("\n".join(result_text(d)))
+    args.json_text_done = True
 
 
 def run_reproduce(args) -> dict:

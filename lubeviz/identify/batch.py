@@ -312,6 +312,35 @@ def _interval(r, k, intervals=None):
     return [low * 6e7, None if high is None else high * 6e7]
 
 
+def result_text(d: dict) -> list[str]:
+    """The identification as a person reads it (the CLI without --json): each flow with its 95 % interval
+    (never a +- from noise alone), Q_T and the verdict, the test's outcome, alternatives and lines."""
+    from .newton import verdict_over_interval
+
+    if "error" in d:
+        return [f"{d['file']}: not identified: {d['error']}"]
+    speeds = "/".join(f"{v:g}" for v in d["speeds_hz"])
+    out = [f"{d['file']} ({speeds} Hz, planes at nodes {d['nodes'][0]} and {d['nodes'][1]}, {d['mode']} mode)"]
+    for k in (1, 2):
+        iv = d[f"q{k}_interval_mlmin"]
+        qt = d["q_threshold_mlmin"][k - 1]
+        span = ("no interval" if iv is None else
+                f"95 % interval {iv[0]:.0f}-{'open (flooded)' if iv[1] is None else format(iv[1], '.0f')}")
+        ends = verdict_over_interval(d[f"q{k}_mlmin"], None if iv is None else (iv[0], iv[1]), qt)
+        verdict = ends[0] if ends[0] == ends[1] else f"{ends[0]} to {ends[1]} (the interval spans Q_T's band)"
+        out.append(f"  Q{k} = {d[f'q{k}_mlmin']:.1f} ml/min, {span}; Q_T = {qt:.0f} ml/min "
+                   f"({d[f'q{k}_mlmin'] / qt:.2f} Q_T): {verdict}")
+    if d.get("chi2") is not None:
+        told = ("the model explains the record" if d["model_explains_data"] else
+                "THE MODEL DOES NOT EXPLAIN THE RECORD (intervals widened; run lubeviz diagnose)")
+        out.append(f"  {told}: chi2 = {d['chi2']:.1f} for {d['dof']} dof, p = {d['p_value']:.2g}")
+    for a in d.get("alternatives", []):
+        out.append(f"  another fit passes as well: Q1, Q2 = {a['q1_mlmin']:.0f}, {a['q2_mlmin']:.0f} ml/min")
+    for ln in d.get("lines_beyond_1x", []):
+        out.append(f"  beyond 1X: {ln['kind']} at plane {ln['plane']}, {100 * ln['relative_to_1x']:.1f} % of 1X")
+    return out
+
+
 CSV_COLUMNS = ("quantity", "bearing_or_feature", "value", "unit", "sigma", "model", "low_95", "high_95")
 
 

@@ -81,6 +81,18 @@ class Identification:
         return lubrication_verdict(self.q[k], self.q_threshold[k])
 
 
+def verdict_over_interval(q_supply: float, interval, q_threshold: float) -> tuple[str, str]:
+    """The verdicts at both ends of a flow's 95 % interval (low, high; an open upper end counts as
+    over-supplied); (v, v) with the point verdict when there is no interval. Equal ends: the record
+    supports the verdict; different: the interval spans the band around Q_T."""
+    if interval is None:
+        v = lubrication_verdict(q_supply, q_threshold)
+        return v, v
+    low, high = interval
+    return (lubrication_verdict(low, q_threshold),
+            "over-supplied" if high is None else lubrication_verdict(high, q_threshold))
+
+
 def lubrication_verdict(q_supply: float, q_threshold: float) -> str:
     """'starved' below 95 % of Q_T, 'over-supplied' above 105 %, else 'normal'."""
     r = q_supply / q_threshold

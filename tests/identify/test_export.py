@@ -58,3 +58,16 @@ def test_angles_in_degrees_and_sigmas_with_the_model_budget(item):
     for name, s in zip(names, noise):
         f = 180 / math.pi if name.startswith(("phi", "arg")) else 1.0
         assert float(feats[name]["sigma"]) > s * f * 1.01, name
+
+
+def test_the_cli_text_shows_intervals_and_verdicts_a_person_reads(capsys):
+    from lubeviz.cli.main import main
+
+    assert main(["identify", str(SAMPLE)]) == 0
+    text = capsys.readouterr().out
+    lines = text.splitlines()
+    assert lines[0].startswith(str(SAMPLE)) and "75 Hz" in lines[0]
+    assert "Q1 = " in lines[1] and "95 % interval" in lines[1] and "Q_T" in lines[1]
+    assert "starved" in lines[1] and "over-supplied" in lines[2]
+    assert "the model explains the record" in text
+    assert "±" not in text and "std" not in text  # no +- from noise alone; every number stays in --json
