@@ -119,7 +119,8 @@ class JobPanel(pn.viewable.Viewer):
                 if done:
                     break
                 if ticket.cancelled.is_set():
-                    self._text.object = f"{label}: cancelling …"
+                    if self._ticket is ticket:  # a superseded job never writes over its successor's status
+                        self._text.object = f"{label}: cancelling …"
                 elif not quiet or time.perf_counter() - ticket.started > 0.3:
                     if not shown:
                         self._bar.visible = self._cancel.visible = shown = True

@@ -9,6 +9,10 @@ journal position in its clearance circle) move against the machine without it.
 Display only: responses come from `identify.forward.tabled_response` (bearing K, C from the cached
 coefficient tables) and, with an effect, from `identify.chain.ForwardChain` (the same chain the
 identification fits); modes from `rotor.modal`, the Campbell diagram from `rotor.stability`.
+
+The Campbell diagram takes seconds, so it is computed on request, for the flows of that moment; when the
+flows (or the speed) change afterwards it says so ("stale", and for which flows it was computed) until it
+is recomputed. Its job panel shows only its own job.
 """
 
 from __future__ import annotations
@@ -73,7 +77,7 @@ class RotorPage(pn.viewable.Viewer):
     node = param.Integer(6, bounds=(1, 21), doc="Node (paper numbering) whose orbit, signals and spectrum are shown")
     snr_db = param.Number(12.0, bounds=(-5.0, 60.0), doc="Signal-to-noise ratio of the simulated probes (dB)")
     revolutions = param.Integer(5, bounds=(1, 50), doc="Revolutions shown in the time signals")
-    effect_name = param.Selector(default="none", objects=["none", *EFFECTS],
+    effect_name = param.Selector(default="none", objects=["none", *[n for n, c in EFFECTS.items() if c.stage != "response"]],
                                  doc="An effect of a real machine, switched on to see what it does")
 
     def __init__(self, machine: Machine, operating: OperatingPoint, **params):
@@ -92,6 +96,14 @@ class RotorPage(pn.viewable.Viewer):
         self._campbell_button = pn.widgets.Button(name="Compute Campbell diagram (film at each speed)",
                                                   button_type="primary", css_classes=["lubeviz-campbell"])
         self._campbell_button.on_click(self._on_campbell)
+        # The diagram shown and the operating point it was computed for: a change of the flows (or the speed)
+        # afterwards marks it stale until it is recomputed.
+        self._campbell_data: dict | None = None
+        self._campbell_drawn: tuple | None = None  # (data, stale) of the diagram on screen
+        self._campbell_stale = pn.pane.Alert("", alert_type="warning", visible=False, sizing_mode="stretch_width",
+                                             css_classes=["lubeviz-campbell-stale"])
+        self._campbell_error = pn.pane.Alert("", alert_type="danger", visible=False, sizing_mode="stretch_width",
+                                             css_classes=["lubeviz-campbell-error"])
         self.effect = None
         self._effect_story = pn.pane.Markdown("", sizing_mode="stretch_width", styles={"font-size": "0.9em"},
                                               css_classes=["lubeviz-rotor-effect-story"])
@@ -101,6 +113,7 @@ class RotorPage(pn.viewable.Viewer):
         self.param.watch(self._on_effect, "effect_name")
         self.param.watch(self._refresh, ["node", "snr_db", "revolutions"])
         self.op.param.watch(self._refresh, ["q1", "q2"])
+        self.op.param.watch(self._show_campbell, ["q1", "q2", "speed"])
 
     def _build(self):
         widgets = pn.Param(self.param, parameters=["node", "snr_db", "revolutions"], show_name=False,
@@ -134,7 +147,8 @@ class RotorPage(pn.viewable.Viewer):
                                        sizing_mode="stretch_width"), sizing_mode="stretch_width"),
             pn.Row(spectrum, modes, sizing_mode="stretch_width"),
             pn.Row(*centreline, sizing_mode="stretch_width"),
-            pn.Row(pn.Column(self._campbell_button, self.campbell_jobs, campbell, sizing_mode="stretch_width"),
+            pn.Row(pn.Column(self._campbell_button, self.campbell_jobs, self._campbell_error, self._campbell_stale,
+                             campbell, sizing_mode="stretch_width", css_classes=["lubeviz-campbell-panel"]),
                    sizing_mode="stretch_width"),
             pn.pane.Markdown(EXPLAIN, sizing_mode="stretch_width"),
             sizing_mode="stretch_width")
@@ -250,24 +264,67 @@ class RotorPage(pn.viewable.Viewer):
             effect.param.watch(self._refresh, [p for p in effect.param if p != "name"])
         await self._refresh()
 
+    def _campbell_ratios(self, flows) -> tuple[float, ...]:
+        """The supply fractions of Q_T the Campbell diagram is computed at, rounded as its cache key is."""
+        return tuple(round(q / t.q_threshold, 3) for q, t in zip(flows, self._tables))
+
     async def _on_campbell(self, event):
         if self._tables is None:
             return
-        ratios = tuple(q / t.q_threshold for q, t in zip((self.op.q1, self.op.q2), self._tables))
+        flows, speed = (self.op.q1, self.op.q2), self.op.speed
+        ratios = tuple(q / t.q_threshold for q, t in zip(flows, self._tables))
         speeds = 2 * math.pi * np.linspace(max(self.machine.speed_min, 5.0), self.machine.speed_max, 30)
-        key = ("campbell", self.machine.source, tuple(round(r, 3) for r in ratios))
+        key = ("campbell", self.machine.source, self._campbell_ratios(flows))
+        label = f"Campbell diagram at Q1 = {flows[0] / M3S_PER_MLMIN:.0f}, Q2 = {flows[1] / M3S_PER_MLMIN:.0f} ml/min"
+        self._campbell_error.visible = False
         cached = resources.memo_get(key)
         if cached is None:
+            # One Campbell job at a time: a job in a worker process runs to its end even when cancelled, and
+            # meanwhile a second job's progress would share this panel with the first's "cancelling".
+            self._campbell_button.disabled = True
             try:
                 cached = await self.campbell_jobs.run(resources.compute_stability, self.machine.source, speeds,
-                                                      ratios, process=True, label="Campbell diagram")
+                                                      ratios, process=True, label=label)
             except Cancelled:
                 return
-            except Exception as exc:  # noqa: BLE001
-                self._fail(exc)
+            except Exception as exc:  # noqa: BLE001 - shown beside the diagram (its job status says it too)
+                self._campbell_error.object = f"**Campbell diagram not computed**: {exc}"
+                self._campbell_error.visible = True
                 return
+            finally:
+                self._campbell_button.disabled = False
             resources.memo_put(key, cached)
-        self._campbell_pane.object = self._campbell(dict(result=cached, ratios=ratios, speed=self.op.speed))
+        else:
+            self.campbell_jobs.status = f"{label}: from the cache"
+        self._campbell_data = dict(result=cached, ratios=ratios, flows=flows, speed=speed)
+        self._show_campbell()
+
+    def _campbell_changes(self) -> list[str]:
+        """What has changed since the diagram shown was computed (empty: it is up to date)."""
+        d = self._campbell_data
+        if d is None or self._tables is None:
+            return []
+        changes = []
+        if self._campbell_ratios((self.op.q1, self.op.q2)) != self._campbell_ratios(d["flows"]):
+            changes.append("the flows have changed")
+        if self.op.speed != d["speed"]:
+            changes.append("the speed has changed")
+        return changes
+
+    def _show_campbell(self, *events):
+        d = self._campbell_data
+        if d is None:
+            return
+        changes = self._campbell_changes()
+        q = [f / M3S_PER_MLMIN for f in d["flows"]]
+        self._campbell_stale.object = (f"Campbell diagram computed for Q1 = {q[0]:.0f}, Q2 = {q[1]:.0f} ml/min "
+                                       f"at {d['speed']:g} Hz; {' and '.join(changes)}: "
+                                       "press the button to recompute.")
+        self._campbell_stale.visible = bool(changes)
+        drawn = (d, bool(changes))
+        if self._campbell_drawn is None or self._campbell_drawn[0] is not d or self._campbell_drawn[1] != drawn[1]:
+            self._campbell_pane.object = self._campbell(d, stale=drawn[1])  # redrawn only when its title changes
+            self._campbell_drawn = drawn
 
     def _fail(self, exc: Exception):
         self._error.object = f"**Could not compute the response**: {exc}"
@@ -382,7 +439,7 @@ class RotorPage(pn.viewable.Viewer):
             curves.append(hv.Curve([], kd, vd))
         return hv.Overlay(curves).opts(**opts)
 
-    def _campbell(self, data):
+    def _campbell(self, data, stale: bool = False):
         kd, vd = "shaft speed (Hz)", "damped natural frequency (Hz)"
         opts = dict(responsive=True, min_height=380, legend_position="right", framewise=True,
                     title="Campbell diagram (press the button above; film recomputed at every speed)")
@@ -403,9 +460,10 @@ class RotorPage(pn.viewable.Viewer):
         pts = hv.Points([(a, b) for a, b, _ in marks], [kd, vd]).opts(color="red", size=10, marker="x")
         text = "; ".join(f"{name} {a:.1f} Hz" for a, _, name in marks) or "no crossing in range"
         r = "/".join(f"{x:.2f}" for x in data["ratios"])
+        q = "/".join(f"{f / M3S_PER_MLMIN:.0f}" for f in data["flows"])
+        title = f"Campbell diagram at Q/Q_T = {r} (Q1/Q2 = {q} ml/min): {text}{' (stale)' if stale else ''}"
         return (hv.Overlay(tracks) * one_x * pts * hv.VLine(data["speed"], label="operating speed").opts(
-            color="green")).opts(**dict(opts, title=f"Campbell diagram at Q/Q_T = {r}: {text}",
-                                        ylim=(0.0, 1.5 * speeds[-1])))
+            color="green")).opts(**dict(opts, title=title, ylim=(0.0, 1.5 * speeds[-1])))
 
     def _centreline(self, data, k: int):
         """Journal k's static position in its clearance circle (µm, from the bearing centre; Y up)."""

@@ -252,3 +252,33 @@ def set_slider(page, title: str, value: float, max_key_presses: int = 100) -> No
         if (after - value) * (now - value) < 0:
             raise ValueError(f"slider {title!r}: value {value} is not on its step grid ({now} -> {after})")
     raise ValueError(f"slider {title!r}: did not reach {value} in {max_key_presses} key presses")
+
+
+# --- layout -------------------------------------------------------------------------------------------------
+# Panel's template scrolls and clips inside its own containers, so `document.documentElement.scrollWidth` stays
+# at the window's width even when a plot is cut at the right edge: look at every rendered element's box instead,
+# shadow roots included.
+_PAST_RIGHT_EDGE_JS = """(slack) => {
+  const out = [];
+  const limit = window.innerWidth + slack;
+  const visit = root => {
+    for (const el of root.querySelectorAll("*")) {
+      if (el.shadowRoot) visit(el.shadowRoot);
+      const r = el.getBoundingClientRect();
+      if (r.width === 0 || r.height === 0 || r.right <= limit) continue;
+      const style = getComputedStyle(el);
+      if (style.visibility === "hidden" || style.display === "none") continue;
+      const cls = typeof el.className === "string" ? el.className : "";
+      out.push(`${el.tagName.toLowerCase()}${cls ? "." + cls.trim().split(/\\s+/).join(".") : ""} ` +
+               `(${Math.round(r.left)}-${Math.round(r.right)} px)`);
+    }
+  };
+  visit(document);
+  return out;
+}"""
+
+
+def elements_past_right_edge(page, slack_px: float = 1.0) -> list[str]:
+    """Rendered elements whose box reaches past the window's right edge (by more than `slack_px`), described
+    as "tag.classes (left-right px)"; an empty list when the page fits the window's width."""
+    return page.evaluate(_PAST_RIGHT_EDGE_JS, slack_px)
