@@ -77,7 +77,9 @@ class RotorPage(pn.viewable.Viewer):
     node = param.Integer(6, bounds=(1, 21), doc="Node (paper numbering) whose orbit, signals and spectrum are shown")
     snr_db = param.Number(12.0, bounds=(-5.0, 60.0), doc="Signal-to-noise ratio of the simulated probes (dB)")
     revolutions = param.Integer(5, bounds=(1, 50), doc="Revolutions shown in the time signals")
-    effect_name = param.Selector(default="none", objects=["none", *[n for n, c in EFFECTS.items() if c.stage != "response"]],
+    # large_orbit replaces the linear response (a harmonic balance, ~40 s): not a switch for this page
+    effect_name = param.Selector(default="none", objects=["none", *(n for n, c in EFFECTS.items()
+                                                                    if c.stage != "response")],
                                  doc="An effect of a real machine, switched on to see what it does")
 
     def __init__(self, machine: Machine, operating: OperatingPoint, **params):
