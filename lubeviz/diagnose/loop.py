@@ -146,6 +146,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         look_alike = None if oil_known else _oil_look_alike(chains, meas, before, names, budget, level)
         if look_alike is not None:
             ambiguous = (look_alike[0],)
+            set_intervals = look_alike[4]  # the flows over any oil in the range: what the record supports
             separated = (type(look_alike[1]).separated_by,)
             verdict += (f" But the oil's viscosity is not pinned by this record: oil x{OIL_RANGE[0]:g}-"
                         f"{OIL_RANGE[1]:.2f} as viscous as declared explains it as well, with Q1 in {look_alike[2]} "
@@ -263,7 +264,8 @@ def _oil_look_alike(chains, meas, before: Fit, names, budget, level):
         top = chains[0].bounds()[1][k]
         wider |= ((top if hi_w is None else hi_w) - lo_w) > 2 * ((top if hi_n is None else hi_n) - lo_n)
         ranges.append(f"[{lo_w * 6e7:.0f}, {'open' if hi_w is None else format(hi_w * 6e7, '.0f')}]")
-    return ("viscosity[bearing=both]", oil, *ranges) if wider else None
+    ivs = tuple(wide.intervals[n] for n in ("q1", "q2"))
+    return ("viscosity[bearing=both]", oil, *ranges, ivs) if wider else None
 
 
 def _story(c: Candidate) -> str:
