@@ -3,55 +3,170 @@
 Each session gets its own `OperatingPoint` and `IdentificationSettings` (so two sessions never share
 state by accident) and shares only deterministic results through `resources`. A page's expensive work
 starts when the page is first shown (tabs render lazily), so the start page appears at once.
+
+The start page is static: what lubeviz does, two pictures (the machine, a bearing cut across the shaft),
+what each page is for with a button that opens it, where to start, and the glossary. The glossary is also
+one click away from every page (the header's Glossary button opens it in the template's dialog).
 """
 
 from __future__ import annotations
 
 import asyncio
+import html
+from pathlib import Path
 
 import panel as pn
 
 from ..model.operating import OperatingPoint
 from ..units import M3S_PER_MLMIN
 from . import resources
-from .bearing_page import BearingPage
-from .diagnose_page import DiagnosePage
-from .identify_page import IdentifyPage
+from .glossary import GLOSSARY
 from .jobs import JobPanel
-from .maps_page import MapsPage
-from .rotor_page import RotorPage
 from .session import SessionState
 
-ABOUT = """
+ASSETS = Path(__file__).resolve().parents[2] / "assets"
+# The start page's pictures (assets/, drawn for it): file, kind (its CSS class), caption.
+PICTURES = (
+    ("machine.svg", "machine",
+     "The paper's machine, drawn to scale: a stepped shaft with three discs (the unbalance on the middle one) on "
+     "two grooved oil-film bearings, each fed its own supply flow (Q1, Q2); an X and a Y probe measure the "
+     "shaft's vibration in each of two planes."),
+    ("bearing_section.svg", "bearing",
+     "One bearing cut across the shaft. Oil enters the axial groove at the top; the turning journal drags it "
+     "into the narrowing gap, where the full film carries the load; after the minimum film the gap widens and "
+     "the film breaks into streamers (cavitation). With less oil (starved) the full film shrinks and the "
+     "journal sinks."),
+)
+
+INTRO = """
 ## lubeviz
 How well is each hydrodynamic bearing of a machine lubricated? lubeviz answers from the shaft's
 vibration alone: a mass-conserving film model whose oil **supply flow** is an input, a finite-element
-rotor, the **full spectrum** of the shaft's orbit (forward and backward whirl), and a search for the two
-supply flows Q1, Q2 that make the model's orbit features match the measured ones (Oliveira, Cunha &
-Daniel; see the README).
+rotor, the **full spectrum** of the shaft's orbit (forward and backward whirl: {fb}, {phi}), and a search
+for the two supply flows Q1, Q2 that make the model's orbit features match the measured ones (Oliveira,
+Cunha & Daniel; see the README). A bearing fed less than {q_t} is {starved}.
+"""
 
-* **Bearing**: the oil film of one bearing as its supply goes from starved to flooded.
-* **Rotor**: the machine, its orbits, signals and full spectra, modes and Campbell diagram.
-* **Maps**: how the orbit features depend on Q1 and Q2, and the identification's search on them.
-* **Identify**: upload a measured record and get the flows, their uncertainty and a verdict.
-* **Diagnose**: when the model does not explain a record, find the effect it lacks (hotter oil, a worn
-  bearing, a probe turned …), identify the flows again with it, and download a report for the work order.
+PAGE_PURPOSES = {
+    "Bearing": "The oil film of one bearing as its supply goes from starved to flooded: pressure and oil "
+               "fraction θ, the journal's position (ε), the 8 stiffness and damping coefficients.",
+    "Rotor": "The machine, its orbits, signals and full spectra (fb, φ), modes and Campbell diagram; switch an "
+             "effect on (hotter oil, a worn bearing, a probe turned …) and watch them move.",
+    "Maps": "How the orbit features depend on Q1 and Q2 (the paper's Figs. 7, 9–11), and the identification's "
+            "search on them.",
+    "Identify": "Upload a measured record (or load the sample) and get the flows, their 95 % intervals and a "
+                "verdict: starved, normal or over-supplied.",
+    "Diagnose": "When the model does not explain a record (small p), find the effect it lacks, identify the flows "
+                "again with it, and download a report for the work order.",
+}
 
-Everything shown here is also a Python API and a command (`lubeviz --help`).
-
+WHERE_TO_START = """
 **Where to start.** A student: open **Bearing** and drag the supply flow below Q_T, then switch an effect
 on in **Rotor**. An engineer with a record: open **Identify**, upload it (or load the sample) and press
 *Identify*; if the model does not explain it, **Diagnose** it. A researcher: **Maps**
 shows the paper's Figs. 7 and 9–11 for any flows; `lubeviz reproduce` and `lubeviz figures` regenerate its
-tables and figures.
+tables and figures. Everything shown here is also a Python API and a command (`lubeviz --help`).
+"""
+
+# The start page's own styles (its panes render in shadow roots, so each pane carries what it uses).
+_FIGURE_CSS = """
+.lubeviz-figures { display: flex; flex-wrap: wrap; gap: 16px; }
+.lubeviz-figures figure { margin: 0; min-width: 0; }
+.lubeviz-figures figure.machine { flex: 7 1 520px; }
+.lubeviz-figures figure.bearing { flex: 4 1 340px; max-width: 640px; }
+.lubeviz-figures svg { display: block; width: 100%; height: auto; }
+.lubeviz-figures figcaption { font-size: 0.9em; margin-top: 4px; opacity: 0.85; }
+"""
+# The header holds the title, the Glossary button, the theme switch and the busy indicator on one line: the
+# title gives way (ellipsis) on a narrow window instead of pushing the others past its right edge.
+_HEADER_CSS = """
+#header .title { min-width: 0; overflow: hidden; text-overflow: ellipsis; white-space: nowrap; flex: 0 1 auto; }
+#header-items { width: auto; flex: 1 0 auto; }
+"""
+_GLOSSARY_CSS = """
+dl.lubeviz-glossary { margin: 0; }
+dl.lubeviz-glossary dt { font-weight: bold; margin-top: 0.6em; }
+dl.lubeviz-glossary dd { margin: 0.1em 0 0 1.2em; }
 """
 
 
-PAGES = {"Bearing": lambda m, op, state: BearingPage(m, op),
-         "Rotor": lambda m, op, state: RotorPage(m, op),
-         "Maps": lambda m, op, state: MapsPage(m, op, state),
-         "Identify": lambda m, state_op, state: IdentifyPage(m, state),
-         "Diagnose": lambda m, op, state: DiagnosePage(m, state)}
+def _term(start: str) -> str:
+    """The glossary's key that starts with `start` (a KeyError names the missing word)."""
+    for key in GLOSSARY:
+        if key.startswith(start):
+            return key
+    raise KeyError(f"no glossary term starts with {start!r}; the terms: {list(GLOSSARY)}")
+
+
+def _abbr(shown: str, start: str) -> str:
+    """`shown` with the glossary's explanation of the term starting with `start` as its tooltip."""
+    return f'<abbr title="{html.escape(GLOSSARY[_term(start)], quote=True)}">{html.escape(shown)}</abbr>'
+
+
+def glossary_html() -> str:
+    """The glossary as an HTML definition list."""
+    items = "".join(f"<dt>{html.escape(term)}</dt><dd>{html.escape(text)}</dd>" for term, text in GLOSSARY.items())
+    return f'<dl class="lubeviz-glossary">{items}</dl>'
+
+
+def _svg(name: str) -> str:
+    """An SVG picture of `assets/`, inlined (the app works offline; no file is served)."""
+    text = (ASSETS / name).read_text(encoding="utf-8")
+    return text[text.index("<svg"):]  # from the <svg> element on (no XML declaration inside HTML)
+
+
+def start_page(open_page) -> pn.Column:
+    """The start page; `open_page(name)` switches to that page's tab."""
+    intro = pn.pane.Markdown(INTRO.format(fb=_abbr("fb", "fb"), phi=_abbr("φ", "φ"), q_t=_abbr("Q_T", "Q_T"),
+                                          starved=_abbr("starved", "starved")), sizing_mode="stretch_width")
+    figures = pn.pane.HTML(
+        '<div class="lubeviz-figures">' + "".join(
+            f'<figure class="{kind}">{_svg(name)}<figcaption>{html.escape(caption)}</figcaption></figure>'
+            for name, kind, caption in PICTURES) + "</div>",
+        sizing_mode="stretch_width", stylesheets=[_FIGURE_CSS], css_classes=["lubeviz-start-figures"])
+    rows = []
+    for name, purpose in PAGE_PURPOSES.items():
+        button = pn.widgets.Button(name=f"Open {name}", button_type="primary", width=140, description=purpose,
+                                   css_classes=[f"lubeviz-open-{name.lower()}"])
+        button.on_click(lambda event, name=name: open_page(name))
+        rows.append(pn.Row(button, pn.pane.Markdown(f"**{name}**: {purpose}", sizing_mode="stretch_width",
+                                                    margin=(0, 10)), sizing_mode="stretch_width"))
+    glossary = pn.pane.HTML(glossary_html(), sizing_mode="stretch_width", stylesheets=[_GLOSSARY_CSS],
+                            css_classes=["lubeviz-start-glossary"])
+    return pn.Column(intro, figures, pn.pane.Markdown("### What each page is for", sizing_mode="stretch_width"),
+                     *rows, pn.pane.Markdown(WHERE_TO_START, sizing_mode="stretch_width"),
+                     pn.pane.Markdown("### Glossary", sizing_mode="stretch_width"), glossary,
+                     sizing_mode="stretch_width", css_classes=["lubeviz-start"])
+
+
+# A page's module (holoviews, its plots) is imported when the page is first opened, not before the start page
+# is shown: that import took about 2 s of the first session's start page on our 2-core machines.
+def _bearing(m, op, state):
+    from .bearing_page import BearingPage
+    return BearingPage(m, op)
+
+
+def _rotor(m, op, state):
+    from .rotor_page import RotorPage
+    return RotorPage(m, op)
+
+
+def _maps(m, op, state):
+    from .maps_page import MapsPage
+    return MapsPage(m, op, state)
+
+
+def _identify(m, op, state):
+    from .identify_page import IdentifyPage
+    return IdentifyPage(m, state)
+
+
+def _diagnose(m, op, state):
+    from .diagnose_page import DiagnosePage
+    return DiagnosePage(m, state)
+
+
+PAGES = {"Bearing": _bearing, "Rotor": _rotor, "Maps": _maps, "Identify": _identify, "Diagnose": _diagnose}
 
 
 def build() -> pn.template.FastListTemplate:
@@ -63,8 +178,11 @@ def build() -> pn.template.FastListTemplate:
     state = SessionState(name="session")
     names = list(PAGES)
     pages: dict[str, object] = {}
-    start = pn.pane.Markdown(ABOUT, sizing_mode="stretch_width", css_classes=["lubeviz-start"])
-    tabs = pn.Tabs(("Start", start),
+
+    def open_page(name: str):
+        tabs.active = 1 + names.index(name)  # the watcher below builds the page
+
+    tabs = pn.Tabs(("Start", start_page(open_page)),
                    *[(name, pn.Column(pn.indicators.LoadingSpinner(value=True, size=40), sizing_mode="stretch_width"))
                      for name in names],
                    dynamic=True, sizing_mode="stretch_width", css_classes=["lubeviz-pages"])
@@ -90,8 +208,15 @@ def build() -> pn.template.FastListTemplate:
     tabs.param.watch(lambda e: show(e.new), "active")
     pn.state.onload(lambda: show(tabs.active))
     pn.state.on_session_destroyed(closed)
+    glossary_button = pn.widgets.Button(name="Glossary", button_type="light", width=100, align="center",
+                                        description="What the words and symbols on these pages mean",
+                                        css_classes=["lubeviz-glossary-button"])
     template = pn.template.FastListTemplate(
-        title="lubeviz — bearing lubrication from shaft vibration", main=[tabs],
-        accent_base_color="#2c5f8a", header_background="#2c5f8a")
+        title="lubeviz — bearing lubrication from shaft vibration", main=[tabs], header=[glossary_button],
+        modal=[pn.Column(pn.pane.Markdown("## Glossary"),
+                         pn.pane.HTML(glossary_html(), stylesheets=[_GLOSSARY_CSS], sizing_mode="stretch_width"),
+                         sizing_mode="stretch_width", css_classes=["lubeviz-glossary-dialog"])],
+        accent_base_color="#2c5f8a", header_background="#2c5f8a", raw_css=[_HEADER_CSS])
+    glossary_button.on_click(lambda event: template.open_modal())
     template.lubeviz_pages = pages  # for tests and scripts: the pages built so far, by name
     return template
