@@ -395,7 +395,7 @@ class BearingPage(pn.viewable.Viewer):
         kd = ["e_X/c (–)", "e_Y/c (–)"]
         t = np.linspace(0, 2 * math.pi, 181)
         circle = hv.Curve((np.cos(t), np.sin(t)), kd[0], kd[1], label="clearance circle (e = c)").opts(
-            color="black", line_width=1)
+            color=plotting.NEUTRAL, line_width=1)
         data = data or {}
         frames = data.get("frames") or []
         pos, q, qt_pt = np.zeros((0, 2)), np.zeros(0), []
@@ -412,7 +412,7 @@ class BearingPage(pn.viewable.Viewer):
         pts = hv.Points((pos[:, 0], pos[:, 1], q), kd, ["Q (ml/min)"]).opts(
             color="Q (ml/min)", cmap="viridis", size=5, tools=["hover"], colorbar=True, clim=q_lim,
             clabel="Supply flow Q (ml/min)")
-        threshold = hv.Points(qt_pt, kd, label=_qt_label(qt)).opts(color="black", size=12, marker="star")
+        threshold = hv.Points(qt_pt, kd, label=_qt_label(qt)).opts(color=plotting.NEUTRAL, size=12, marker="star")
         box = dict(xlim=(-LOCUS_LIMIT, LOCUS_LIMIT), ylim=(-LOCUS_LIMIT, LOCUS_LIMIT))  # the whole circle, always
         return (circle * locus * pts * threshold).opts(
             hv.opts.Curve(**box), hv.opts.Points(**box), hv.opts.Overlay(**opts))
@@ -442,7 +442,7 @@ class BearingPage(pn.viewable.Viewer):
         qt = data.get("q_threshold")
         # VLines (not VLine): a glyph, so the line has its legend entry with the value
         line = hv.VLines([qt / M3S_PER_MLMIN] if qt else [], label=_qt_label(qt)).opts(
-            color="black", line_dash="dashed", line_width=2)
+            color=plotting.NEUTRAL, line_dash="dashed", line_width=2)
         return hv.Overlay(curves + [line]).opts(**opts)
 
     def _summary_text(self, f: SupplyFrame) -> str:

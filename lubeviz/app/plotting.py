@@ -12,3 +12,7 @@ from holoviews import opts
 hv.extension("bokeh", logo=False)
 hv.opts.defaults(*(getattr(opts, name)(framewise=True) for name in (
     "Curve", "Scatter", "Points", "Spikes", "Image", "Path", "Contours", "Rectangles", "Labels", "Bounds")))
+
+# Reference lines and markers (clearance circles, the 1X line, Q_T, keyphasor): a mid grey that stays
+# visible on the light and on the dark theme (black vanishes on dark, white on light).
+NEUTRAL = "#8c8c8c"

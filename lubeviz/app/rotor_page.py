@@ -384,7 +384,7 @@ class RotorPage(pn.viewable.Viewer):
                 * base
                 * hv.Curve((x, y), *kd, label="steady orbit" if effect is None else f"with {effect.label()}").opts(
                     color="#08519c", line_width=2)
-                * hv.Points([(x[0], y[0])], kd, label="t = 0 (keyphasor)").opts(color="black", size=8)).opts(
+                * hv.Points([(x[0], y[0])], kd, label="t = 0 (keyphasor)").opts(color=plotting.NEUTRAL, size=8)).opts(
             title=f"Orbit at node {data['node']} (forward: counter-clockwise)", xlim=(-lim, lim), ylim=(-lim, lim),
             **opts)
 
@@ -451,7 +451,7 @@ class RotorPage(pn.viewable.Viewer):
         speeds = res.speeds / (2 * math.pi)
         fr = res.damped_frequencies_hz
         tracks = [hv.Curve((speeds, fr[:, j]), kd, vd, label=f"mode {j + 1}") for j in range(min(8, fr.shape[1]))]
-        one_x = hv.Curve((speeds, speeds), kd, vd, label="1X").opts(color="black", line_dash="dashed")
+        one_x = hv.Curve((speeds, speeds), kd, vd, label="1X").opts(color=plotting.NEUTRAL, line_dash="dashed")
         marks = []
         crit = res.first_critical_speed
         if crit is not None:
@@ -478,7 +478,7 @@ class RotorPage(pn.viewable.Viewer):
         c0, c = data["clearance"][k] * 1e6, data["clearance_eff"][k] * 1e6
         p0, p = data["static0"][k] * 1e6, data["static"][k] * 1e6
         lim = 1.1 * max(c0, c)
-        layers = [hv.Curve((c0 * np.cos(th), c0 * np.sin(th)), *kd, label="clearance circle").opts(color="black")]
+        layers = [hv.Curve((c0 * np.cos(th), c0 * np.sin(th)), *kd, label="clearance circle").opts(color=plotting.NEUTRAL)]
         effect = data.get("effect")
         if effect is not None and abs(c - c0) > 1e-9:
             layers.append(hv.Curve((c * np.cos(th), c * np.sin(th)), *kd, label="with the effect").opts(
