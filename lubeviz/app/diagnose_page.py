@@ -115,7 +115,7 @@ class DiagnosePage(pn.viewable.Viewer):
         self._candidates = pn.Column(sizing_mode="stretch_width")  # a Tabulator made afresh per result
         self._residuals = pn.pane.HoloViews(self._residual_plot(None), sizing_mode="stretch_width",
                                             linked_axes=False, css_classes=["lubeviz-residuals"])
-        self._maps = pn.Row(sizing_mode="stretch_width")
+        self._maps = pn.FlexBox(flex_wrap="wrap")  # the two χ² maps side by side, or one above the other when narrow
         flows = [quantity_slider(self.sample, n, start=0.3 * 546 * M3S_PER_MLMIN, end=2.0 * 546 * M3S_PER_MLMIN,
                                  step=M3S_PER_MLMIN, label=f"Sample: true flow Q{k + 1} (ml/min)",
                                  sizing_mode="stretch_width") for k, n in enumerate(("q1", "q2"))]

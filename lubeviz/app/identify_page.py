@@ -107,8 +107,9 @@ class IdentifyPage(pn.viewable.Viewer):
         self._download_csv = pn.widgets.FileDownload(callback=self._export_csv, filename="identification.csv",
                                                      label="Export CSV", button_type="success", disabled=True)
         self._signals = pn.pane.HoloViews(None, sizing_mode="stretch_width", linked_axes=False)
-        self._orbits = pn.pane.HoloViews(None, sizing_mode="stretch_width", linked_axes=False,
-                                         css_classes=["lubeviz-record-orbits"])
+        # The two orbits in a wrapping row: side by side while they fit, one above the other in a narrow window.
+        self._orbit_panes = [pn.pane.HoloViews(None, linked_axes=False) for _ in range(2)]
+        self._orbits = pn.FlexBox(*self._orbit_panes, flex_wrap="wrap", css_classes=["lubeviz-record-orbits"])
         self._spectra = pn.pane.HoloViews(None, sizing_mode="stretch_width", linked_axes=False,
                                           css_classes=["lubeviz-record-spectra"])
         settings = pn.Param(self.settings.param, parameters=["mode", "include_model_error", "max_iterations"],
@@ -119,8 +120,9 @@ class IdentifyPage(pn.viewable.Viewer):
         results = pn.Column(self._message, self._result, self._warning, self._features,
                             sizing_mode="stretch_width")
         self._layout = pn.Column(
-            pn.Row(controls, pn.Column(results, self._orbits, sizing_mode="stretch_width"),
-                   sizing_mode="stretch_width"),
+            # the results below the controls in a narrow window
+            pn.FlexBox(controls, pn.Column(results, self._orbits, sizing_mode="stretch_width", min_width=420,
+                                           styles={"flex": "1 1 420px"}), flex_wrap="wrap"),
             self._spectra, self._signals, pn.pane.Markdown(EXPLAIN, sizing_mode="stretch_width"),
             sizing_mode="stretch_width")
 
@@ -334,5 +336,6 @@ class IdentifyPage(pn.viewable.Viewer):
             spectra.append(hv.Spikes((f[keep], amp[keep]), "frequency (Hz)", "amplitude (µm)").opts(
                 title=f"Full spectrum, plane {k + 1} (+ forward, − backward)", responsive=True, min_height=260,
                 line_width=2, color="#2c5f8a"))
-        self._orbits.object = hv.Layout(orbits).cols(2).opts(shared_axes=False)
+        for pane, orbit in zip(self._orbit_panes, orbits):
+            pane.object = orbit
         self._spectra.object = hv.Layout(spectra).cols(2).opts(shared_axes=False)

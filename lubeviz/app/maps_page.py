@@ -50,6 +50,8 @@ other over-supplied. "Take the Rotor page's flows" copies the flows set there.
 
 PLANES = {"bearing centres": "center", "outside the bearings": "outside"}
 SIMULATED_FRACTIONS = (0.8, 1.2)  # the simulated record's default flows, fractions of Q_T: starved / over-supplied
+FEATURES = (("fb1", "fb1 (–)", "viridis"), ("fb2", "fb2 (–)", "viridis"),  # name, colour bar label, colour map
+            ("phi1", "φ1 (deg)", "twilight"), ("phi2", "φ2 (deg)", "twilight"))
 SYMBOLS = {"fb1": "fb1", "fb2": "fb2", "phi1": "φ1", "phi2": "φ2"}
 ROOT_COLORS = {"fb1": "#e41a1c", "fb2": "#377eb8", "phi1": "#ff7f00", "phi2": "#4daf4a"}
 # Drawn over the grey ε_T map in light and dark themes alike: mid-luminance colours (contrast >= 2.5 against
@@ -89,9 +91,11 @@ class MapsPage(pn.viewable.Viewer):
         self._take_rotor_flows = pn.widgets.Button(name="Take the Rotor page's flows", button_type="default",
                                                    css_classes=["lubeviz-maps-take-flows"])
         self._take_rotor_flows.on_click(self._on_take_rotor_flows)
-        self._features = pn.pane.HoloViews(None, sizing_mode="stretch_width", linked_axes=False,
-                                           css_classes=["lubeviz-feature-maps"])
-        self._errors = pn.pane.HoloViews(None, sizing_mode="stretch_width", linked_axes=False,
+        # The four feature maps in a wrapping row: two a row in a wide window, one in a narrow one.
+        self._feature_panes = [pn.pane.HoloViews(None, linked_axes=False) for _ in FEATURES]
+        self._features = pn.FlexBox(*self._feature_panes, flex_wrap="wrap", css_classes=["lubeviz-feature-maps"])
+        self._errors = pn.pane.HoloViews(None, sizing_mode="stretch_width", min_width=420,
+                                         styles={"flex": "1 1 420px"}, linked_axes=False,
                                          css_classes=["lubeviz-error-map"])
         self._summary = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["lubeviz-maps-summary"])
         self._error = pn.pane.Alert("", alert_type="warning", visible=False, sizing_mode="stretch_width")
@@ -119,7 +123,7 @@ class MapsPage(pn.viewable.Viewer):
         self.param.watch(lambda e: setattr(simulated, "visible", e.new == "simulated"), "source")
         controls = pn.Column("### Maps", widgets, mode, simulated, self._summary, self.jobs, width=330)
         return pn.Column(self._error,
-                         pn.Row(controls, self._errors, sizing_mode="stretch_width"),
+                         pn.FlexBox(controls, self._errors, flex_wrap="wrap"),  # the map below the controls when narrow
                          self._features,
                          pn.pane.Markdown(EXPLAIN, sizing_mode="stretch_width"),
                          sizing_mode="stretch_width")
@@ -233,7 +237,8 @@ class MapsPage(pn.viewable.Viewer):
         if r is None:
             return
         self._errors.object = self._error_plot(r)
-        self._features.object = self._feature_plots(r)
+        for pane, plot in zip(self._feature_panes, self._feature_plots(r)):
+            pane.object = plot
         self._summary.object = self._summary_text(r)
 
     # --- plots -------------------------------------------------------------------------------------------
@@ -276,13 +281,13 @@ class MapsPage(pn.viewable.Viewer):
             title=f"ε_T and the root curves, nodes {nodes[0]} and {nodes[1]} ({self.settings.mode} mode search)",
             responsive=True, min_height=520, legend_position="right", xlim=(q1[0], q1[-1]), ylim=(q2[0], q2[-1]))
 
-    def _feature_plots(self, r):
+    def _feature_plots(self, r) -> list:
+        """The four feature maps, in the order of FEATURES (each about 490 px wide with its colour bar)."""
         grid = r["grid"]
         q1, q2 = grid.q1 / M3S_PER_MLMIN, grid.q2 / M3S_PER_MLMIN
         kd = ["Q1 (ml/min)", "Q2 (ml/min)"]
         plots = []
-        for name, label, cmap in (("fb1", "fb1 (–)", "viridis"), ("fb2", "fb2 (–)", "viridis"),
-                                  ("phi1", "φ1 (deg)", "twilight"), ("phi2", "φ2 (deg)", "twilight")):
+        for name, label, cmap in FEATURES:
             v = grid[name]
             fb = not name.startswith("phi")
             if not fb:
@@ -295,8 +300,7 @@ class MapsPage(pn.viewable.Viewer):
                 color="red", marker="x", size=12, line_width=3)
             plots.append((img * marks).opts(title=f"{SYMBOLS[name]} over Q1 × Q2 (Fig. 7)", frame_width=330,
                                             frame_height=250))
-        # two columns (~950 px): four side by side need ~1700 px and were cut in narrower windows
-        return hv.Layout(plots).cols(2).opts(shared_axes=False)
+        return plots
 
     def _summary_text(self, r) -> str:
         qi = r["q_identified"] / M3S_PER_MLMIN

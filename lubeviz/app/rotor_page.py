@@ -69,6 +69,9 @@ centreline. The identification must tell these apart from a change of supply: th
 """
 
 PLOT = dict(tools=["hover"], framewise=True)
+# In a wrapping row (pn.FlexBox): the plots beside the controls while both fit, below them in a narrow window.
+WRAPPING = dict(sizing_mode="stretch_width", min_width=420, styles={"flex": "1 1 420px"})
+HALF = dict(min_width=340, styles={"flex": "1 1 480px"})  # two in a row when each has 480 px, else one
 
 
 class RotorPage(pn.viewable.Viewer):
@@ -133,22 +136,25 @@ class RotorPage(pn.viewable.Viewer):
                                     css_classes=["lubeviz-machine"], linked_axes=False)
         orbit = pn.pane.HoloViews(hv.DynamicMap(self._orbit, streams=[self._pipe]), width=380,
                                   css_classes=["lubeviz-orbit"], linked_axes=False)
-        signals = pn.pane.HoloViews(hv.DynamicMap(self._signals, streams=[self._pipe]), **pane)
+        signals = pn.pane.HoloViews(hv.DynamicMap(self._signals, streams=[self._pipe]), min_width=300,
+                                    styles={"flex": "1 1 300px"}, **pane)
         spectrum = pn.pane.HoloViews(hv.DynamicMap(self._spectrum, streams=[self._pipe]),
-                                     css_classes=["lubeviz-spectrum"], **pane)
-        modes = pn.pane.HoloViews(hv.DynamicMap(self._modes, streams=[self._pipe]), **pane)
+                                     css_classes=["lubeviz-spectrum"], **HALF, **pane)
+        modes = pn.pane.HoloViews(hv.DynamicMap(self._modes, streams=[self._pipe]), **HALF, **pane)
         centreline = [pn.pane.HoloViews(hv.DynamicMap(lambda data, k=k: self._centreline(data, k), streams=[self._pipe]),
                                         linked_axes=False, css_classes=[f"lubeviz-centreline{k + 1}"])
                       for k in range(2)]
         # Replaced whole when computed (the number of tracked modes varies): no DynamicMap here.
         self._campbell_pane = campbell = pn.pane.HoloViews(self._campbell(None), css_classes=["lubeviz-campbell-plot"],
                                                            **pane)
+        # Wrapping rows, so that a narrow window (800 px) stacks what a wide one sets side by side: the controls
+        # above the plots, the orbit above the signals, one plot per row below.
+        plots = pn.Column(drawing, pn.FlexBox(orbit, signals, flex_wrap="wrap"), **WRAPPING)
         return pn.Column(
             self._error,
-            pn.Row(controls, pn.Column(drawing, pn.Row(orbit, signals, sizing_mode="stretch_width"),
-                                       sizing_mode="stretch_width"), sizing_mode="stretch_width"),
-            pn.Row(spectrum, modes, sizing_mode="stretch_width"),
-            pn.Row(*centreline, sizing_mode="stretch_width"),
+            pn.FlexBox(controls, plots, flex_wrap="wrap"),
+            pn.FlexBox(spectrum, modes, flex_wrap="wrap"),
+            pn.FlexBox(*centreline, flex_wrap="wrap"),
             pn.Row(pn.Column(self._campbell_button, self.campbell_jobs, self._campbell_error, self._campbell_stale,
                              campbell, sizing_mode="stretch_width", css_classes=["lubeviz-campbell-panel"]),
                    sizing_mode="stretch_width"),
@@ -361,7 +367,9 @@ class RotorPage(pn.viewable.Viewer):
             marker="star", size=14, color="#d62728")
         return (el * labels * probes * sel * unb).opts(
             title="The machine to scale: shaft, discs, bearings (orange), measurement planes (▼)",
-            frame_width=860, data_aspect=1, xlim=(-50.0, xs[-1] + 50.0), ylim=(-top - 70, top + 60),
+            # 600 px: about 705 with its axes, within the plots' column of an 800 px window (a responsive
+            # width would lose the 1:1 scale, data_aspect fixes the height)
+            frame_width=600, data_aspect=1, xlim=(-50.0, xs[-1] + 50.0), ylim=(-top - 70, top + 60),
             show_legend=False, xlabel="axial position x (mm)", ylabel="radius (mm)", framewise=True)
 
     def _orbit(self, data):

@@ -178,14 +178,6 @@ LAYOUT_DEFECTS: dict[tuple[str, int], str] = {
     ("Bearing", 800): "bearing_page.py: the K and C coefficient plots (responsive, legend on the right) share the "
                       "sweep row with the locus (frame_width=280); at 800 px their column is 234 px wide but their "
                       "canvases need 268-275 px, so they run about 20 px past the window's edge",
-    ("Rotor", 800): "rotor_page.py: the machine drawing has a fixed frame_width=860 (about 965 px with its axes) "
-                    "beside the 330 px controls column, so it is cut off in any window narrower than about 1340 px; "
-                    "the orbit's fixed width=380 leaves the probe signals about 100 px; the two shaft-centreline "
-                    "plots (frame_width=250, legend on the right, about 505 px each) sit side by side",
-    ("Maps", 800): "maps_page.py: the four feature maps are a 2-column hv.Layout of frame_width=330 plots with "
-                   "colour bars (about 493 px each, about 990 px a row), wider than an 800 px window",
-    ("Identify", 800): "identify_page.py: the record's orbits are a 2-column hv.Layout of frame_width=260 plots "
-                       "(about 338 px each) beside the 340 px controls column: about 1050 px in all",
 }
 
 
