@@ -27,7 +27,7 @@ from ..model.operating import OperatingPoint
 from ..progress import Cancelled
 from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
-from .jobs import JobPanel
+from .jobs import EXECUTOR, JobPanel
 from .widgets import quantity_slider
 
 hv.extension("bokeh", logo=False)
@@ -62,6 +62,7 @@ AUTO = (math.nan, math.nan)  # HoloViews' "no limits": the colour or axis range 
 THETA_RANGE = (0.0, 1.0)  # the oil fraction's whole range: 0 (no oil) to 1 (full film)
 FILM_RATIO_RANGE = (0.0, 2.0)  # h/c = 1 + ε cos(...) stays within 0-2 for any ε < 1
 LOCUS_LIMIT = 1.1  # e/c axes: the whole clearance circle (|e| = c) and a margin
+SWEEP_COEF_MIN_PX = 380  # the K and C plots' narrowest width beside the locus (frame, axes, legend at the right)
 
 
 def nice_ceiling(x: float) -> float:
@@ -109,6 +110,7 @@ class BearingPage(pn.viewable.Viewer):
         self._q_threshold: dict[tuple[int, float], float] = {}
         self._scales: dict[tuple[int, float], dict[str, float]] = {}  # (bearing, speed) -> fixed ranges (MPa)
         self._frame: SupplyFrame | None = None
+        self._frame_scaled = False  # the frame shown was drawn on the fixed scale (known by then)
         self._frame_pipe = hv.streams.Pipe(data=None)  # the two fields
         self._detail_pipe = hv.streams.Pipe(data=None)  # profiles and current-Q markers, drawn just after
         self._sweep_pipe = hv.streams.Pipe(data=None)
@@ -125,6 +127,8 @@ class BearingPage(pn.viewable.Viewer):
                                                    description=self.param.colour_scale.doc, align="center"),
             css_classes=["lubeviz-colour-scale"])
         self._ready = False
+        # The first films are solved while the page's plots are built and sent (about a second on first use).
+        self._warm_up = EXECUTOR.submit(_first_films, machine, self.bearing, self.speed, self._q())
         self._layout = self._build()
         self.param.watch(self._on_bearing, "bearing")
         self.param.watch(self._on_colour_scale, "colour_scale")
@@ -160,17 +164,28 @@ class BearingPage(pn.viewable.Viewer):
         profiles = pn.Row(pn.pane.HoloViews(profile_p, **pane), pn.pane.HoloViews(profile_t, **pane),
                           sizing_mode="stretch_width")
         # The coefficient plots stacked beside the locus: each as wide as the row allows, so their legends
-        # fit at the right of the frames; the locus keeps its square frame (e/c equal on both axes).
-        sweep = pn.Row(pn.pane.HoloViews(locus, css_classes=["lubeviz-locus"], linked_axes=False),
-                       pn.Column(pn.pane.HoloViews(coef_k, **pane), pn.pane.HoloViews(coef_c, **pane),
-                                 sizing_mode="stretch_width"),
-                       sizing_mode="stretch_width")
+        # fit at the right of the frames; the locus keeps its square frame (e/c equal on both axes). The row
+        # wraps: below SWEEP_COEF_MIN_PX beside the locus (a narrow window) the coefficients go under it.
+        self._sweep_plots = [
+            pn.pane.HoloViews(locus, css_classes=["lubeviz-locus"], linked_axes=False),
+            pn.Column(pn.pane.HoloViews(coef_k, **pane), pn.pane.HoloViews(coef_c, **pane),
+                      sizing_mode="stretch_width", styles={"flex": f"1 1 {SWEEP_COEF_MIN_PX}px"})]
+        # Drawn only once the film at the current flow is: their Bokeh models (built here, drawn in the
+        # browser) would otherwise delay the first fields by about a second.
+        self._sweep_box = pn.FlexBox(
+            pn.pane.Markdown("*The shaft-centre locus and the coefficients over Q follow the film.*",
+                             sizing_mode="stretch_width"),
+            flex_wrap="wrap", sizing_mode="stretch_width", css_classes=["lubeviz-sweep"])
         return pn.Column(
             self._error,
             pn.Row(controls, fields, sizing_mode="stretch_width"),
-            profiles, sweep,
+            profiles, self._sweep_box,
             pn.pane.Markdown(EXPLAIN, sizing_mode="stretch_width"),
             sizing_mode="stretch_width")
+
+    def _show_sweep_plots(self):
+        if self._sweep_box.objects[0] is not self._sweep_plots[0]:
+            self._sweep_box.objects = list(self._sweep_plots)
 
     def __panel__(self):
         return self._layout
@@ -192,8 +207,17 @@ class BearingPage(pn.viewable.Viewer):
 
     async def _prepare(self):
         k, speed = self.bearing, self.speed
-        for step in (lambda: self._threshold(k, speed), lambda: self._fixed_scales(k, speed), self._show_current,
-                     self._fill_sweep):
+        if self._warm_up is not None:
+            warm_up, self._warm_up = self._warm_up, None
+            try:
+                await asyncio.wrap_future(warm_up)
+            except Exception as exc:  # noqa: BLE001 - shown on the page; the app keeps serving
+                self._fail(exc)
+                return
+        # On a later bearing or speed, the film at the current flow and the two at the slider's ends (the
+        # fixed colour scale) are solved at once, on two threads; the fields are drawn when both are in, so
+        # their colours never jump.
+        for step in (lambda: self._threshold(k, speed), lambda: self._first_film(k, speed), self._fill_sweep):
             try:
                 await step()
             except Cancelled:
@@ -201,6 +225,17 @@ class BearingPage(pn.viewable.Viewer):
             except Exception as exc:  # noqa: BLE001 - shown on the page; the app keeps serving
                 self._fail(exc)
                 return
+
+    async def _first_film(self, k: int, speed: float):
+        scales = asyncio.ensure_future(self._fixed_scales(k, speed))
+        try:
+            await self._show_current(before_drawing=scales)
+        except Cancelled:
+            pass  # a newer flow was asked for meanwhile: its own request draws it
+        await scales
+        if self._frame is not None and not self._frame_scaled and self.colour_scale == "fixed":
+            self._redraw()  # drawn by that newer request before the fixed scale was known
+        self._show_sweep_plots()
 
     async def _threshold(self, k: int, speed: float):
         if (k, speed) not in self._q_threshold:
@@ -239,7 +274,8 @@ class BearingPage(pn.viewable.Viewer):
             label=f"colour scale: film at {ends[0] / M3S_PER_MLMIN:.0f} and {ends[1] / M3S_PER_MLMIN:.0f} ml/min")
         self._scales[(k, speed)] = _scales_of(got.values())
 
-    async def _show_current(self):
+    async def _show_current(self, before_drawing=None):
+        """Draw the film at the current flow; `before_drawing`, an awaitable to finish first (the fixed scales)."""
         k, speed, q = self.bearing, self.speed, resources.snap(self._q())
         store = resources.cached_frames(self.machine, k, speed)
         frame = store.get(q)
@@ -247,9 +283,12 @@ class BearingPage(pn.viewable.Viewer):
             got = await self.jobs.run(resources.frames, self.machine, k, speed, [q],
                                       label=f"film at {q / M3S_PER_MLMIN:.0f} ml/min", quiet=True)
             frame = got[q]
+        if before_drawing is not None:
+            await asyncio.shield(before_drawing)
         if (k, speed) != (self.bearing, self.speed) or resources.snap(self._q()) != q:
             return  # the user moved on meanwhile; a newer request shows its own frame
         self._frame = frame
+        self._frame_scaled = (k, speed) in self._scales
         self._error.visible = False
         # Two steps: the fields reach the browser first (one Bokeh patch for two plots), then the five
         # smaller plots; together they cost 0.35 s in the browser, the fields alone 0.14 s.
@@ -264,6 +303,7 @@ class BearingPage(pn.viewable.Viewer):
         grid = resources.frame_grid(self._q_threshold[(k, speed)])
         store = resources.cached_frames(self.machine, k, speed)
         missing = [q for q in grid if resources.snap(q) not in store]
+        self._show_sweep_plots()
         self._send_sweep()  # what other sessions (or an earlier visit) already computed
         chunk = 12
         for i in range(0, len(missing), chunk):
@@ -325,7 +365,11 @@ class BearingPage(pn.viewable.Viewer):
             await self._prepare()
 
     def _on_colour_scale(self, event):
+        self._redraw()
+
+    def _redraw(self):
         if self._frame is not None:
+            self._frame_scaled = (self.bearing, self.speed) in self._scales
             self._frame_pipe.send(self._frame)
             self._detail_pipe.send(self._frame)
 
@@ -465,6 +509,14 @@ class BearingPage(pn.viewable.Viewer):
             f"| side leakage | {s.side_leakage / M3S_PER_MLMIN:.1f} ml/min |",
             f"| friction power loss | {s.power_loss:.0f} W |",
         ])
+
+
+def _first_films(m: Machine, k: int, speed: float, q: float) -> None:
+    """Q_T and the films the page draws first (at `q` brought onto the slider's range, and at both ends of
+    that range: the fixed colour scale) into the shared cache, for the page to find when it starts."""
+    grid = resources.frame_grid(resources.flooded_flow(m, k, speed))
+    resources.frames(m, k, speed, [resources.snap(min(max(q, grid[0]), grid[-1]))])
+    resources.frames(m, k, speed, [grid[0], grid[-1]])
 
 
 def _qt_label(q_threshold: float | None) -> str:

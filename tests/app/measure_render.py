@@ -1,12 +1,17 @@
 """Time to first render of the dashboard's start page in a real browser; prints one JSON object.
 
-    .venv/bin/python tests/app/measure_render.py [--loads 5] [--plots 0] [--script app.py]
+    .venv/bin/python tests/app/measure_render.py [--loads 5] [--plots 0] [--bearing] [--slider 0] [--script app.py]
 
 Starts `panel serve app.py` (timed from launch to /liveness: `server_start_s`), launches the system Chromium,
 then loads the start page `--loads` times, each in a new browser context (a new Panel session, no cache).
 A load is timed from `page.goto` to Panel's first render (every Bokeh document idle), and with `--plots N`
 also to the N-th plot drawn. The first load after server start also pays the server's imports and caches,
 so it is reported on its own (`first_load_s`) besides the median of all loads.
+
+With `--bearing`, each load then clicks the Bearing tab and times from the click to the film plots drawn
+(the pressure field titled with its flow: `bearing_fields_s`), to the mid-plane profiles (drawn last of the
+film plots: `bearing_films_s`) and to the sweep over Q done ("flows ready": `bearing_sweep_s`). The first
+visit after server start computes Q_T, the films and the sweep; later visits find them in the server's cache.
 """
 
 from __future__ import annotations
@@ -56,13 +61,27 @@ def slider_redraws(page, moves: int) -> list[float]:
     return out
 
 
-def measure(script: Path = APP_SCRIPT, loads: int = 5, plots: int = 0, moves: int = 0) -> dict:
+def bearing_tab(page) -> tuple[float, float, float]:
+    """Seconds from the click on the Bearing tab until the pressure field, the mid-plane profiles and the
+    sweep over Q ("flows ready") are drawn."""
+    t0 = time.perf_counter()
+    page.locator(".bk-tab", has_text="Bearing").first.click()
+    wait_for_plot_title(page, "Pressure p(α, z) at Q = ", timeout_ms=600_000)
+    t1 = time.perf_counter()
+    wait_for_plot_title(page, "Mid-plane pressure at Q = ", timeout_ms=600_000)
+    t2 = time.perf_counter()
+    page.locator(".lubeviz-pages").get_by_text("flows ready", exact=False).first.wait_for(timeout=600_000)
+    return t1 - t0, t2 - t0, time.perf_counter() - t0
+
+
+def measure(script: Path = APP_SCRIPT, loads: int = 5, plots: int = 0, moves: int = 0,
+            bearing: bool = False) -> dict:
     """Server start and first-render times (seconds) of `script`'s page over `loads` fresh page loads."""
     started = time.perf_counter()
     with serve_app(script) as base_url:
         server_start_s = time.perf_counter() - started
         url = f"{base_url}/{Path(script).stem}"
-        render_s, plots_s, redraw_s = [], [], []
+        render_s, plots_s, redraw_s, bearing_s = [], [], [], []
         with sync_playwright() as pw:
             browser = pw.chromium.launch(**chromium_launch_args())
             try:
@@ -73,7 +92,9 @@ def measure(script: Path = APP_SCRIPT, loads: int = 5, plots: int = 0, moves: in
                     page.goto(url)
                     wait_for_panel(page)
                     render_s.append(time.perf_counter() - t0)
-                    if plots:  # the plots of the Bearing page, opened from the start page
+                    if bearing:
+                        bearing_s.append(bearing_tab(page))
+                    elif plots:  # the plots of the Bearing page, opened from the start page
                         page.locator(".bk-tab", has_text="Bearing").first.click()
                         wait_for_plots(page, plots)
                         plots_s.append(time.perf_counter() - t0)
@@ -98,6 +119,9 @@ def measure(script: Path = APP_SCRIPT, loads: int = 5, plots: int = 0, moves: in
                        "slider_redraw_s": [round(t, 3) for t in fields],
                        "slider_redraw_all_plots_median_s": round(statistics.median(whole), 3),
                        "slider_redraw_all_plots_s": [round(t, 3) for t in whole]})
+    if bearing_s:
+        fields, films, sweep = ([round(t, 3) for t in col] for col in zip(*bearing_s))
+        result.update({"bearing_fields_s": fields, "bearing_films_s": films, "bearing_sweep_s": sweep})
     if plots:
         result.update({"plots": plots, "plots_drawn_median_s": round(statistics.median(plots_s), 3),
                        "plots_drawn_s": [round(t, 3) for t in plots_s]})
@@ -108,6 +132,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--loads", type=int, default=5, help="page loads, each in a new browser context")
     parser.add_argument("--plots", type=int, default=0, help="also time until this many plots are drawn")
+    parser.add_argument("--bearing", action="store_true",
+                        help="after each load, time the Bearing tab: click -> fields, profiles, sweep done")
     parser.add_argument("--slider", type=int, default=0,
                         help="then step the Bearing page's supply slider this many times (cached flows) and time "
                              "each redraw")
@@ -115,7 +141,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.loads < 1:
         parser.error(f"--loads must be at least 1, got {args.loads}")
-    print(json.dumps(measure(args.script, args.loads, args.plots, args.slider)))
+    print(json.dumps(measure(args.script, args.loads, args.plots, args.slider, args.bearing)))
     return 0
 
 

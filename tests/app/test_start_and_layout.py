@@ -174,11 +174,7 @@ def test_glossary_opens_from_the_header_on_any_page(app_page, tab):
 
 # A page that fails here because of its own file (which the shell cannot change) is marked xfail(strict=True)
 # with the cause, so that the fix shows up as an XPASS.
-LAYOUT_DEFECTS: dict[tuple[str, int], str] = {
-    ("Bearing", 800): "bearing_page.py: the K and C coefficient plots (responsive, legend on the right) share the "
-                      "sweep row with the locus (frame_width=280); at 800 px their column is 234 px wide but their "
-                      "canvases need 268-275 px, so they run about 20 px past the window's edge",
-}
+LAYOUT_DEFECTS: dict[tuple[str, int], str] = {}
 
 
 def _layout_cases():
