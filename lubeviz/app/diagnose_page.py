@@ -37,7 +37,7 @@ from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .session import SessionState
-from .widgets import RecordDropper, demo_effect, not_loaded_message, parameter_widgets, quantity_slider
+from .widgets import RecordDropper, not_loaded_message, quantity_slider, show_effect
 
 hv.extension("bokeh", logo=False)
 
@@ -142,17 +142,7 @@ class DiagnosePage(pn.viewable.Viewer):
 
     # --- the sample's effect ----------------------------------------------------------------------------
     def _choose_effect(self, name: str):
-        try:
-            effect = demo_effect(name, self.machine)
-        except LubevizError as exc:  # e.g. an oil temperature on a machine that declares no oil
-            self.effect = None
-            self._effect_story.object = f"**{name}** is not available for this machine: {exc}"
-            self._effect_widgets.objects = []
-            return
-        self.effect = effect
-        self._effect_story.object = f"**{effect.effect_name}**: {effect.describe()}"
-        self._effect_widgets.objects = parameter_widgets(
-            effect, (*effect.placement, *effect.continuous), end=self.machine.n_nodes, sizing_mode="stretch_width")
+        self.effect = show_effect(name, self.machine, self._effect_story, self._effect_widgets)
 
     # --- loading ----------------------------------------------------------------------------------------
     def _show_error(self, text: str):

@@ -25,7 +25,6 @@ import panel as pn
 import param
 
 from ..effects import EFFECTS
-from ..errors import LubevizError
 from ..identify.forward import tabled_response
 from ..model.machine import Machine
 from ..model.operating import OperatingPoint
@@ -39,7 +38,7 @@ from ..signals.synthesize import steady_signals
 from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
-from .widgets import demo_effect, parameter_widgets, quantity_slider
+from .widgets import quantity_slider, show_effect
 
 hv.extension("bokeh", logo=False)
 
@@ -256,20 +255,9 @@ class RotorPage(pn.viewable.Viewer):
             self._effect_story.object = ""
             self._effect_widgets.objects = []
         else:
-            try:
-                effect = demo_effect(name, self.machine)
-            except LubevizError as exc:  # e.g. an oil temperature on a machine that declares no oil
-                self.effect = None
-                self._effect_story.object = f"**{name}** is not available for this machine: {exc}"
-                self._effect_widgets.objects = []
-                await self._refresh()
-                return
-            self.effect = effect
-            self._effect_story.object = effect.describe()
-            self._effect_widgets.objects = parameter_widgets(
-                effect, (*effect.placement, *effect.continuous), end=self.machine.n_nodes,
-                sizing_mode="stretch_width")
-            effect.param.watch(self._refresh, [p for p in effect.param if p != "name"])
+            self.effect = show_effect(name, self.machine, self._effect_story, self._effect_widgets)
+            if self.effect is not None:
+                self.effect.param.watch(self._refresh, [p for p in self.effect.param if p != "name"])
         await self._refresh()
 
     def _campbell_ratios(self, flows) -> tuple[float, ...]:

@@ -18,6 +18,24 @@ import param
 from ..model.quantity import Quantity
 
 
+def show_effect(name: str, machine, story, widgets):
+    """`demo_effect(name, machine)` shown in the panes `story` (its physical story) and `widgets` (its
+    parameters); None, with the reason in `story`, when the machine lacks what the effect needs (the Rotor
+    page and the Diagnose page's sample choose effects this one way)."""
+    from ..errors import LubevizError
+
+    try:
+        effect = demo_effect(name, machine)
+    except LubevizError as exc:  # e.g. an oil temperature on a machine that declares no oil
+        story.object = f"**{name}** is not available for this machine: {exc}"
+        widgets.objects = []
+        return None
+    story.object = f"**{effect.effect_name}**: {effect.describe()}"
+    widgets.objects = parameter_widgets(effect, (*effect.placement, *effect.continuous), end=machine.n_nodes,
+                                        sizing_mode="stretch_width")
+    return effect
+
+
 def demo_effect(name: str, machine):
     """Effect `name` of the library bound to `machine`, at a strength a student sees (the Rotor page and the
     Diagnose page's sample): oil 15 °C hotter, viscosity x0.7, a bearing worn by 25 %; others at their

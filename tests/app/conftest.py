@@ -83,7 +83,13 @@ def app_server():
     """Base URL ("http://127.0.0.1:PORT") of app.py served by `panel serve` for the session.
 
     The server's output is kept in test-artifacts/app/panel-serve.log (look there for a callback's traceback).
+    The paper machine's coefficient tables are put in the user cache first, so page timeouts measure the app,
+    not a cold table build (about a minute on 2 cores).
     """
+    from lubeviz.identify.cache import machine_tables
+    from lubeviz.model.machine import load_machine
+
+    machine_tables(load_machine())
     with serve_app(APP_SCRIPT, log_path=SERVER_LOG) as url:
         yield url
 

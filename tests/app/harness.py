@@ -282,3 +282,13 @@ def elements_past_right_edge(page, slack_px: float = 1.0) -> list[str]:
     """Rendered elements whose box reaches past the window's right edge (by more than `slack_px`), described
     as "tag.classes (left-right px)"; an empty list when the page fits the window's width."""
     return page.evaluate(_PAST_RIGHT_EDGE_JS, slack_px)
+
+
+def text(locator) -> str:
+    """The text a Panel pane shows (it renders into a shadow root, which `inner_text` does not read)."""
+    return locator.evaluate("e => (e.shadowRoot || e).textContent")
+
+
+def open_tab(page, name: str) -> None:
+    """Click the dashboard's tab `name`."""
+    page.locator(".bk-tab", has_text=name).first.click()

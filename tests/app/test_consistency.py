@@ -15,31 +15,13 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import expect
 
-from tests.app.harness import elements_past_right_edge, plot_titles, wait_for_plot_title
+from tests.app.harness import elements_past_right_edge, open_tab, plot_titles, text, wait_for_plot_title
 
 pytestmark = pytest.mark.browser
 
 REPO = Path(__file__).resolve().parents[2]
 SAMPLE = REPO / "assets" / "sample_record.csv"
 SLOW_MS = 240_000  # a cold machine builds the coefficient tables first; a 2-core machine under load is slow
-
-
-@pytest.fixture(scope="module", autouse=True)
-def tables_cached():
-    """The paper machine's coefficient tables in the user cache before the server needs them."""
-    from lubeviz.identify.cache import machine_tables
-    from lubeviz.model.machine import load_machine
-
-    machine_tables(load_machine())
-
-
-def text(locator) -> str:
-    """The text a Panel pane shows (it renders into a shadow root, which `inner_text` does not read)."""
-    return locator.evaluate("e => (e.shadowRoot || e).textContent")
-
-
-def open_tab(page, name: str):
-    page.locator(".bk-tab", has_text=name).first.click()
 
 
 _LEGEND_LABELS_JS = """() => {

@@ -13,30 +13,12 @@ import time
 import pytest
 from playwright.sync_api import expect
 
-from tests.app.harness import plot_titles, wait_for_plot_title
+from tests.app.harness import open_tab, plot_titles, text, wait_for_plot_title
 
 pytestmark = pytest.mark.browser
 
 SLOW_MS = 240_000  # a cold machine builds the coefficient tables first
 TRUE_MLMIN = (420.0, 600.0)  # the page's default sample flows
-
-
-@pytest.fixture(scope="module", autouse=True)
-def tables_cached():
-    """The paper machine's coefficient tables in the user cache before the server needs them."""
-    from lubeviz.identify.cache import machine_tables
-    from lubeviz.model.machine import load_machine
-
-    machine_tables(load_machine())
-
-
-def text(locator) -> str:
-    """The text a Panel pane shows (it renders into a shadow root, which `inner_text` does not read)."""
-    return locator.evaluate("e => (e.shadowRoot || e).textContent")
-
-
-def open_tab(page, name: str):
-    page.locator(".bk-tab", has_text=name).first.click()
 
 
 def test_diagnose_page_names_the_effect_and_downloads_the_report(app_page, screenshot):

@@ -14,32 +14,13 @@ import numpy as np
 import pytest
 from playwright.sync_api import expect
 
-from tests.app.harness import plot_titles, set_slider, wait_for_plot_title, wait_for_plots
+from tests.app.harness import open_tab, plot_titles, set_slider, text, wait_for_plot_title, wait_for_plots
 
 pytestmark = pytest.mark.browser
 
 REPO = Path(__file__).resolve().parents[2]
 SAMPLE = REPO / "assets" / "sample_record.csv"
 SLOW_MS = 240_000  # a cold machine builds the coefficient tables first (about a minute on 2 cores)
-
-
-@pytest.fixture(scope="module", autouse=True)
-def tables_cached():
-    """Build (or load) the paper machine's coefficient tables in the user cache before the server needs
-    them, so page timeouts measure the app, not a cold table build."""
-    from lubeviz.identify.cache import machine_tables
-    from lubeviz.model.machine import load_machine
-
-    machine_tables(load_machine())
-
-
-def text(locator) -> str:
-    """The text a Panel pane shows (it renders into a shadow root, which `inner_text` does not read)."""
-    return locator.evaluate("e => (e.shadowRoot || e).textContent")
-
-
-def open_tab(page, name: str):
-    page.locator(".bk-tab", has_text=name).first.click()
 
 
 def test_start_page_explains_and_leads_to_the_pages(app_page, screenshot):

@@ -13,7 +13,7 @@ from playwright.sync_api import expect
 
 from lubeviz.app.glossary import GLOSSARY
 from lubeviz.app.shell import PAGE_PURPOSES
-from tests.app.harness import wait_for_panel, wait_for_plot_title, wait_for_plots
+from tests.app.harness import elements_past_right_edge, open_tab, wait_for_panel, wait_for_plot_title, wait_for_plots
 
 pytestmark = pytest.mark.browser
 
@@ -21,20 +21,6 @@ SLOW_MS = 240_000  # a cold machine builds the coefficient tables first (about a
 SWEEP_MS = 600_000  # the Bearing page's film over 93 supply flows, once per server
 WIDTHS = (1400, 800)
 PAGES = ("Start", *PAGE_PURPOSES)  # Start, Bearing, Rotor, Maps, Identify, Diagnose
-
-
-@pytest.fixture(scope="module", autouse=True)
-def tables_cached():
-    """The paper machine's coefficient tables in the user cache before the server needs them, so page
-    timeouts measure the app, not a cold table build."""
-    from lubeviz.identify.cache import machine_tables
-    from lubeviz.model.machine import load_machine
-
-    machine_tables(load_machine())
-
-
-def open_tab(page, name: str):
-    page.locator(".bk-tab", has_text=name).first.click()
 
 
 def active_tab(page) -> str:
@@ -90,29 +76,6 @@ def show(page, name: str):
     SHOWN[name](page)
     wait_for_panel(page, SLOW_MS)
     page.evaluate("() => new Promise(done => requestAnimationFrame(() => requestAnimationFrame(done)))")
-
-
-# The outermost elements (shadow roots included) whose right edge lies past the window's: what a narrow window
-# cuts off or scrolls sideways. Each is named with the lubeviz-* classes of the panes around it.
-_PAST_RIGHT_EDGE_JS = """() => {
-  const out = [], width = window.innerWidth;
-  const name = el => el.tagName.toLowerCase() + (typeof el.className === 'string' && el.className ?
-    '.' + el.className.trim().split(/\\s+/).join('.') : '');
-  const visit = (node, path) => {
-    for (const el of [...node.children, ...(node.shadowRoot ? node.shadowRoot.children : [])]) {
-      const r = el.getBoundingClientRect();
-      const marks = [...el.classList].filter(c => c.startsWith('lubeviz-'));
-      const here = marks.length ? [...path, marks.join('.')] : path;
-      if (r.width > 0 && r.height > 0 && r.right > width + 1)
-        out.push(`${here.join(' > ') || '(page)'}: ${name(el)} ${Math.round(r.width)} px wide, ` +
-                 `x = ${Math.round(r.left)} to ${Math.round(r.right)}`);
-      else
-        visit(el, here);
-    }
-  };
-  visit(document.documentElement, []);
-  return out;
-}"""
 
 
 # --- the start page ----------------------------------------------------------------------------------------
@@ -172,20 +135,7 @@ def test_glossary_opens_from_the_header_on_any_page(app_page, tab):
 
 # --- layout: no page wider than the window --------------------------------------------------------------
 
-# A page that fails here because of its own file (which the shell cannot change) is marked xfail(strict=True)
-# with the cause, so that the fix shows up as an XPASS.
-LAYOUT_DEFECTS: dict[tuple[str, int], str] = {}
-
-
-def _layout_cases():
-    for width in WIDTHS:
-        for name in PAGES:
-            reason = LAYOUT_DEFECTS.get((name, width))
-            marks = [pytest.mark.xfail(strict=True, reason=reason)] if reason else []
-            yield pytest.param(name, width, marks=marks, id=f"{name}-{width}px")
-
-
-@pytest.mark.parametrize(("name", "width"), list(_layout_cases()))
+@pytest.mark.parametrize(("name", "width"), [pytest.param(n, w, id=f"{n}-{w}px") for w in WIDTHS for n in PAGES])
 def test_page_is_no_wider_than_the_window(page, app_server, name, width):
     page.set_viewport_size({"width": width, "height": 900})
     page.goto(app_server + "/app")
@@ -193,7 +143,7 @@ def test_page_is_no_wider_than_the_window(page, app_server, name, width):
     show(page, name)
     assert active_tab(page) == name
     scroll_width, inner_width = page.evaluate("() => [document.documentElement.scrollWidth, window.innerWidth]")
-    past = page.evaluate(_PAST_RIGHT_EDGE_JS)
+    past = elements_past_right_edge(page)
     # The template scrolls inside #main and Panel's layouts clip what overflows them, so a page can cut a
     # plot off at the window's edge with the document no wider than the window: both are checked.
     assert scroll_width <= inner_width + 1 and not past, (

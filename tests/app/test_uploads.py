@@ -15,20 +15,13 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import expect
 
+from tests.app.harness import open_tab, text
+
 pytestmark = pytest.mark.browser
 
 SLOW_MS = 240_000  # a cold machine builds the coefficient tables first
 FILE_Q_MLMIN = (400, 500)  # the dropped record's true flows; the sample's are 420 / 600 ml/min
 REJECTED_RED = "rgb(196, 78, 71)"  # FilePond's colour of a failed item (#c44e47)
-
-
-@pytest.fixture(scope="module", autouse=True)
-def tables_cached():
-    """The paper machine's coefficient tables in the user cache before the server needs them."""
-    from lubeviz.identify.cache import machine_tables
-    from lubeviz.model.machine import load_machine
-
-    machine_tables(load_machine())
 
 
 @pytest.fixture(scope="module")
@@ -43,15 +36,6 @@ def records(tmp_path_factory) -> dict[str, Path]:
     bad = folder / "broken-columns.csv"
     bad.write_text(good.read_text().replace("x1,y1,x2,y2", "x1,y1,x2,z2", 1))
     return {"good": good, "bad": bad}
-
-
-def text(locator) -> str:
-    """The text a Panel pane shows (it renders into a shadow root, which `inner_text` does not read)."""
-    return locator.evaluate("e => (e.shadowRoot || e).textContent")
-
-
-def open_tab(page, name: str):
-    page.locator(".bk-tab", has_text=name).first.click()
 
 
 def drop(page, dropper_class: str, path: Path):
