@@ -27,7 +27,7 @@ from ..model.operating import OperatingPoint
 from ..progress import Cancelled
 from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
-from .jobs import EXECUTOR, JobPanel
+from .jobs import JobPanel
 from .widgets import quantity_slider
 
 hv.extension("bokeh", logo=False)
@@ -128,7 +128,7 @@ class BearingPage(pn.viewable.Viewer):
             css_classes=["lubeviz-colour-scale"])
         self._ready = False
         # The first films are solved while the page's plots are built and sent (about a second on first use).
-        self._warm_up = EXECUTOR.submit(_first_films, machine, self.bearing, self.speed, self._q())
+        self._warm_up = resources.first_films(machine, self.bearing, self.speed, self._q())
         self._layout = self._build()
         self.param.watch(self._on_bearing, "bearing")
         self.param.watch(self._on_colour_scale, "colour_scale")
@@ -208,9 +208,9 @@ class BearingPage(pn.viewable.Viewer):
     async def _prepare(self):
         k, speed = self.bearing, self.speed
         if self._warm_up is not None:
-            warm_up, self._warm_up = self._warm_up, None
+            pending, self._warm_up = self._warm_up, None
             try:
-                await asyncio.wrap_future(warm_up)
+                await asyncio.wrap_future(pending)
             except Exception as exc:  # noqa: BLE001 - shown on the page; the app keeps serving
                 self._fail(exc)
                 return
@@ -401,7 +401,7 @@ class BearingPage(pn.viewable.Viewer):
 
     def _theta_image(self, data):
         f = data
-        return self._field(f, None if f is None else f.theta, "Oil fraction θ(α, z) (1: full film)", "θ (–)",
+        return self._field(f, None if f is None else f.theta, "Oil fraction θ(α, z)", "θ (–)",
                            "Blues_r", clim=THETA_RANGE if self.colour_scale == "fixed" else AUTO)
 
     def _profile_pressure(self, data):
@@ -420,7 +420,7 @@ class BearingPage(pn.viewable.Viewer):
 
     def _profile_theta(self, data):
         opts = dict(responsive=True, min_height=280, xlabel="α (deg)", ylabel="θ and h/c (–)",
-                    title="Mid-plane oil fraction θ and film thickness h/c", framewise=True,
+                    title="Mid-plane θ and film thickness h/c", framewise=True,
                     legend_position="top")
         fixed = dict(ylim=FILM_RATIO_RANGE if self.colour_scale == "fixed" else AUTO)
         deg, th, h = [], [], []
@@ -509,14 +509,6 @@ class BearingPage(pn.viewable.Viewer):
             f"| side leakage | {s.side_leakage / M3S_PER_MLMIN:.1f} ml/min |",
             f"| friction power loss | {s.power_loss:.0f} W |",
         ])
-
-
-def _first_films(m: Machine, k: int, speed: float, q: float) -> None:
-    """Q_T and the films the page draws first (at `q` brought onto the slider's range, and at both ends of
-    that range: the fixed colour scale) into the shared cache, for the page to find when it starts."""
-    grid = resources.frame_grid(resources.flooded_flow(m, k, speed))
-    resources.frames(m, k, speed, [resources.snap(min(max(q, grid[0]), grid[-1]))])
-    resources.frames(m, k, speed, [grid[0], grid[-1]])
 
 
 def _qt_label(q_threshold: float | None) -> str:

@@ -10,20 +10,31 @@ from __future__ import annotations
 import math
 import threading
 from collections import OrderedDict
+from concurrent.futures import Future
 
 import numpy as np
 
-from ..film.equilibrium import flooded_threshold
-from ..film.explore import SupplyFrame, supply_frames
-from ..identify.cache import machine_tables
-from ..identify.chain import DEFAULT_PROBE_ANGLES, ForwardChain
-from ..identify.chain import bearing_changes as chain_bearing_changes
-from ..identify.forward import ForwardModel
+from typing import TYPE_CHECKING
+
 from ..model.machine import Machine, load_machine
 from ..progress import ProgressFn, silent
-from ..rotor.assembly import Rotor, rotor_from_machine
-from ..rotor.statics import bearing_static_loads
 from ..units import M3S_PER_MLMIN
+
+# The numerics (film, identify, rotor: numba, scipy; about 2 s to import) are imported by the functions that
+# use them, not here: the shell imports this module for the machine only, and the start page must not wait
+# for them. `import_numerics` imports them ahead of use (the shell calls it in the background).
+if TYPE_CHECKING:
+    from ..film.explore import SupplyFrame
+    from ..identify.chain import ForwardChain
+    from ..identify.forward import ForwardModel
+    from ..rotor.assembly import Rotor
+
+
+def import_numerics() -> None:
+    """Import the numerical modules this module's functions use (idempotent; cheap once done)."""
+    from ..film import equilibrium, explore  # noqa: F401
+    from ..identify import cache, chain, forward  # noqa: F401
+    from ..rotor import assembly, statics  # noqa: F401
 
 _LOCK = threading.Lock()
 _KEY_LOCKS: dict = {}
@@ -57,6 +68,7 @@ def machine(path=None) -> Machine:
 def rotor(m: Machine) -> Rotor:
     with _key_lock(("rotor", m.source)):
         if m.source not in _ROTORS:
+            from ..rotor.assembly import rotor_from_machine
             _ROTORS[m.source] = rotor_from_machine(m)
         return _ROTORS[m.source]
 
@@ -66,6 +78,7 @@ def tables(m: Machine, speed_hz: float, progress: ProgressFn = silent):
     key = (m.source, round(float(speed_hz), 9))
     with _key_lock(("tables",) + key):
         if key not in _TABLES:
+            from ..identify.cache import machine_tables
             _TABLES[key] = machine_tables(m, 2.0 * math.pi * speed_hz, progress=progress)
         return _TABLES[key]
 
@@ -75,17 +88,22 @@ def forward_model(m: Machine, speed_hz: float, nodes, progress: ProgressFn = sil
     t = tables(m, speed_hz, progress)
     with _key_lock(("model",) + key):
         if key not in _MODELS:
+            from ..identify.forward import ForwardModel
             _MODELS[key] = ForwardModel(m, t, key[2], rotor=rotor(m))
             while len(_MODELS) > 16:
                 _MODELS.popitem(last=False)
         return _MODELS[key]
 
 
-def chain(m: Machine, speed_hz: float, nodes, probe_angles_deg=DEFAULT_PROBE_ANGLES,
+def chain(m: Machine, speed_hz: float, nodes, probe_angles_deg=None,
           progress: ProgressFn = silent) -> ForwardChain:
     """The plain forward chain (no effects) at `speed_hz` and planes `nodes`; add effects with
     `.with_effects(...)`. Every chain of one machine and speed shares its bearings' coefficient views (a
     viscosity or clearance change is built once per server, whatever the planes)."""
+    from ..identify.chain import DEFAULT_PROBE_ANGLES, ForwardChain
+
+    if probe_angles_deg is None:
+        probe_angles_deg = DEFAULT_PROBE_ANGLES
     angles = tuple(tuple(float(a) for a in p) for p in probe_angles_deg)
     key = (m.source, round(float(speed_hz), 9), tuple(int(n) for n in nodes), angles)
     t = tables(m, speed_hz, progress)
@@ -104,6 +122,8 @@ def chain(m: Machine, speed_hz: float, nodes, probe_angles_deg=DEFAULT_PROBE_ANG
 def bearing_changes(effects, k: int, declared_clearance: float) -> tuple[float, float]:
     """(viscosity factor, clearance m) of bearing k (0-based) after the bearings-stage `effects`, at their
     current values: the chain's own rule."""
+    from ..identify.chain import bearing_changes as chain_bearing_changes
+
     factor, clearance = chain_bearing_changes(effects, k, declared_clearance)
     return float(factor), float(clearance)
 
@@ -119,6 +139,8 @@ def prepare_views(c: ForwardChain, effects, progress: ProgressFn = silent) -> No
 
 
 def bearing_load(m: Machine, index: int) -> np.ndarray:
+    from ..rotor.statics import bearing_static_loads
+
     return bearing_static_loads(m)[index]
 
 
@@ -128,6 +150,7 @@ def flooded_flow(m: Machine, index: int, speed_hz: float, progress: ProgressFn =
     with _key_lock(("qt",) + key):
         if key not in _THRESHOLDS:
             progress(0, 1, "flooded threshold Q_T")
+            from ..film.equilibrium import flooded_threshold
             q, _ = flooded_threshold(m.bearings[index], 2.0 * math.pi * speed_hz, bearing_load(m, index))
             _THRESHOLDS[key] = q
             progress(1, 1, "flooded threshold Q_T")
@@ -161,9 +184,43 @@ def frames(m: Machine, index: int, speed_hz: float, flows, progress: ProgressFn 
     wanted = sorted({snap(q) for q in flows})
     missing = [q for q in wanted if q not in store]
     if missing:
+        from ..film.explore import supply_frames
         store.update(supply_frames(m.bearings[index], 2.0 * math.pi * speed_hz, bearing_load(m, index), missing,
                                    progress=progress))
     return {q: store[q] for q in wanted}
+
+
+_FIRST_FILMS: dict = {}
+
+
+def first_films(m: Machine, k: int, speed_hz: float, q: float) -> Future:
+    """The Bearing page's first films in the job pool (`_first_films`), once per (machine, bearing, speed, flow)
+    and server: the shell starts it for the start page's operating point before the page is opened, and the
+    page awaits the same future instead of solving the same films again. A failed one is retried."""
+    from .jobs import EXECUTOR
+
+    key = (m.source, k, round(float(speed_hz), 9), snap(q))
+    with _LOCK:
+        future = _FIRST_FILMS.get(key)
+        if future is None or (future.done() and future.exception() is not None):
+            future = _FIRST_FILMS[key] = EXECUTOR.submit(_first_films, m, k, speed_hz, q)
+        return future
+
+
+def _first_films(m: Machine, k: int, speed_hz: float, q: float) -> None:
+    """Q_T and the films the Bearing page draws first into the shared cache: at `q` brought onto the slider's
+    range, and at both ends of that range (the fixed colour scale), these two on a second thread."""
+    grid = frame_grid(flooded_flow(m, k, speed_hz))
+    ends: list = []
+    other = threading.Thread(target=lambda: ends.append(frames(m, k, speed_hz, [grid[0], grid[-1]])),
+                             name="lubeviz-first-films", daemon=True)
+    other.start()
+    try:
+        frames(m, k, speed_hz, [snap(min(max(q, grid[0]), grid[-1]))])
+    finally:
+        other.join()
+    if not ends:
+        frames(m, k, speed_hz, [grid[0], grid[-1]])  # the thread failed: again here, to raise its error
 
 
 def memo_get(key):
@@ -187,6 +244,8 @@ def memo_put(key, value, *, keep: int = 64) -> None:
 def compute_frames(machine_path: str, index: int, speed_hz: float, flows) -> dict[float, SupplyFrame]:
     """Frames at `flows` (snapped to the grid) computed in a worker process; the caller stores them with
     `store_frames`."""
+    from ..film.explore import supply_frames
+
     m = machine(machine_path or None)
     return supply_frames(m.bearings[index], 2.0 * math.pi * speed_hz, bearing_load(m, index),
                          sorted({snap(q) for q in flows}))

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import asyncio
 import html
+import threading
 from pathlib import Path
 
 import panel as pn
@@ -166,6 +167,41 @@ def _diagnose(m, op, state):
     return DiagnosePage(m, state)
 
 
+_PRELOAD_LOCK = threading.Lock()
+_PRELOADING: list[threading.Thread] = []
+
+
+def _preload(machine, op) -> None:
+    """Import the numerics and the Bearing page's module (HoloViews, Bokeh models) and start solving the films
+    it draws first, so a click on its tab finds them ready instead of paying about 2 s of imports. The other
+    pages' modules follow. Module imports and the shared deterministic caches only: no session state."""
+    try:
+        resources.import_numerics()
+        films = resources.first_films(machine, 0, op.speed, op.q1)
+        from . import bearing_page  # noqa: F401
+        films.exception()  # waits: the other pages' imports would slow the films of a Bearing page opened now
+        from . import rotor_page, maps_page, identify_page, diagnose_page  # noqa: F401
+    except Exception:  # noqa: BLE001 - a failed preload only loses the head start: the page imports it again
+        pass
+
+
+def preload(machine, op) -> None:
+    """Run `_preload` once per server process, in the first session's build: with `panel serve --warm` that is
+    the warm-up run, before the server takes its first visitor, so the first visit finds the pages imported
+    and the first films solved. Later sessions skip it (a daemon thread, so a failure or a hang cannot hold
+    the server: the wait is bounded)."""
+    with _PRELOAD_LOCK:
+        if _PRELOADING:
+            return
+        thread = threading.Thread(target=_preload, args=(machine, op), name="lubeviz-preload", daemon=True)
+        _PRELOADING.append(thread)
+        thread.start()
+    thread.join(timeout=PRELOAD_WAIT_S)
+
+
+PRELOAD_WAIT_S = 30.0
+
+
 PAGES = {"Bearing": _bearing, "Rotor": _rotor, "Maps": _maps, "Identify": _identify, "Diagnose": _diagnose}
 
 
@@ -219,4 +255,5 @@ def build() -> pn.template.FastListTemplate:
         accent_base_color="#2c5f8a", header_background="#2c5f8a", raw_css=[_HEADER_CSS])
     glossary_button.on_click(lambda event: template.open_modal())
     template.lubeviz_pages = pages  # for tests and scripts: the pages built so far, by name
+    preload(machine, op)
     return template

@@ -73,7 +73,7 @@ def serve_app(script: Path = APP_SCRIPT, log_path: Path | None = None,
     port = free_port()
     base_url = f"http://127.0.0.1:{port}"
     cmd = [sys.executable, "-m", "panel", "serve", script.name, "--address", "127.0.0.1", "--port", str(port),
-           "--allow-websocket-origin", f"127.0.0.1:{port}", "--liveness", *extra_args]
+           "--allow-websocket-origin", f"127.0.0.1:{port}", "--liveness", "--warm", *extra_args]
     keep_log = log_path is not None
     if keep_log:
         log_path.parent.mkdir(parents=True, exist_ok=True)

@@ -74,7 +74,7 @@ def shown_max_pressure(page) -> float:
 def show_flow(page, q_mlmin: float) -> None:
     """Move the supply slider to `q_mlmin` and wait until both fields and the summary show that flow."""
     set_slider(page, SLIDER, q_mlmin)
-    for field in ("Pressure p(α, z)", "Oil fraction θ(α, z) (1: full film)"):
+    for field in ("Pressure p(α, z)", "Oil fraction θ(α, z)"):
         wait_for_plot_title(page, f"{field} at Q = {q_mlmin:.0f} ml/min", timeout_ms=SLOW_MS)
     expect(page.locator(".lubeviz-bearing-summary")).to_contain_text(f"Q = {q_mlmin:.0f} ml/min",
                                                                       timeout=SLOW_MS)
