@@ -282,7 +282,7 @@ class DiagnosePage(pn.viewable.Viewer):
                      lines=inputs.lines)
         maps = [("plain model", cost_map(chains, meas, n=MAP_POINTS), d.before)]
         if d.added is not None:
-            maps.append((f"with {d.added.label}", cost_map(chains, meas, effect=d.added.effect, n=MAP_POINTS),
+            maps.append((f"with {d.added.label}", cost_map(chains, meas, candidate=d.added, n=MAP_POINTS),
                          d.after))
         return dict(diagnosis=d, summary=diagnosis_dict(d), record=record, maps=maps, truth=truth,
                     notes=inputs.notes)

@@ -72,7 +72,7 @@ def run_diagnose(args) -> dict | list:
 
             maps = [("plain model", cost_map(chains, meas, n=50), [("plain fit", d.before.paths[-1], "#1f77b4")])]
             if d.added is not None and d.after is not None:
-                maps.append((f"with {d.added.label}", cost_map(chains, meas, effect=d.added.effect, n=50),
+                maps.append((f"with {d.added.label}", cost_map(chains, meas, candidate=d.added, n=50),
                              [("with the effect", d.after.paths[-1], "#d62728")]))
             path = args.report if len(groups) == 1 else args.report.replace(".html", f"-{g}.html")
             write_report(d, path, record=group[0], machine_name=machine.name,

@@ -40,6 +40,7 @@ class Candidate:
     effect: object  # the Effect, its fitted values set
     fit: Fit | None
     error: str = ""
+    defect: object = None  # large orbits: the balance's correction its fit used (`identify.chain.ResponseDefect`)
 
     @property
     def aic(self) -> float:
@@ -124,8 +125,12 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
     before = fit(chains, meas, names=names, budget=budget, level=level)
     oil_known = _oil_declared(chains)
     pool = []
+    orbit = None
     for c in (EFFECTS.values() if candidates is None else candidates):
         e = c() if isinstance(c, type) else c
+        if e.stage == "response":  # large orbits: tried below, when the record shows their 2X
+            orbit = e
+            continue
         if not e.diagnose_free:  # not fitted by a diagnosis (oil_temperature: `viscosity` told in °C)
             continue
         if oil_known and e.effect_name == "viscosity":  # an oil temperature reading settles the viscosity
@@ -135,6 +140,12 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
     for n, e in enumerate(pool, start=1):
         progress(n, len(pool), e.label())
         tried.append(_fit_candidate(chains, meas, e, names, budget, level, phase_starts))
+    from ..signals.lines import LINE_NOTICE
+
+    two_x = [line for line in lines if "2X" in line.kind and line.relative_to_1x > LINE_NOTICE]
+    orbit_tried = orbit is not None and bool(two_x) and len(chains) == 1 and not before.explained
+    if orbit_tried:
+        tried.append(_fit_orbit(chains[0], meas[0], orbit, names, budget, level, progress))
     tried.sort(key=lambda c: c.aic)
     passing = [c for c in tried if c.passes]
     set_intervals = None
@@ -156,8 +167,8 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         close = [c for c in passing[1:] if c.aic - best.aic < ambiguity_aic]
         added = best
         # the winner added: its parameters free again (started at their fitted values), with intervals
-        after = fit([c.adding(best.effect.candidate()) for c in chains], meas, names=names,
-                    budget=budget, level=level)
+        after = best.fit if best.defect is not None else fit([c.adding(best.effect.candidate()) for c in chains],
+                                                             meas, names=names, budget=budget, level=level)
         explained = bool(after.explained)
         ambiguous = tuple(c.label for c in close)
         separated = tuple(dict.fromkeys(type(c.effect).separated_by for c in [best, *close]
@@ -195,22 +206,37 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         verdict = ("Unexplained: the model does not fit the record and no effect in the library brings the "
                    f"residual back to noise (plain chi2 = {before.chi2:.1f} for {before.dof} dof)." + left +
                    " Do not trust the flows; check the machine and the measurement.")
-    from ..signals.lines import LINE_NOTICE
-
     big = [line for line in lines if line.relative_to_1x > LINE_NOTICE]
     if big:
         from ..signals.lines import CAUSES
 
         verdict += (" Beyond 1X the record also holds " + "; ".join(line.describe() for line in big) +
                     ", which the linear model does not produce" +
-                    (" (the library's large_orbit effect, the film solved along the orbit, makes 2X lines in "
-                     "`simulate`; a fit cannot use it yet)" if any("2X" in line.kind for line in big) else "") +
+                    ((" (the library's large_orbit effect, the film solved along the orbit, makes 2X lines: it "
+                      "was fitted, see the candidates)" if orbit_tried else
+                      " (the library's large_orbit effect, the film solved along the orbit, makes 2X lines; a "
+                      "diagnosis fits it on a single record the plain model does not explain)")
+                     if any("2X" in line.kind for line in big) else "") +
                     " (usual causes: " +
                     "; ".join(dict.fromkeys(CAUSES[line.kind] for line in big)) + "): the flows rest on the 1X part.")
     return Diagnosis(before=before, candidates=tuple(tried), added=added, after=after, explained=explained,
                      ambiguous=ambiguous, verdict=verdict, separated_by=separated,
                      seconds=time.perf_counter() - t0, truth=dict(truth or {}), lines=tuple(lines),
                      set_intervals=set_intervals)
+
+
+def _fit_orbit(chain, measured, effect, names, budget, level, progress) -> Candidate:
+    """Large orbits as a candidate: the flows fitted with the film force along the orbit (`identify.orbit_fit`,
+    a harmonic balance per round: tens of seconds), no parameter added."""
+    from ..identify.orbit_fit import check_orbit_chain, fit_large_orbit
+
+    try:
+        check_orbit_chain(chain)
+        of = fit_large_orbit(chain, measured, names=names, budget=budget, level=level,
+                             progress=lambda i, n, t: progress(i, n, f"{effect.label()}: {t}"))
+    except LubevizError as exc:
+        return Candidate(label=effect.label(), effect=effect, fit=None, error=str(exc))
+    return Candidate(label=effect.label(), effect=effect, fit=of.fit, defect=of.defect)
 
 
 def _set_intervals(after: Fit, others) -> tuple:
@@ -272,6 +298,8 @@ def _story(c: Candidate) -> str:
     p = c.parameters()
     main = ", ".join(f"{k} = {p[k]:.4g} +/- {p.get(k + '_std', float('nan')):.2g}" for k in c.effect.diagnose_free
                      if k in p)
+    if c.defect is not None:
+        return f"{c.label} (the film force along the orbit, not its linearization)"
     return f"{c.label} ({main})"
 
 
@@ -333,9 +361,16 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
 
 
 def cost_map(chain, measured, *, effect=None, names=None, budget=None, n: int = 60, lower: float = 0.25,
-             upper: float = 2.0):
+             upper: float = 2.0, candidate: Candidate | None = None):
     """chi^2 over the Q1 x Q2 box (the other parameters at `effect`'s values), for drawing the search:
-    returns (q1 (n,), q2 (n,), chi2 (n, n)), flows in m^3/s; the same whitening as the fit at Q_T."""
+    returns (q1 (n,), q2 (n,), chi2 (n, n)), flows in m^3/s; the same whitening as the fit at Q_T.
+    `candidate`: a diagnosis's candidate instead of `effect` (large orbits: the chain with its correction,
+    which holds near its fit and is drawn over the whole box as the fit saw it)."""
+    if candidate is not None:
+        if candidate.defect is not None:
+            chain = [c.with_defect(candidate.defect) for c in (chain if isinstance(chain, (list, tuple)) else [chain])]
+        else:
+            effect = candidate.effect
     from ..identify.fit import _parts, _Problem
 
     chains = list(chain) if isinstance(chain, (list, tuple)) else [chain]

@@ -122,10 +122,21 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
     if oil_effects and settings.include_model_error:
         budget = budget_with_reading(budget, tolerance)
     effects = tuple(oil_effects) + tuple(effects)
+    orbit = [e for e in effects if getattr(e, "stage", None) == "response"]
+    effects = tuple(e for e in effects if e not in orbit)
     tables = model.tables if model is not None and abs(model.omega / (2 * math.pi) - speed) < 1e-9 else None
     chain = ForwardChain(machine, speed, record.nodes, effects, probe_angles_deg=record.probe_angles_deg,
                          tables=tables, progress=progress)
     check_record(_NodesSpeed(chain), measured, settings)
+    if orbit:  # large orbits: the linear chain plus the balance's correction, round by round
+        from .orbit_fit import check_orbit_chain, fit_large_orbit, orbit_summary
+
+        check_orbit_chain(chain)
+        of = fit_large_orbit(chain, measured, names=tuple(settings.features), budget=budget, lower=settings.lower,
+                             upper=settings.upper, progress=progress)
+        out = to_identification(of.fit, chain)
+        out = dataclasses.replace(out, effects={**out.effects, "large_orbit": orbit_summary(of)})
+        return dataclasses.replace(out, warnings=out.warnings + oil_notes) if oil_notes else out
     res = fit(chain, measured, names=tuple(settings.features), budget=budget, lower=settings.lower,
               upper=settings.upper)
     out = to_identification(res, chain)
@@ -334,6 +345,12 @@ def result_text(d: dict) -> list[str]:
         told = ("the model explains the record" if d["model_explains_data"] else
                 "THE MODEL DOES NOT EXPLAIN THE RECORD (intervals widened; run lubeviz diagnose)")
         out.append(f"  {told}: chi2 = {d['chi2']:.1f} for {d['dof']} dof, p = {d['p_value']:.2g}")
+    lo = (d.get("effects") or {}).get("large_orbit")
+    if lo:
+        ratio = ", ".join(f"{v:.2f}" for v in lo["ratio_2x_model"])
+        out.append(f"  large orbits: the film force along the orbit ({lo['rounds']} harmonic balances; the linear "
+                   f"model alone gives Q1, Q2 = {lo['plain_q_mlmin'][0]:.0f}, {lo['plain_q_mlmin'][1]:.0f} ml/min, "
+                   f"chi2 {lo['plain_chi2']:.0f}); its 2X/1X at the planes: {ratio}")
     for a in d.get("alternatives", []):
         out.append(f"  another fit passes as well: Q1, Q2 = {a['q1_mlmin']:.0f}, {a['q2_mlmin']:.0f} ml/min")
     for ln in d.get("lines_beyond_1x", []):

@@ -156,6 +156,42 @@ def bearing_changes(effects, k: int, declared_clearance: float, values=lambda e:
 # --- the chain -----------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
+class ResponseDefect:
+    """A correction of the chain's response at its two planes, in the probes' X/Y frame before the probe
+    stage, affine in the flows: at flows q it adds x + dx (q - q0) to the 1X amplitudes x, y (2 planes,
+    complex) and static + dstatic (q - q0) to the static offsets (plane, [x, y]), m.
+
+    The large-orbit identification (`identify.orbit_fit`) sets it to the harmonic balance's orbit minus its
+    own linear orbit near the last flows q0, with its slope in the flows (a defect correction): the linear
+    chain stays the fast model the fit differentiates, and the correction carries what the film's
+    nonlinearity adds, slope included, so the fit's intervals see the nonlinear model's sensitivity."""
+
+    x: np.ndarray  # (2,) complex
+    y: np.ndarray
+    static: np.ndarray  # (2, 2)
+    q0: np.ndarray  # (2,) m^3/s
+    dx: np.ndarray  # (2 planes, 2 flows) complex, per m^3/s
+    dy: np.ndarray
+    dstatic: np.ndarray  # (2, 2, 2 flows)
+
+    @classmethod
+    def constant(cls, x, y, static, q0) -> "ResponseDefect":
+        return cls(np.asarray(x), np.asarray(y), np.asarray(static), np.asarray(q0, dtype=float),
+                   np.zeros((2, 2), complex), np.zeros((2, 2), complex), np.zeros((2, 2, 2)))
+
+    def scaled(self, factor: float) -> "ResponseDefect":
+        return ResponseDefect(self.x * factor, self.y * factor, self.static * factor, self.q0,
+                              self.dx * factor, self.dy * factor, self.dstatic * factor)
+
+    def at(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """(d (..., 2 planes, 2 [x, y]) complex, static (..., 2, 2)) at flows q (..., 2)."""
+        dq = np.asarray(q, dtype=float) - self.q0
+        x = self.x + np.einsum("pk,...k->...p", self.dx, dq)
+        y = self.y + np.einsum("pk,...k->...p", self.dy, dq)
+        return np.stack([x, y], axis=-1), self.static + np.einsum("pjk,...k->...pj", self.dstatic, dq)
+
+
+@dataclass(frozen=True)
 class ChainOutput:
     """What the probes read: 1X amplitudes x, y (..., 2 planes) and the static offsets (..., 2, 2) or None."""
 
@@ -183,8 +219,8 @@ class ForwardChain:
         for e in effects:
             if getattr(e, "stage", None) == "response":
                 raise InputError(f"{e.label()} replaces the linear response (the film solved along the orbit): "
-                                 "`lubeviz simulate --effect` uses it alone; an identification, a diagnosis or a "
-                                 "combination with other effects cannot yet")
+                                 "the linear chain cannot carry it; `identify` fits it through "
+                                 "`identify.orbit_fit` (with probe effects only), `simulate` alone")
             if getattr(e, "stage", None) not in ("bearings", "rotor", "probes"):
                 raise InputError(f"{e!r} is not an effect (no stage)")
         self.effects = tuple(e.bind(machine) for e in effects)
@@ -205,6 +241,16 @@ class ForwardChain:
         self._slots = [(e, p) for e in self.effects for p in e.free]
         self._build_reference()
         self.evaluations = 0
+        self.defect: ResponseDefect | None = None
+
+    def with_defect(self, defect: ResponseDefect | None) -> "ForwardChain":
+        """The same chain (tables, views, effects shared) with `defect` added to its response."""
+        import copy
+
+        new = copy.copy(self)
+        new.defect = defect
+        new.__dict__.pop("_budget_chains", None)
+        return new
 
     def with_effects(self, effects) -> "ForwardChain":
         """The same machine, speed, planes and tables with other effects (tables and bearing views shared)."""
@@ -337,6 +383,9 @@ class ForwardChain:
                 xh = np.einsum("...ij,...j->...i", housing[k], x_U[..., 2 * k:2 * k + 2])
                 d = d.copy()
                 d[..., k, :] = d[..., k, :] - xh
+        if self.defect is not None:
+            dd, ds = self.defect.at(theta[..., :2])
+            d, static = d + dd, static + ds
         # probes stage
         for k in range(2):
             for e in self.effects:
@@ -405,6 +454,9 @@ class ForwardChain:
         rhs[:n0] = F
         q = np.linalg.solve(D, rhs)
         d = np.array([q[node_dofs(nd)[[X, Y]]] for nd in self.nodes])
+        if self.defect is not None:
+            dd, ds = self.defect.at(theta[:2])
+            d, static = d + dd, static + ds
         for k in range(2):
             if k in hdofs:
                 d[k] = d[k] - q[hdofs[k]]

@@ -249,12 +249,14 @@ def _parts(chains, measured, names):
 
 def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBudget | None = None,
         level: float = 0.01, lower: float = 0.25, upper: float = 2.0, grid: int = 41, most_basins: int = 4,
-        intervals: bool = True, hold_flows=None) -> Fit:
+        intervals: bool = True, hold_flows=None, start=None) -> Fit:
     """Fit the chain's named parameters to `measured` (MeasuredFeatures-like: names, values, cov).
 
     `chain` and `measured` may be sequences (records of one `set:` at several speeds, one chain each, with
     the same effects): the parameters are shared, the residuals stacked, the model budget's terms
     correlated across the speeds. `names`: the features to use (default all the record holds).
+    `start`: a parameter vector to refine from instead of the global search (a local model, e.g. the
+    large-orbit correction round of `orbit_fit`, that holds only near its own point).
     """
     t0 = time.perf_counter()
     chains = list(chain) if isinstance(chain, (list, tuple)) else [chain]
@@ -281,12 +283,13 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     if dof < 0:
         raise InputError(f"{n_free} free parameters {tuple(ref.names[i] for i in free)} for {len(all_names)} "
                          "features: the record cannot determine them; hold some (give their values)")
-    start = ref.start()
+    local = start is not None
+    start = ref.start() if start is None else np.array(start, dtype=float)
     if hold_flows is not None:
         start[:2] = hold_flows
     problem = _Problem(parts, _Problem(parts, np.eye(len(all_names)), free).model_cov(start, budget, noise), free)
     # 1. global scan over the flow box
-    if hold_flows is None:
+    if hold_flows is None and not local:
         pts = _grid_starts(ref, start, lower, upper, grid)
         pts[..., :2] = np.clip(pts[..., :2], lo[:2], hi[:2])
         cost = problem.cost_many(pts)

@@ -50,6 +50,8 @@ from .film_bearings import FilmBearings
 from .response import Unbalance, unbalance_force
 
 CONTACT = 0.95  # eccentricity ratio beyond which the orbit is refused (the journal nearly touches)
+HARMONICS, POINTS = 5, 24  # against 6 and 36: the journals' 1X correction within 1.3 % of its size (3 and 16: 9 %)
+MAX_STEP = 0.1  # largest move of a journal in one Newton step, relative to its clearance
 
 
 @dataclass(frozen=True)
@@ -109,7 +111,7 @@ def _dynamic_stiffness(rotor: Rotor, omega: float, frequency: float, K, C) -> np
 
 
 def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unbalance], *,
-                  nodes: Sequence[int] = (6, 20), harmonics: int = 3, points: int = 16, tol: float = 1e-5,
+                  nodes: Sequence[int] = (6, 20), harmonics: int = HARMONICS, points: int = POINTS, tol: float = 1e-5,
                   max_iter: int = 30, start: OrbitBalance | None = None,
                   progress: ProgressFn = silent) -> OrbitBalance:
     """The periodic orbit of `rotor` on the films of `bearings` under `unbalances` (harmonic balance).
@@ -242,6 +244,10 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
                                    f"{change:.1e} of the 1X orbit): the orbit is too large for a periodic "
                                    "solution near the linear one")
         step = -np.linalg.solve(G_jacobian(dq, dv) - np.eye(z.size), f)
+        reach = np.abs(unpack(step)).sum(axis=0).reshape(nb, 2).max(axis=1)  # bound on each journal's move
+        cap = float(np.max(reach / (MAX_STEP * np.array([e.bearing.clearance for e in eqs]))))
+        if cap > 1.0:  # far from the orbit the tangent misleads: no step moves a journal by more than this
+            step = step / cap
         lam, taken = 1.0, None
         for tries in range(6):  # the full step, or a fraction that lowers |F| (the last one taken regardless);
             trial = z + lam * step  # a step that makes the journal touch or a film fail is halved too

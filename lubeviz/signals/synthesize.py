@@ -73,7 +73,7 @@ def synthesize_record(machine, flows: Sequence[float], *, nodes: Sequence[int] |
         x, y = ob.signals(t)
         x, y = x - ob.x[0].real[:, None], y - ob.y[0].real[:, None]  # the probes' DC gap removed
         xy = np.stack([x, y], axis=1)
-        extra = {"method": "orbit (harmonic balance on the p-theta films, 0X-3X)",
+        extra = {"method": "orbit (harmonic balance on the p-theta films, 0X-5X)",
                  "static_shift_um": " ".join(f"{v:.3f}" for v in 1e6 * np.ravel(np.stack([ob.x[0].real,
                                                                                           ob.y[0].real], 1))),
                  "ratio_2x": " ".join(f"{ob.harmonic_ratio(2, k):.4f}" for k in range(len(nodes)))}

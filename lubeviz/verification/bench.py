@@ -106,6 +106,8 @@ DIAGNOSE_CASES = (
     ("probe_gain", ("probe_gain:channel=y2,gain=1.08", "probe_gain:channel=y2,gain=1.2")),
     ("bow", ("bow:node=13,amplitude_um=40,phase_deg=45", "bow:node=13,amplitude_um=90,phase_deg=160")),
     ("seal (not in the library)", ("seal:node=10,kxy_n_m=2e6,kxx_n_m=1e7", "seal:node=10,kxy_n_m=2e6,kxx_n_m=2e7")),
+    # the machine's own unbalance scaled: records of `orbit_record` (harmonic balance on the source's films)
+    ("large_orbit", ("large_orbit:unbalance_scale=0.6", "large_orbit:unbalance_scale=1")),
 )
 
 
@@ -115,10 +117,12 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
     identification, then diagnosis; the named effect, the residual and the flow errors before and after."""
     from ..diagnose import diagnose
     from ..diagnose.loop import OTHER_FORCE
+    from ..identify.batch import beyond_1x
     from ..identify.chain import ForwardChain
     from ..identify.measured import measure
     from ..model.machine import load_machine
     from .independent import IndependentSpec, make_record, thresholds_mlmin
+    from .orbit_record import make_orbit_record
 
     t0 = time.perf_counter()
     machine = load_machine(machine_path)
@@ -133,10 +137,14 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
             for s in range(seeds):
                 i += 1
                 q = qt * rng.uniform(0.75, 1.25, 2)
-                spec = IndependentSpec(speed_hz=speed_hz, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]),
-                                       effects=(text,), seed=100 + i)
-                rec = make_record(spec).record
-                d = diagnose(chain, measure(rec), candidates=candidates)
+                if name == "large_orbit":
+                    spec = IndependentSpec(speed_hz=speed_hz, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]), seed=100 + i)
+                    rec = make_orbit_record(spec, unbalance_scale=float(text.rpartition("=")[2])).record
+                else:
+                    spec = IndependentSpec(speed_hz=speed_hz, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]),
+                                           effects=(text,), seed=100 + i)
+                    rec = make_record(spec).record
+                d = diagnose(chain, measure(rec), candidates=candidates, lines=beyond_1x(rec)[0])
                 truth = name.split(" ")[0]
                 named = d.added.effect.effect_name if (d.added is not None and not d.ambiguous) else None
                 in_set = truth in ([] if d.added is None else [d.added.effect.effect_name]) + [

@@ -182,3 +182,27 @@ def test_a_bearing_has_at_most_one_pedestal(machine, tables):
         chain_with(machine, tables, "pedestals:bearing=both,mass_kg=50,stiffness_n_m=2e8,damping_ns_m=1e4",
                    "pedestals:bearing=2,mass_kg=30,stiffness_n_m=8e7,damping_ns_m=1e4")
     chain_with(machine, tables, "pedestals:bearing=1", "pedestals:bearing=2")  # one each is fine
+
+
+def test_a_response_defect_is_added_affinely_before_the_probes(machine, tables):
+    """The large-orbit correction (`ResponseDefect`): added to the 1X and the static offsets in the X/Y frame,
+    linear in the flows about its own point, then read by the probes like the rest of the response; the
+    fast path and the assembled system agree with it."""
+    from lubeviz.identify.chain import ResponseDefect
+
+    chain = chain_with(machine, tables, "probe_gain:channel=x1,gain=1.1")
+    q = np.asarray(Q)
+    d = ResponseDefect(x=np.array([1e-6 + 2e-6j, -3e-6j]), y=np.array([2e-6, 1e-6 + 1e-6j]),
+                       static=np.array([[1e-6, -2e-6], [0.0, 3e-6]]), q0=q,
+                       dx=np.array([[1e-2, 0.0], [0.0, 2e-2j]]), dy=np.zeros((2, 2), complex),
+                       dstatic=np.zeros((2, 2, 2)))
+    corrected = chain.with_defect(d)
+    assert chain.defect is None  # the original is untouched
+    a, b = chain.output(q), corrected.output(q)
+    np.testing.assert_allclose(b.x - a.x, [1.1 * d.x[0], d.x[1]], rtol=1e-12)  # the gain acts on it too
+    np.testing.assert_allclose(b.y - a.y, d.y, rtol=1e-12)
+    step = np.array([1e-6, 2e-6])
+    c = corrected.output(q + step).x - chain.output(q + step).x
+    np.testing.assert_allclose(c, [1.1 * (d.x[0] + 1e-2 * 1e-6), d.x[1] + 2e-2j * 2e-6], rtol=1e-12)
+    direct = corrected.direct_output(q + step)
+    np.testing.assert_allclose(direct.x, corrected.output(q + step).x, rtol=1e-9)
