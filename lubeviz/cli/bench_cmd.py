@@ -29,6 +29,9 @@ def register(sub) -> None:
                         "is a held-out check)")
     p.add_argument("--calibrations", default="",
                    help="coverage: other budget calibration factors to try on the same records, comma-separated")
+    p.add_argument("--budgets", default="",
+                   help="coverage: model budgets to try on the same records, each as NAME=VALUE pairs of "
+                        "ModelBudget (e.g. 'coefficient_k=0.0025,shaft_damping=0.4'), budgets separated by ';'")
     p.add_argument("--seeds", type=int, default=2, help="diagnose: records per effect and strength (default 2)")
     p.add_argument("--no-ross", action="store_true", help="rotor: skip the side-by-side ROSS timings")
     p.add_argument("--reproduce", action="store_true",
@@ -90,10 +93,37 @@ def run_bench(args) -> dict:
             if any(not (0.0 < c <= 10.0) for c in cal):
                 raise ValueError(f"--calibrations {args.calibrations!r}: expected factors in (0, 10]")
             return vb.bench_coverage(args.machine, n=args.records, seed=args.seed, calibrations=cal,
-                                     progress=StderrBar())
+                                     budgets=_budgets(args.budgets), progress=StderrBar())
         if args.what == "budget":
             return vb.bench_budget(args.machine, n=args.records, seed=args.seed, progress=StderrBar())
         if args.seeds < 1:
             raise ValueError(f"--seeds {args.seeds}: expected at least 1")
         return vb.bench_diagnose(args.machine, seeds=args.seeds, progress=StderrBar())
     return bench_film(args.machine, repeat=args.repeat, progress=StderrBar())
+
+
+def _budgets(text: str) -> list[dict]:
+    """--budgets: 'name=value,name=value;name=value' -> one dict of ModelBudget values per budget."""
+    from ..identify.budget import ModelBudget
+
+    out = []
+    for part in (p.strip() for p in text.split(";")):
+        if not part:
+            continue
+        values = {}
+        for item in part.split(","):
+            name, eq, value = item.partition("=")
+            name = name.strip()
+            if not eq or name not in ModelBudget.param or name == "name":
+                known = ", ".join(n for n in ModelBudget.param if n != "name")
+                raise ValueError(f"--budgets {text!r}: {item.strip()!r} is not NAME=VALUE of a budget term ({known})")
+            try:
+                values[name] = float(value)
+            except ValueError:
+                raise ValueError(f"--budgets {text!r}: {name} = {value.strip()!r} is not a number") from None
+        try:
+            ModelBudget(**values)
+        except ValueError as exc:
+            raise ValueError(f"--budgets {text!r}: {exc}") from None
+        out.append(values)
+    return out

@@ -52,13 +52,14 @@ def _summary(rows) -> dict:
 BANDS = ((50.0, 62.5), (62.5, 80.0), (80.0, 100.0 + 1e-9))
 
 
-def bench_coverage(machine_path=None, *, n: int = 120, seed: int = 2026, calibrations=(),
+def bench_coverage(machine_path=None, *, n: int = 120, seed: int = 2026, calibrations=(), budgets=(),
                    progress: ProgressFn = silent) -> dict:
     """Clean independent records (seeds x speeds 50-100 Hz x flows 30-180 % Q_T x centre/outside planes x
     X/Y or 45/135 probes): error, 95 % interval coverage and chi^2 flag rate, with the model budget and with
     the noise alone; by speed band. `calibrations`: other values of the budget's calibration factor to try
     on the same records (the default budget's calibration comes from `bench_budget` at seed 2026, so a
-    held-out check uses another seed)."""
+    held-out check uses another seed). `budgets`: other budgets (dicts of `ModelBudget` values, e.g. one
+    term scaled alone), likewise."""
     from ..identify.batch import identify_record
     from ..identify.budget import ModelBudget
     from ..model.machine import load_machine
@@ -67,8 +68,9 @@ def bench_coverage(machine_path=None, *, n: int = 120, seed: int = 2026, calibra
     t0 = time.perf_counter()
     machine = load_machine(machine_path)
     specs = clean_corpus(n, np.random.default_rng(seed), machine=machine_path)
+    variants = [(" ".join(f"{k}={v:g}" for k, v in b.items()), ModelBudget(**b)) for b in budgets]
     budgets = ([("budget", None)] + [(f"calibration {c:g}", ModelBudget(calibration=float(c))) for c in calibrations]
-               + [("noise_only", ModelBudget.none())])
+               + variants + [("noise_only", ModelBudget.none())])
     rows = {key: [] for key, _ in budgets}
     for i, spec in enumerate(specs, start=1):
         rec = make_record(spec).record

@@ -1,0 +1,29 @@
+"""`lubeviz bench` argument checks: bad input is a clear error with exit 2, before any work is done."""
+
+import pytest
+
+from lubeviz.cli.main import main
+
+
+@pytest.mark.parametrize("arg, words", [
+    ("foo=1", ["'foo=1'", "coefficient_k"]),
+    ("coefficient_k", ["'coefficient_k'", "NAME=VALUE"]),
+    ("coefficient_k=abc", ["coefficient_k", "'abc'", "not a number"]),
+    ("coefficient_k=-1", ["coefficient_k"]),
+])
+def test_a_bad_budget_variant_names_the_option_and_the_term(capsys, arg, words):
+    assert main(["bench", "coverage", "--records", "1", "--budgets", arg]) == 2
+    err = capsys.readouterr().err
+    assert "--budgets" in err
+    for w in words:
+        assert w in err
+
+
+def test_budget_variants_are_parsed_into_model_budgets():
+    from lubeviz.cli.bench_cmd import _budgets
+    from lubeviz.identify.budget import ModelBudget
+
+    got = _budgets("coefficient_k=0.0025, shaft_damping=0.4 ; calibration=0.9;")
+    assert got == [{"coefficient_k": 0.0025, "shaft_damping": 0.4}, {"calibration": 0.9}]
+    b = ModelBudget(**got[0])
+    assert b.coefficient_k == 0.0025 and b.coefficient_c == ModelBudget().coefficient_c
