@@ -13,6 +13,11 @@ identification fits); modes from `rotor.modal`, the Campbell diagram from `rotor
 The Campbell diagram takes seconds, so it is computed on request, for the flows of that moment; when the
 flows (or the speed) change afterwards it says so ("stale", and for which flows it was computed) until it
 is recomputed. Its job panel shows only its own job.
+
+Large orbits (issue 11, item 6): the nonlinear film along the orbit (`rotor.orbit_balance`, a harmonic
+balance of tens of seconds) is not a switch of the effect selector but a section of its own, computed on
+request for the flows, speed, node and unbalance scale of that moment, stale (as the Campbell diagram) when
+one of them changes: the orbit against the linear ellipse, its lines +-1X, +-2X, ... and the static shift.
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ import panel as pn
 import param
 
 from ..effects import EFFECTS
+from ..errors import ConvergenceError
 from ..identify.forward import tabled_response
 from ..model.machine import Machine
 from ..model.operating import OperatingPoint
@@ -32,6 +38,9 @@ from ..progress import Cancelled
 from ..rotor.elements import DOF_PER_NODE, X, Y
 from ..rotor.modal import modal_analysis
 from ..rotor.directional import directional_components, forward_backward_ratio, orbit_angle
+from ..rotor.film_bearings import film_bearings
+from ..rotor.orbit_balance import HARMONICS, POINTS, orbit_balance
+from ..rotor.response import Unbalance, machine_unbalance
 from ..signals.noise import add_noise
 from ..signals.spectrum import full_spectrum
 from ..signals.synthesize import steady_signals
@@ -65,6 +74,19 @@ orbit's shape although the bearings have not; soft pedestals eat damping; a turn
 probe changes only what is *read*. The **shaft centreline** plots show each journal's static position in
 its clearance circle (grey: without the effect) — what condition-monitoring systems call the
 centreline. The identification must tell these apart from a change of supply: the Diagnose page does.
+
+**Large orbits** (the section above): everything else on this page is the *linear* model, the film
+replaced by its stiffness and damping at the static equilibrium. Press the large-orbit button to solve
+the film along the orbit instead and see what the linear model leaves out: a 2X and 3X line, a static
+shift of the journals and a 1X that is no longer the linear one. A record's 2X line is how it shows.
+"""
+
+LARGE_ORBIT = """
+The linear model holds while the orbit is small against the bearing clearance. When it is a sizeable
+fraction of it, the film force is no longer linear in the journal's motion: the film stiffens as the gap
+narrows and the cavitated zone breathes with the orbit. The orbit
+stays periodic at the shaft speed but gains **2X, 3X** lines and a **static shift** (0X) of the journals,
+and its 1X departs from the linear one. Scale the unbalance to see the lines grow with the orbit.
 """
 
 PLOT = dict(tools=["hover"], framewise=True)
@@ -79,12 +101,16 @@ class RotorPage(pn.viewable.Viewer):
     node = param.Integer(6, bounds=(1, 21), doc="Node (paper numbering) whose orbit, signals and spectrum are shown")
     snr_db = param.Number(12.0, bounds=(-5.0, 60.0), doc="Signal-to-noise ratio of the simulated probes (dB)")
     revolutions = param.Integer(5, bounds=(1, 50), doc="Revolutions shown in the time signals")
-    # large_orbit replaces the linear response (a harmonic balance, ~40 s): not a switch for this page
+    # large_orbit replaces the linear response (a harmonic balance, tens of seconds): its own section below
     effect_name = param.Selector(default="none", objects=["none", *(n for n, c in EFFECTS.items()
                                                                     if c.stage != "response")],
                                  doc="An effect of a real machine, switched on to see what it does")
+    unbalance_scale = param.Number(1.0, bounds=(0.25, 2.0), step=0.05,
+                                   doc="Unbalance of the large orbit, relative to the machine's (-)")
 
-    def __init__(self, machine: Machine, operating: OperatingPoint, **params):
+    def __init__(self, machine: Machine, operating: OperatingPoint, *,
+                 _orbit_resolution: tuple[int, int] = (HARMONICS, POINTS), **params):
+        """`_orbit_resolution`: harmonics and points per revolution of the large orbit (tests use fewer)."""
         super().__init__(**params)
         self.machine = machine
         self.op = operating
@@ -112,12 +138,15 @@ class RotorPage(pn.viewable.Viewer):
         self._effect_story = pn.pane.Markdown("", sizing_mode="stretch_width", styles={"font-size": "0.9em"},
                                               css_classes=["lubeviz-rotor-effect-story"])
         self._effect_widgets = pn.Column(sizing_mode="stretch_width")
+        self._init_large_orbit(_orbit_resolution)
         self._ready = False
         self._layout = self._build()
         self.param.watch(self._on_effect, "effect_name")
         self.param.watch(self._refresh, ["node", "snr_db", "revolutions"])
         self.op.param.watch(self._refresh, ["q1", "q2"])
         self.op.param.watch(self._show_campbell, ["q1", "q2", "speed"])
+        self.op.param.watch(self._show_large_orbit, ["q1", "q2", "speed"])
+        self.param.watch(self._show_large_orbit, ["node", "unbalance_scale"])
 
     def _build(self):
         widgets = pn.Param(self.param, parameters=["node", "snr_db", "revolutions"], show_name=False,
@@ -157,6 +186,7 @@ class RotorPage(pn.viewable.Viewer):
             pn.Row(pn.Column(self._campbell_button, self.campbell_jobs, self._campbell_error, self._campbell_stale,
                              campbell, sizing_mode="stretch_width", css_classes=["lubeviz-campbell-panel"]),
                    sizing_mode="stretch_width"),
+            self._large_orbit_section(),
             pn.pane.Markdown(EXPLAIN, sizing_mode="stretch_width"),
             sizing_mode="stretch_width")
 
@@ -322,6 +352,112 @@ class RotorPage(pn.viewable.Viewer):
             self._campbell_pane.object = self._campbell(d, stale=drawn[1])  # redrawn only when its title changes
             self._campbell_drawn = drawn
 
+    # --- large orbits (nonlinear film) -------------------------------------------------------------------
+    def _init_large_orbit(self, resolution: tuple[int, int]):
+        self._orbit_resolution = tuple(int(v) for v in resolution)
+        self.large_orbit_jobs = JobPanel()
+        self._large_orbit_button = pn.widgets.Button(
+            name="Compute the large orbit (harmonic balance, tens of seconds)", button_type="primary",
+            css_classes=["lubeviz-large-orbit-button"])
+        self._large_orbit_button.on_click(self._on_large_orbit)
+        # The orbit shown and what it was computed for: flows, speed, node and unbalance scale (as Campbell).
+        self._large_orbit_data: dict | None = None
+        self._large_orbit_drawn: tuple | None = None  # (data, stale) of the plots on screen
+        alert = dict(visible=False, sizing_mode="stretch_width")
+        self._large_orbit_stale = pn.pane.Alert("", alert_type="warning",
+                                                css_classes=["lubeviz-large-orbit-stale"], **alert)
+        self._large_orbit_error = pn.pane.Alert("", alert_type="danger",
+                                                css_classes=["lubeviz-large-orbit-error"], **alert)
+        self._large_orbit_summary = pn.pane.Markdown("", min_width=300, styles={"flex": "1 1 300px"},
+                                                     css_classes=["lubeviz-large-orbit-summary"])
+        # Replaced whole when computed, as the Campbell diagram.
+        self._large_orbit_pane = pn.pane.HoloViews(self._large_orbit_plot(None), linked_axes=False,
+                                                   css_classes=["lubeviz-large-orbit-plot"])
+        self._large_orbit_lines = pn.pane.HoloViews(self._large_orbit_spectrum(None), linked_axes=False,
+                                                    css_classes=["lubeviz-large-orbit-spectrum"], **HALF)
+
+    def _large_orbit_section(self):
+        scale = pn.Param(self.param, parameters=["unbalance_scale"], show_name=False,
+                         widgets={"unbalance_scale": {"type": pn.widgets.FloatSlider,
+                                                      "name": "Unbalance scale (× the machine's)",
+                                                      "css_classes": ["lubeviz-large-orbit-scale"]}})
+        return pn.Column("### Large orbits (nonlinear film)",
+                         pn.pane.Markdown(LARGE_ORBIT, sizing_mode="stretch_width"),
+                         pn.FlexBox(scale, self._large_orbit_button, flex_wrap="wrap", align_items="center"),
+                         self.large_orbit_jobs, self._large_orbit_error, self._large_orbit_stale,
+                         pn.FlexBox(self._large_orbit_pane, self._large_orbit_lines, self._large_orbit_summary,
+                                    flex_wrap="wrap"),
+                         sizing_mode="stretch_width", css_classes=["lubeviz-large-orbit-panel"])
+
+    @staticmethod
+    def _orbit_balance(machine: Machine, flows, speed_hz: float, node: int, scale: float,
+                       resolution: tuple[int, int], progress):
+        """The periodic orbit on the films at `flows` (m^3/s) and `speed_hz` under the machine's unbalance
+        times `scale`, at `node` (in the job's worker thread)."""
+        progress(0, 0, "film equilibria at the supply flows")
+        bearings = film_bearings(machine, list(flows), 2 * math.pi * speed_hz)
+        unbalances = [Unbalance(u.node, u.moment * scale, u.phase) for u in machine_unbalance(machine)]
+        harmonics, points = resolution
+        return orbit_balance(resources.rotor(machine), bearings, unbalances, nodes=(node,), harmonics=harmonics,
+                             points=points, progress=progress)
+
+    async def _on_large_orbit(self, event=None):
+        flows, speed = (self.op.q1, self.op.q2), self.op.speed
+        node, scale = self.node, self.unbalance_scale
+        label = f"large orbit at node {node}, unbalance ×{scale:g}"
+        self._large_orbit_error.visible = False
+        try:
+            result = await self.large_orbit_jobs.run(self._orbit_balance, self.machine, flows, speed, node, scale,
+                                                     self._orbit_resolution, label=label)
+        except Cancelled:
+            return
+        except ConvergenceError as exc:  # e.g. the orbit reaches the wall: a physical answer, not a crash
+            self._large_orbit_error.object = (f"**No periodic orbit near the linear one** at unbalance "
+                                              f"×{scale:g}: {exc}. Try a smaller unbalance scale.")
+            self._large_orbit_error.visible = True
+            return
+        except Exception as exc:  # noqa: BLE001 - shown beside the button (its job status says it too)
+            self._large_orbit_error.object = f"**Large orbit not computed**: {exc}"
+            self._large_orbit_error.visible = True
+            return
+        self._large_orbit_data = dict(result=result, flows=flows, speed=speed, node=node, scale=scale)
+        self._show_large_orbit()
+
+    def _large_orbit_changes(self) -> list[str]:
+        """What has changed since the large orbit shown was computed (empty: it is up to date)."""
+        d = self._large_orbit_data
+        if d is None:
+            return []
+        changes = []
+        rounded = [round(q / M3S_PER_MLMIN, 1) for q in d["flows"]]  # the sliders move by 1 ml/min
+        if [round(q / M3S_PER_MLMIN, 1) for q in (self.op.q1, self.op.q2)] != rounded:
+            changes.append("the flows have changed")
+        if self.op.speed != d["speed"]:
+            changes.append("the speed has changed")
+        if self.node != d["node"]:
+            changes.append("the node has changed")
+        if self.unbalance_scale != d["scale"]:
+            changes.append("the unbalance scale has changed")
+        return changes
+
+    def _show_large_orbit(self, *events):
+        d = self._large_orbit_data
+        if d is None:
+            return
+        changes = self._large_orbit_changes()
+        q = [f / M3S_PER_MLMIN for f in d["flows"]]
+        self._large_orbit_stale.object = (f"Large orbit computed for Q1 = {q[0]:.0f}, Q2 = {q[1]:.0f} ml/min at "
+                                          f"{d['speed']:g} Hz, node {d['node']}, unbalance ×{d['scale']:g}; "
+                                          f"{' and '.join(changes)}: press the button to recompute.")
+        self._large_orbit_stale.visible = bool(changes)
+        drawn = (d, bool(changes))
+        if self._large_orbit_drawn is None or self._large_orbit_drawn[0] is not d \
+                or self._large_orbit_drawn[1] != drawn[1]:  # redrawn only when the result or its title changes
+            self._large_orbit_pane.object = self._large_orbit_plot(d, stale=drawn[1])
+            self._large_orbit_lines.object = self._large_orbit_spectrum(d, stale=drawn[1])
+            self._large_orbit_summary.object = self._large_orbit_text(d)
+            self._large_orbit_drawn = drawn
+
     def _fail(self, exc: Exception):
         self._error.object = f"**Could not compute the response**: {exc}"
         self._error.visible = True
@@ -462,6 +598,86 @@ class RotorPage(pn.viewable.Viewer):
         title = f"Campbell diagram at Q/Q_T = {r} (Q1/Q2 = {q} ml/min): {text}{' (stale)' if stale else ''}"
         return (hv.Overlay(tracks) * one_x * pts * hv.VLine(data["speed"], label="operating speed").opts(
             color="green")).opts(**dict(opts, title=title, ylim=(0.0, 1.5 * speeds[-1])))
+
+    # --- large-orbit plots -------------------------------------------------------------------------------
+    @staticmethod
+    def _large_orbit_plot(data, stale: bool = False):
+        """The nonlinear orbit over one revolution (its static shift included) on the linear ellipse."""
+        kd = ["x (µm)", "y (µm)"]
+        opts = dict(frame_width=300, frame_height=300, legend_position="bottom", framewise=True)
+        if not data:
+            return (hv.Curve([], *kd) * hv.Curve([], *kd)).opts(
+                title="Large orbit (press the button above)", **opts)
+        res = data["result"]
+        t = np.linspace(0.0, 2 * math.pi / res.omega, 241)
+        xs, ys = res.signals(t)
+        x, y = xs[0] * 1e6, ys[0] * 1e6
+        e = np.exp(1j * res.omega * t)
+        lx, ly = (res.linear_x[0] * e).real * 1e6, (res.linear_y[0] * e).real * 1e6
+        centre = (res.x[0, 0].real * 1e6, res.y[0, 0].real * 1e6)
+        lim = 1.15 * max(np.abs(np.concatenate([x, y, lx, ly])).max(), 1e-9)
+        title = f"Orbit at node {data['node']}, unbalance ×{data['scale']:g}{' (stale)' if stale else ''}"
+        return (hv.Curve((lx, ly), *kd, label="linear model (K, C at equilibrium)").opts(
+                    color="gray", line_dash="dashed", line_width=1.5)
+                * hv.Curve((x, y), *kd, label="nonlinear film (static shift included)").opts(
+                    color="#d62728", line_width=2)
+                * hv.Points([centre], kd, label="orbit centre: static shift 0X").opts(color="#d62728", size=8,
+                                                                                       marker="x")
+                * hv.Points([(lx[0], ly[0]), (x[0], y[0])], kd, label="t = 0 (keyphasor)").opts(
+                    color=plotting.NEUTRAL, size=7)).opts(
+            title=title, xlim=(-lim, lim), ylim=(-lim, lim), **opts)
+
+    @staticmethod
+    def _large_orbit_spectrum(data, stale: bool = False):
+        """The lines of the nonlinear orbit, amplitude against order (+: forward whirl, −: backward)."""
+        kd, vd = "order (× shaft speed)", "amplitude (µm)"
+        opts = dict(responsive=True, min_height=340, legend_position="top_right", framewise=True)
+        if not data:
+            return (hv.Spikes([], kd, vd) * hv.Scatter([], kd, vd)).opts(
+                title="Lines of the large orbit (+: forward, −: backward whirl)", **opts)
+        res = data["result"]
+        orders, amps = [0], [math.hypot(res.x[0, 0].real, res.y[0, 0].real) * 1e6]
+        for h in range(1, res.harmonics + 1):
+            zf, zb = directional_components(res.x[h, 0], res.y[h, 0])
+            orders += [h, -h]
+            amps += [abs(zf) * 1e6, abs(zb) * 1e6]
+        zf1 = amps[1]
+        lf, lb = directional_components(res.linear_x[0], res.linear_y[0])
+        text = [(o, a, f"{a / zf1:.1%}") for o, a in zip(orders, amps) if abs(o) >= 2 and a > 0.002 * zf1]
+        title = (f"Lines of the large orbit at node {data['node']} (+: forward, −: backward whirl; "
+                 f"% of +1X){' (stale)' if stale else ''}")
+        return (hv.Spikes((orders, amps), kd, vd, label="nonlinear film").opts(color="#d62728", line_width=3)
+                * hv.Scatter([(1, abs(lf) * 1e6), (-1, abs(lb) * 1e6)], kd, vd, label="linear model ±1X").opts(
+                    color="gray", size=9, marker="circle")
+                * hv.Labels(text, [kd, vd], "text").opts(text_font_size="8pt", text_baseline="bottom")).opts(
+            title=title, xticks=[(o, f"{o:+d}X" if o else "0X") for o in sorted(orders)], **opts)
+
+    @staticmethod
+    def _large_orbit_text(data) -> str:
+        res = data["result"]
+        zf, zb = directional_components(res.x[1, 0], res.y[1, 0])
+        lf, lb = directional_components(res.linear_x[0], res.linear_y[0])
+        size = math.hypot(abs(res.x[1, 0]), abs(res.y[1, 0]))
+        linear = math.hypot(abs(res.linear_x[0]), abs(res.linear_y[0]))
+        shifts = [f"| static shift (0X), journal {j + 1} | ({res.bearing_x[0, j].real * 1e6:+.2f}, "
+                  f"{res.bearing_y[0, j].real * 1e6:+.2f}) µm |" for j in range(res.bearing_x.shape[1])]
+        return "\n".join([
+            f"#### Large orbit at node {data['node']}, unbalance ×{data['scale']:g}",
+            "| quantity | value |", "|---|---|",
+            f"| 2X / 1X at node {data['node']} (\\|+2X\\| + \\|−2X\\| over \\|+1X\\|) | "
+            f"{res.harmonic_ratio(2, 0):.1%} |",
+            *([f"| 3X / 1X | {res.harmonic_ratio(3, 0):.1%} |"] if res.harmonics >= 3 else []),
+            f"| \\|1X\\| nonlinear / linear | {size / linear:.3f} |",
+            f"| \\|Zf\\| forward 1X | {abs(zf) * 1e6:.2f} µm (linear {abs(lf) * 1e6:.2f} µm) |",
+            f"| \\|Zb\\| backward 1X | {abs(zb) * 1e6:.2f} µm (linear {abs(lb) * 1e6:.2f} µm) |",
+            f"| static shift (0X) at node {data['node']} | ({res.x[0, 0].real * 1e6:+.2f}, "
+            f"{res.y[0, 0].real * 1e6:+.2f}) µm |",
+            *shifts,
+            f"| largest eccentricity along the orbit | {res.max_eccentricity:.3f} |",
+            f"| harmonic balance | {res.iterations} Newton steps, {res.seconds:.1f} s "
+            f"(0X–{res.harmonics}X, {res.films and len(res.films[0])} points per revolution) |",
+            "", "\\|1X\\|: the orbit's size √(\\|X₁\\|² + \\|Y₁\\|²). Static shift from the linear "
+            "model's equilibrium (x horizontal, y vertical)."])
 
     def _centreline(self, data, k: int):
         """Journal k's static position in its clearance circle (µm, from the bearing centre; Y up)."""
