@@ -351,6 +351,8 @@ def result_text(d: dict) -> list[str]:
         out.append(f"  large orbits: the film force along the orbit ({lo['rounds']} harmonic balances; the linear "
                    f"model alone gives Q1, Q2 = {lo['plain_q_mlmin'][0]:.0f}, {lo['plain_q_mlmin'][1]:.0f} ml/min, "
                    f"chi2 {lo['plain_chi2']:.0f}); its 2X/1X at the planes: {ratio}")
+        if lo.get("stability"):
+            out.append(f"  stability at these flows: {lo['stability']}")
     for a in d.get("alternatives", []):
         out.append(f"  another fit passes as well: Q1, Q2 = {a['q1_mlmin']:.0f}, {a['q2_mlmin']:.0f} ml/min")
     for ln in d.get("lines_beyond_1x", []):

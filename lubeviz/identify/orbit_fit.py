@@ -41,6 +41,7 @@ from ..progress import ProgressFn, silent
 from ..rotor.film_bearings import film_bearings
 from ..rotor.orbit_balance import HARMONICS, POINTS, OrbitBalance, orbit_balance
 from ..rotor.response import machine_unbalance
+from ..rotor.whirl import Stability, equilibrium_stability
 from .budget import ModelBudget
 from .chain import ForwardChain, ResponseDefect
 from .fit import Fit, fit
@@ -63,6 +64,7 @@ class OrbitFit:
     history: tuple
     converged: bool
     seconds: float
+    stability: Stability | None = None  # of the equilibrium at the answer (rotor.whirl)
 
     @property
     def balances(self) -> int:
@@ -177,13 +179,17 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     if not converged:
         warnings.append(f"large orbits: the flows still moved by more than {100 * tol:g} % of Q_T after "
                         f"{max_rounds} balances")
+    stability = equilibrium_stability(chain.rotor, film_bearings(chain.machine, [float(v) for v in q], chain.omega))
+    if stability.unstable:
+        warnings.append(f"large orbits: at the flows found the model is {stability.describe()}; the periodic orbit "
+                        "fitted is then not what the machine would show (a sub-synchronous line would grow)")
     if ob.max_eccentricity > 0.8:
         warnings.append(f"large orbits: the journal reaches {ob.max_eccentricity:.2f} of the clearance; three "
                         "harmonics may not hold such an orbit")
     final = dataclasses.replace(final, warnings=tuple(warnings), seconds=time.perf_counter() - t0)
     progress(total, total, "large orbits: done")
     return OrbitFit(fit=final, plain=plain, orbit=ob, defect=defect, history=tuple(history),
-                    converged=converged, seconds=time.perf_counter() - t0)
+                    converged=converged, seconds=time.perf_counter() - t0, stability=stability)
 
 
 def orbit_summary(of: OrbitFit) -> dict:
@@ -195,4 +201,7 @@ def orbit_summary(of: OrbitFit) -> dict:
             "static_shift_um": (1e6 * np.stack([ob.x[0].real, ob.y[0].real], axis=-1)).tolist(),
             "max_eccentricity": ob.max_eccentricity,
             "plain_q_mlmin": (of.plain.values[:2] * 6e7).tolist(), "plain_chi2": of.plain.chi2,
+            **({} if of.stability is None else {
+                "stability": of.stability.describe(), "unstable": of.stability.unstable,
+                "least_stable_mode_hz": of.stability.frequency_hz, "growth_per_s": of.stability.growth}),
             "seconds": of.seconds}

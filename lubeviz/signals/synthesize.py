@@ -10,7 +10,11 @@ would read after removing its gap voltage.
 `method="steady"` skips the integration and samples the frequency-domain steady state instead
 (the two agree to the time integrator's hold error, ~2e-4 in amplitude; tests check it).
 `method="orbit"` samples the periodic orbit on the p-theta films themselves (the `large_orbit` effect:
-harmonic balance, `rotor.orbit_balance`), 1X to 3X; its static shift is in the metadata, not the signals.
+harmonic balance, `rotor.orbit_balance`), 0X to 5X; its static shift is in the metadata, not the signals.
+Above the instability threshold (`rotor.whirl`) that orbit is unstable: the record is then the time
+integration on the films from it, disturbed along the unstable mode, so that it holds the onset of oil
+whirl (a growing sub-synchronous line); a record longer than the whirl stays within the integration's
+reach is refused with the time it may last.
 """
 
 from __future__ import annotations
@@ -66,17 +70,37 @@ def synthesize_record(machine, flows: Sequence[float], *, nodes: Sequence[int] |
     elif method == "orbit":
         from ..progress import silent
         from ..rotor.orbit_balance import orbit_balance
+        from ..errors import ConvergenceError
+        from ..rotor.whirl import check_duration, equilibrium_stability, whirl_onset
 
-        ob = orbit_balance(rotor, fb, machine_unbalance(machine), nodes=nodes, progress=progress or silent)
+        stab = equilibrium_stability(rotor, fb)
         n_keep = int(round(duration_s * sample_rate_hz))
-        t = total_s - duration_s + dt * np.arange(1, n_keep + 1)
-        x, y = ob.signals(t)
-        x, y = x - ob.x[0].real[:, None], y - ob.y[0].real[:, None]  # the probes' DC gap removed
-        xy = np.stack([x, y], axis=1)
-        extra = {"method": "orbit (harmonic balance on the p-theta films, 0X-5X)",
-                 "static_shift_um": " ".join(f"{v:.3f}" for v in 1e6 * np.ravel(np.stack([ob.x[0].real,
+        if stab.unstable:
+            check_duration(stab, n_keep * dt)  # before the balance: a record too long is refused at once
+        ob = orbit_balance(rotor, fb, machine_unbalance(machine), nodes=nodes, progress=progress or silent)
+        extra = {"static_shift_um": " ".join(f"{v:.3f}" for v in 1e6 * np.ravel(np.stack([ob.x[0].real,
                                                                                           ob.y[0].real], 1))),
-                 "ratio_2x": " ".join(f"{ob.harmonic_ratio(2, k):.4f}" for k in range(len(nodes)))}
+                 "ratio_2x": " ".join(f"{ob.harmonic_ratio(2, k):.4f}" for k in range(len(nodes))),
+                 "stability": stab.describe()}
+        if stab.unstable:  # the periodic orbit is not what the machine shows: the whirl grows on top of it
+            try:
+                tr, _ = whirl_onset(rotor, fb, machine_unbalance(machine), duration=n_keep * dt, dt=dt, nodes=nodes,
+                                    start=ob.state(0.0), stability=stab, progress=progress or silent)
+            except ConvergenceError as exc:
+                raise ConvergenceError(f"{stab.describe()}: the record would hold its onset, but the time "
+                                       f"integration on the films cannot follow this orbit ({exc})") from None
+            t = tr.t[1:]
+            dc = np.stack([ob.x[0].real, ob.y[0].real], 1).ravel()  # the orbit's static shift: the probes' gap
+            xy = (tr.displacement[:, 1:] - dc[:, None]).reshape(len(nodes), 2, -1)
+            extra.update({"method": "time integration on the p-theta films from the periodic orbit, disturbed "
+                                    "along the unstable mode (oil whirl onset)",
+                          "whirl_hz": f"{stab.frequency_hz:.3f}", "whirl_growth_per_s": f"{stab.growth:.4g}"})
+        else:
+            t = total_s - duration_s + dt * np.arange(1, n_keep + 1)
+            x, y = ob.signals(t)
+            x, y = x - ob.x[0].real[:, None], y - ob.y[0].real[:, None]  # the probes' DC gap removed
+            xy = np.stack([x, y], axis=1)
+            extra["method"] = "orbit (harmonic balance on the p-theta films, 0X-5X)"
     else:
         raise InputError(f"method {method!r}; expected 'time', 'steady' or 'orbit'")
     if snr_db is not None:
