@@ -76,6 +76,7 @@ class Diagnosis:
     seconds: float = 0.0
     truth: dict = field(default_factory=dict)
     lines: tuple = ()  # lines beyond 1X present in the record(s) (`signals.lines`): no model or effect has them
+    stability: object = None  # rotor.whirl.Stability at the flows found, when a sub-synchronous line calls for it
     # an ambiguity's flows: per flow (low, high or None) in m^3/s, the union over the set of each candidate's
     # 95 % interval (the winner's profile interval, the others' +-1.96 sigma): what the flows are known to be
     # until a measurement separates the causes. None when nothing is ambiguous.
@@ -219,10 +220,34 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
                      if any("2X" in line.kind for line in big) else "") +
                     " (usual causes: " +
                     "; ".join(dict.fromkeys(CAUSES[line.kind] for line in big)) + "): the flows rest on the 1X part.")
+    stability = None
+    sub = [line for line in lines if line.kind == "sub"]
+    if sub:  # what the model's own stability at the flows found says of it
+        final = after if after is not None else before
+        stability, words = _whirl_words(chains[0], added, final, max(sub, key=lambda ln: ln.amplitude_m))
+        verdict += f" The model's stability: {words}."
     return Diagnosis(before=before, candidates=tuple(tried), added=added, after=after, explained=explained,
                      ambiguous=ambiguous, verdict=verdict, separated_by=separated,
                      seconds=time.perf_counter() - t0, truth=dict(truth or {}), lines=tuple(lines),
-                     set_intervals=set_intervals)
+                     set_intervals=set_intervals, stability=stability)
+
+
+def _whirl_words(chain, added, final: Fit, line):
+    """The machine's least stable mode on the films at the flows found (the winner's bearing changes, a
+    viscosity or a clearance, included), and what it says of a sub-synchronous `line` (`rotor.whirl`)."""
+    from ..rotor.whirl import mode_stability, whirl_reading
+
+    c = chain
+    if added is not None and added.defect is None and added.effect.stage == "bearings":
+        c = chain.adding(added.effect.candidate())
+    theta = np.asarray(final.values, dtype=float)
+    coefficients = []
+    for k, src in enumerate(c.sources):
+        factor, clearance = c.bearing_changes(k, theta)
+        K, C, _ = src.evaluate(theta[k], factor, clearance)
+        coefficients.append((K, C))
+    stab = mode_stability(c.rotor, c.omega, coefficients)
+    return stab, whirl_reading(stab, abs(line.order) * c.omega / (2 * np.pi))
 
 
 def _fit_orbit(chain, measured, effect, names, budget, level, progress) -> Candidate:
@@ -345,7 +370,11 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
            "added": None if d.added is None else d.added.label,
            "after": fit_dict(d.after), "explained": d.explained, "ambiguous": list(d.ambiguous),
            "separated_by": list(d.separated_by), "verdict": d.verdict, "seconds": d.seconds,
-           "lines_beyond_1x": [line.as_dict() for line in d.lines]}
+           "lines_beyond_1x": [line.as_dict() for line in d.lines],
+           "stability_at_flows": None if d.stability is None else {
+               "text": d.stability.describe(), "unstable": d.stability.unstable,
+               "least_stable_mode_hz": d.stability.frequency_hz, "growth_per_s": d.stability.growth,
+               "damping_ratio": d.stability.damping_ratio}}
     for k, n in enumerate(("q1", "q2")):  # an ambiguity: the flows over the whole set (None: not ambiguous)
         iv = None if d.set_intervals is None else d.set_intervals[k]
         out[f"{n}_interval_set_mlmin"] = None if iv is None else [iv[0] * 6e7, None if iv[1] is None else iv[1] * 6e7]

@@ -69,9 +69,14 @@ class Stability:
 
 def equilibrium_stability(rotor: Rotor, bearings: FilmBearings) -> Stability:
     """The least stable mode (largest Re(lambda)) with 0 < frequency, of the machine on `bearings`' K, C."""
-    ls = linear_system(rotor, bearings.omega, bearings.coefficients)
+    return mode_stability(rotor, bearings.omega, bearings.coefficients)
+
+
+def mode_stability(rotor: Rotor, omega: float, coefficients) -> Stability:
+    """As `equilibrium_stability`, from one (K, C) per bearing at shaft speed `omega` (e.g. from the tables)."""
+    ls = linear_system(rotor, omega, coefficients)
     lam = ls.eigenvalues
-    candidates = np.flatnonzero(lam.imag > 1e-6 * bearings.omega)
+    candidates = np.flatnonzero(lam.imag > 1e-6 * omega)
     k = int(candidates[np.argmax(lam[candidates].real)])
     v = ls.V[:, k]
     n = rotor.n_dof
@@ -79,7 +84,7 @@ def equilibrium_stability(rotor: Rotor, bearings: FilmBearings) -> Stability:
     dofs = np.array([node_dofs(nd)[[X, Y]] for nd in rotor.bearing_nodes])
     zf = np.abs(v[dofs[:, 0]] + 1j * v[dofs[:, 1]]).sum()
     zb = np.abs(v[dofs[:, 0]] - 1j * v[dofs[:, 1]]).sum()
-    return Stability(omega=bearings.omega, frequency_hz=float(lam[k].imag / (2 * math.pi)), growth=float(lam[k].real),
+    return Stability(omega=omega, frequency_hz=float(lam[k].imag / (2 * math.pi)), growth=float(lam[k].real),
                      damping_ratio=float(-lam[k].real / abs(lam[k])), forward=bool(zf >= zb), mode=v[:2 * n])
 
 
@@ -124,3 +129,30 @@ def whirl_onset(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unbal
     tr = film_time_response(rotor, bearings, unbalances, duration=duration, dt=dt, nodes=nodes, start=z0,
                             progress=progress)
     return tr, stab
+
+
+WHIRL_MATCH = 0.1  # a line within this fraction of a mode's frequency is read as that mode
+
+
+def whirl_reading(stability: Stability, line_hz: float) -> str:
+    """What the model's stability at the identified flows says of a sub-synchronous line at `line_hz` (Hz):
+    oil whirl (the model is above its threshold and its unstable mode is at the line), a lightly damped
+    film mode excited near the threshold, or neither (then not oil whirl, as far as the model knows)."""
+    near = abs(line_hz - stability.frequency_hz) <= WHIRL_MATCH * stability.frequency_hz
+    order = 2 * math.pi * line_hz / stability.omega
+    head = f"the sub-synchronous line at {line_hz:.1f} Hz ({order:.2f}X)"
+    if stability.unstable and near:
+        return (f"{head} is oil whirl: at the flows found the model is above its instability threshold, its "
+                f"unstable forward mode at {stability.frequency_hz:.1f} Hz growing e-fold every "
+                f"{1 / stability.growth:.2g} s; lower the speed or change the supply before it locks into oil whip")
+    if stability.unstable:
+        return (f"{head} is not at the model's unstable mode ({stability.frequency_hz:.1f} Hz), though at the flows "
+                "found the model is above its instability threshold: oil whirl is to be expected, and this line "
+                "may be it on a machine that differs from the model, or another cause")
+    if near and stability.damping_ratio < 0.1:
+        return (f"{head} sits at the model's least damped mode ({stability.frequency_hz:.1f} Hz, damping ratio "
+                f"{stability.damping_ratio:.3f}): the film's whirl mode excited below the threshold (oil whirl "
+                "near its onset, or a machine less stable than the model)")
+    return (f"{head} is not oil whirl as far as the model knows: at the flows found it is below its instability "
+            f"threshold with no lightly damped mode there ({stability.describe()}); look for a rub, a loose part "
+            "(1/2X) or a neighbouring machine")

@@ -1,0 +1,54 @@
+"""A sub-synchronous line read against the model's own stability at the flows found (issue 11's large orbits
+and sub-synchronous whirl, issue 12's verdict): oil whirl where the model is above its instability threshold
+and its unstable mode sits at the line; "not oil whirl as far as the model knows" where it is stable with
+no lightly damped mode there. The stability comes from the tabled film coefficients at the flows
+(an eigenvalue problem), the record from the independent source."""
+
+import math
+
+import numpy as np
+import pytest
+
+from lubeviz.diagnose import diagnose, diagnosis_dict
+from lubeviz.identify.chain import ForwardChain
+from lubeviz.identify.measured import measure
+from lubeviz.rotor.whirl import mode_stability, whirl_reading
+from lubeviz.signals.lines import Line
+from lubeviz.verification import IndependentSpec, make_record
+
+
+def _stability(chain, q):
+    coefficients = [tuple(src.evaluate(q[k])[:2]) for k, src in enumerate(chain.sources)]
+    return mode_stability(chain.rotor, chain.omega, coefficients)
+
+
+def test_the_threshold_separates_oil_whirl_from_other_sub_synchronous_causes(machine):
+    """100 Hz at 1.25 Q_T lies above the threshold (88.6 Hz, BENCHMARKS "stability"); 75 Hz at Q_T below."""
+    fast = ForwardChain(machine, 100.0, (6, 20))
+    s = _stability(fast, 1.25 * fast.q_threshold)
+    assert s.unstable and s.forward and 0.42 <= s.order <= 0.5  # oil whirl: near half the shaft speed
+    assert "is oil whirl" in whirl_reading(s, 1.02 * s.frequency_hz)
+    assert "not at the model's unstable mode" in whirl_reading(s, 0.5 * s.frequency_hz)
+    slow = ForwardChain(machine, 75.0, (6, 20))
+    s75 = _stability(slow, slow.q_threshold)
+    assert not s75.unstable
+    far = 0.5 * 75.0 if abs(37.5 - s75.frequency_hz) > 0.1 * s75.frequency_hz else 0.3 * 75.0
+    assert "not oil whirl as far as the model knows" in whirl_reading(s75, far)
+
+
+def test_a_diagnosis_reads_a_sub_synchronous_line_with_the_model_s_stability(machine):
+    """A clean independent record at 85 Hz, 1.25 Q_T (just below the threshold, 88.6 Hz: the source refuses
+    an unstable operating point, it has no steady record), with a forward line at the least damped mode's
+    frequency handed to the diagnosis as the record's line search would: the verdict reads it as the film's
+    whirl mode excited below the threshold; the JSON carries the stability."""
+    chain = ForwardChain(machine, 85.0, (6, 20))
+    q = 1.25 * chain.q_threshold * 6e7
+    rec = make_record(IndependentSpec(speed_hz=85.0, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]), seed=4)).record
+    s = _stability(chain, q / 6e7)
+    assert not s.unstable and s.damping_ratio < 0.1 and 0.42 <= s.order <= 0.6
+    line = Line(plane=1, kind="sub", order=s.frequency_hz / 85.0, amplitude_m=2e-6, noise_m=1e-8,
+                relative_to_1x=0.1, threshold_m=4e-8)
+    d = diagnose(chain, measure(rec), lines=[line])
+    assert "whirl mode excited below the threshold" in d.verdict
+    out = diagnosis_dict(d)["stability_at_flows"]
+    assert not out["unstable"] and out["least_stable_mode_hz"] == pytest.approx(s.frequency_hz, rel=0.02)
