@@ -11,10 +11,12 @@ cannot hold.
 `equilibrium_stability` gives the least stable mode of the linearized machine (K, C of the films at their
 equilibria): its damped frequency, growth rate sigma (1/s, > 0: unstable) and shape. `whirl_onset`
 integrates the machine on its p-theta films in time (`film_transient.film_time_response`, the film
-re-solved at every step) from a start orbit disturbed along that mode, so the record holds the whirl's
-growth (above the threshold) or its decay (below). The explicit coupling of the film's nonlinear part
-holds while the whirl stays a fraction of the clearance: `reach_time` is how long a disturbance of a
-given size takes to grow to it, so a request beyond that is refused before any work is done.
+re-solved at every step, its nonlinear part coupled implicitly: the orbits at the paper's unbalance are
+far from the film's linearization) from a start orbit disturbed along that mode, so the record holds the
+whirl's growth (above the threshold) or its decay (below). The whirl grows until it nears the wall (oil
+whip, a limit cycle the quasi-static film cannot follow): `reach_time` is how long a disturbance of a
+given size takes to grow to a stated fraction of the clearance, and a request beyond it is refused before
+any work is done.
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ from .response import Unbalance, unbalance_response
 from .transient import linear_system
 
 KICK = 0.005  # the disturbance along the whirl mode, largest journal displacement relative to the clearance
-REACH = 0.15  # the whirl's size (of the clearance) up to which the explicit film coupling is trusted
+REACH = 0.15  # the whirl's size (of the clearance) up to which its onset is computed
 
 
 @dataclass(frozen=True)
@@ -106,12 +108,12 @@ def check_duration(stability: Stability, duration: float, kick: float = KICK) ->
 
 def whirl_onset(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unbalance], *, duration: float,
                 dt: float = 1e-4, nodes: Sequence[int] = (6, 20), start: np.ndarray | None = None,
-                kick: float = KICK, stability: Stability | None = None,
+                kick: float = KICK, stability: Stability | None = None, implicit: bool = True,
                 progress: ProgressFn = silent) -> tuple[FilmTimeResponse, Stability]:
     """The machine on its films integrated in time for `duration` s from `start` (a state (q, q') from the
     equilibrium, e.g. `OrbitBalance.state()`; default the linear steady orbit) disturbed along its least
     stable mode by `kick` of the clearance (largest journal displacement). Refuses a duration over which an
-    unstable whirl would outgrow the explicit film coupling (`reach_time`)."""
+    unstable whirl would grow beyond a fraction of the clearance (`reach_time`)."""
     stab = stability or equilibrium_stability(rotor, bearings)
     check_duration(stab, duration, kick)
     n = rotor.n_dof
@@ -127,7 +129,7 @@ def whirl_onset(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unbal
     size = np.max(np.abs(v[dofs]).max(axis=1) / clearance)
     z0 = start + kick * np.real(v / size)  # the mode's real part at t = 0: q and q' consistent
     tr = film_time_response(rotor, bearings, unbalances, duration=duration, dt=dt, nodes=nodes, start=z0,
-                            progress=progress)
+                            implicit=implicit, progress=progress)
     return tr, stab
 
 
