@@ -42,6 +42,9 @@ def _summary(rows) -> dict:
         "error_pct_median": float(np.median(err)), "error_pct_p90": float(np.percentile(err, 90)),
         "error_pct_max": float(err.max()),
         "coverage_q1": _rate(r["holds"][0] for r in rows), "coverage_q2": _rate(r["holds"][1] for r in rows),
+        # on each side of Q_T (the film's kink: starved below, flooded above)
+        **{f"coverage_q{k + 1}_{side}_qt": _rate(r["holds"][k] for r in rows if r["above_qt"][k] == (side == "above"))
+           for k in range(2) for side in ("below", "above")},
         "flagged": _rate(not r["explained"] for r in rows),
         "off_over_5pct_without_truth_in_alternatives": int(sum(r["max_abs_error_pct"] > 5 and not r["truth_in_alt"]
                                                               for r in rows)),
@@ -85,6 +88,7 @@ def bench_coverage(machine_path=None, *, n: int = 120, seed: int = 2026, calibra
             rows[key].append({"speed_hz": spec.speed_hz, "q_mlmin": q.tolist(), "q_id_mlmin": qi.tolist(),
                               "nodes": list(spec.nodes), "probe_angles_deg": [list(a) for a in spec.probe_angles_deg],
                               "max_abs_error_pct": float(np.max(np.abs(qi / q - 1)) * 100), "holds": holds,
+                              "above_qt": [bool(q[k] > r.q_threshold[k] * 6e7) for k in range(2)],
                               "explained": bool(r.model_explains_data), "chi2": r.chi2, "seconds": r.seconds,
                               "truth_in_alt": any(np.all(np.abs(a * 6e7 / q - 1) < 0.05) for a in r.alternatives)})
         progress(i, len(specs), f"{spec.speed_hz:g} Hz")
