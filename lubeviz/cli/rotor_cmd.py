@@ -200,7 +200,8 @@ def run_simulate(args) -> dict:
     return {"file": str(out), "q1_mlmin": args.q1_mlmin, "q2_mlmin": args.q2_mlmin, "nodes": list(nodes),
             "snr_db": snr, "seed": args.seed, "n_samples": rec.n_samples, "duration_s": rec.duration,
             "sample_rate_hz": rec.sample_rate_hz, "speed_hz": speed_hz, "method": method,
-            "effects": [e.spec() for e in effects], "seconds": time.perf_counter() - t0}
+            "effects": [e.spec() for e in effects], "seconds": time.perf_counter() - t0,
+            **{k: rec.metadata[k] for k in ("stability", "whirl_hz", "whirl_growth_per_s") if k in rec.metadata}}
 
 
 def finite_float_or_error(text: str, flag: str) -> float:

@@ -108,6 +108,7 @@ def test_a_large_orbit_record_above_the_threshold_holds_the_whirl_s_sub_synchron
     probes' samples) finds a forward sub-synchronous line at the unstable mode's frequency; below it the
     record is the periodic orbit and holds none."""
     from lubeviz.signals.lines import present_lines
+    from lubeviz.signals.records import read_record_bytes
     from lubeviz.signals.synthesize import synthesize_record
 
     from lubeviz.model.machine import load_machine
@@ -121,13 +122,26 @@ def test_a_large_orbit_record_above_the_threshold_holds_the_whirl_s_sub_synchron
         flows = 1.25 * flooded_thresholds(m, omega)
         rec = synthesize_record(m, flows, nodes=NODES, snr_db=30.0, rng=np.random.default_rng(1), duration_s=0.2,
                                 total_s=0.2, speed_hz=speed, method="orbit", rotor=rotor)
+        assert not read_record_bytes(_csv(rec), "whirl.csv").warnings  # what simulate writes reads back quietly
         sub = [ln for ln in present_lines(rec) if ln.kind == "sub"]
         if unstable:
             whirl = float(rec.metadata["whirl_hz"])
-            assert "oil whirl" in rec.metadata["method"] and "above the instability threshold" in rec.metadata["stability"]
+            assert "oil whirl" in rec.metadata["method"]
+            assert "above the instability threshold" in rec.metadata["stability"]
             assert len(sub) == 2
             for ln in sub:  # forward, at the mode's frequency within the spectrum's resolution (1 / 0.2 s)
                 assert ln.order > 0 and abs(ln.order * speed - whirl) < 5.0
         else:
             assert "whirl_hz" not in rec.metadata and "below the instability threshold" in rec.metadata["stability"]
             assert not sub
+
+
+def _csv(rec) -> bytes:
+    import tempfile
+    from pathlib import Path
+
+    from lubeviz.signals.records import write_record
+
+    with tempfile.TemporaryDirectory() as d:
+        path = write_record(rec, Path(d) / "whirl.csv")
+        return path.read_bytes()
