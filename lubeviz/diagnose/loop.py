@@ -226,6 +226,10 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         final = after if after is not None else before
         stability, words = _whirl_words(chains[0], added, final, max(sub, key=lambda ln: ln.amplitude_m))
         verdict += f" The model's stability: {words}."
+        if stability.unstable:
+            verdict += (" Above the threshold the machine is not in a steady state (the whirl grows on top of the "
+                        "unbalance orbit): the flows above rest on the 1X part of a transient and on a steady model, "
+                        "so take them as indicative; their intervals do not carry this.")
     return Diagnosis(before=before, candidates=tuple(tried), added=added, after=after, explained=explained,
                      ambiguous=ambiguous, verdict=verdict, separated_by=separated,
                      seconds=time.perf_counter() - t0, truth=dict(truth or {}), lines=tuple(lines),

@@ -1,0 +1,50 @@
+"""The model budget's structure (issue 15): which term scales with what, at the record's operating point."""
+
+import numpy as np
+import pytest
+
+from lubeviz.identify.budget import ModelBudget, model_sensitivity
+from lubeviz.identify.chain import ForwardChain
+from lubeviz.identify.forward import ALL_FEATURES
+
+PER_BEARING = 12  # K scale + 4 entries, C scale + 4 entries, viscosity, clearance
+
+
+@pytest.fixture(scope="module")
+def chain(machine):
+    return ForwardChain(machine, 75.0, (6, 20))
+
+
+def _mesh_columns(S, k):
+    return S[:, PER_BEARING * k:PER_BEARING * k + 10]
+
+
+def test_the_mesh_terms_of_a_flooded_bearing_scale_with_flooded_mesh_and_a_starved_one_s_do_not(chain):
+    """Bearing 1 at 0.8 Q_T (starved), bearing 2 at 1.3 Q_T (flooded, past the 1.1 Q_T ramp): the mesh study
+    moves C by 0.8 % starved and 0.14-0.35 % at and above Q_T, so only the flooded bearing's terms shrink."""
+    theta = chain.q_threshold * np.array([0.8, 1.3])
+    full = model_sensitivity(chain, theta, ALL_FEATURES, ModelBudget(flooded_mesh=1.0))
+    half = model_sensitivity(chain, theta, ALL_FEATURES, ModelBudget(flooded_mesh=0.5))
+    assert np.allclose(_mesh_columns(half, 0), _mesh_columns(full, 0), rtol=1e-9, atol=0)
+    assert np.allclose(_mesh_columns(half, 1), 0.5 * _mesh_columns(full, 1), rtol=1e-6, atol=1e-15)
+    assert np.abs(_mesh_columns(full, 1)).max() > 0
+    # the shaft damping is not a film mesh term: unchanged
+    beta = slice(2 * PER_BEARING, 2 * PER_BEARING + 2)
+    assert np.allclose(half[:, beta], full[:, beta])
+
+
+def test_the_flooded_scale_sets_in_smoothly_between_q_t_and_1_1_q_t(chain):
+    ratios = []
+    for r in (1.0, 1.01, 1.05, 1.08, 1.1):
+        theta = chain.q_threshold * np.array([0.8, r])
+        full = _mesh_columns(model_sensitivity(chain, theta, ALL_FEATURES, ModelBudget(flooded_mesh=1.0)), 1)
+        half = _mesh_columns(model_sensitivity(chain, theta, ALL_FEATURES, ModelBudget(flooded_mesh=0.5)), 1)
+        ratios.append(np.linalg.norm(half) / np.linalg.norm(full))
+    assert ratios[0] == pytest.approx(1.0) and ratios[-1] == pytest.approx(0.5)
+    assert all(a >= b for a, b in zip(ratios, ratios[1:]))  # monotone, no jump at Q_T
+    assert ratios[1] > 0.98  # flat at Q_T: no kink added to the film's own
+
+
+def test_no_budget_is_the_noise_alone(chain):
+    S = model_sensitivity(chain, chain.q_threshold, ALL_FEATURES, ModelBudget.none())
+    assert not np.any(S)
