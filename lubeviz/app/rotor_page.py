@@ -41,6 +41,7 @@ from ..rotor.directional import directional_components, forward_backward_ratio, 
 from ..rotor.film_bearings import film_bearings
 from ..rotor.orbit_balance import HARMONICS, POINTS, orbit_balance
 from ..rotor.response import Unbalance, machine_unbalance
+from ..rotor.whirl import equilibrium_stability
 from ..signals.noise import add_noise
 from ..signals.spectrum import full_spectrum
 from ..signals.synthesize import steady_signals
@@ -368,6 +369,8 @@ class RotorPage(pn.viewable.Viewer):
                                                 css_classes=["lubeviz-large-orbit-stale"], **alert)
         self._large_orbit_error = pn.pane.Alert("", alert_type="danger",
                                                 css_classes=["lubeviz-large-orbit-error"], **alert)
+        self._large_orbit_whirl = pn.pane.Alert("", alert_type="warning",
+                                                css_classes=["lubeviz-large-orbit-whirl"], **alert)
         self._large_orbit_summary = pn.pane.Markdown("", min_width=300, styles={"flex": "1 1 300px"},
                                                      css_classes=["lubeviz-large-orbit-summary"])
         # Replaced whole when computed, as the Campbell diagram.
@@ -384,7 +387,8 @@ class RotorPage(pn.viewable.Viewer):
         return pn.Column("### Large orbits (nonlinear film)",
                          pn.pane.Markdown(LARGE_ORBIT, sizing_mode="stretch_width"),
                          pn.FlexBox(scale, self._large_orbit_button, flex_wrap="wrap", align_items="center"),
-                         self.large_orbit_jobs, self._large_orbit_error, self._large_orbit_stale,
+                         self.large_orbit_jobs, self._large_orbit_error, self._large_orbit_whirl,
+                         self._large_orbit_stale,
                          pn.FlexBox(self._large_orbit_pane, self._large_orbit_lines, self._large_orbit_summary,
                                     flex_wrap="wrap"),
                          sizing_mode="stretch_width", css_classes=["lubeviz-large-orbit-panel"])
@@ -398,8 +402,10 @@ class RotorPage(pn.viewable.Viewer):
         bearings = film_bearings(machine, list(flows), 2 * math.pi * speed_hz)
         unbalances = [Unbalance(u.node, u.moment * scale, u.phase) for u in machine_unbalance(machine)]
         harmonics, points = resolution
-        return orbit_balance(resources.rotor(machine), bearings, unbalances, nodes=(node,), harmonics=harmonics,
-                             points=points, progress=progress)
+        rotor = resources.rotor(machine)
+        orbit = orbit_balance(rotor, bearings, unbalances, nodes=(node,), harmonics=harmonics, points=points,
+                              progress=progress)
+        return orbit, equilibrium_stability(rotor, bearings)
 
     async def _on_large_orbit(self, event=None):
         flows, speed = (self.op.q1, self.op.q2), self.op.speed
@@ -420,7 +426,15 @@ class RotorPage(pn.viewable.Viewer):
             self._large_orbit_error.object = f"**Large orbit not computed**: {exc}"
             self._large_orbit_error.visible = True
             return
-        self._large_orbit_data = dict(result=result, flows=flows, speed=speed, node=node, scale=scale)
+        result, stability = result
+        self._large_orbit_data = dict(result=result, stability=stability, flows=flows, speed=speed, node=node,
+                                      scale=scale)
+        self._large_orbit_whirl.object = (
+            f"**Oil whirl**: at these flows and speed the machine is {stability.describe()}. The periodic orbit "
+            "drawn here is a solution of the equations, not what the machine shows: the whirl grows on top of "
+            f"it as a sub-synchronous line near {stability.order:.2f}X (the Campbell diagram above shows the "
+            "instability threshold; `lubeviz simulate --effect large_orbit` writes the whirl's onset).")
+        self._large_orbit_whirl.visible = stability.unstable
         self._show_large_orbit()
 
     def _large_orbit_changes(self) -> list[str]:
@@ -674,6 +688,7 @@ class RotorPage(pn.viewable.Viewer):
             f"{res.y[0, 0].real * 1e6:+.2f}) µm |",
             *shifts,
             f"| largest eccentricity along the orbit | {res.max_eccentricity:.3f} |",
+            *([f"| stability of the equilibrium | {data['stability'].describe()} |"] if data.get("stability") else []),
             f"| harmonic balance | {res.iterations} Newton steps, {res.seconds:.1f} s "
             f"(0X–{res.harmonics}X, {res.films and len(res.films[0])} points per revolution) |",
             "", "\\|1X\\|: the orbit's size √(\\|X₁\\|² + \\|Y₁\\|²). Static shift from the linear "

@@ -164,3 +164,31 @@ def test_a_failed_balance_shows_its_message_and_the_page_keeps_working(monkeypat
     assert "smaller unbalance scale" in error.object
     assert page._large_orbit_data is None and "failed" in page.large_orbit_jobs.status
     assert not page._large_orbit_button.disabled
+
+
+def test_the_numbers_state_the_equilibrium_s_stability_and_no_whirl_below_the_threshold(orbits):
+    """75 Hz, 900 ml/min: below the instability threshold (BENCHMARKS "stability")."""
+    page, _ = orbits
+    assert "below the instability threshold" in page._large_orbit_summary.object
+    assert not page._large_orbit_whirl.visible
+
+
+@pytest.mark.slow
+def test_above_the_threshold_the_page_says_the_periodic_orbit_is_not_what_the_machine_shows():
+    """100 Hz at 1.25 Q_T (threshold 88.6 Hz): the equilibrium is unstable (checked on its own: an eigenvalue
+    problem), and the page says so beside the orbit, with the whirl's order."""
+    from lubeviz.rotor.film_bearings import flooded_thresholds
+    from lubeviz.rotor.whirl import equilibrium_stability
+
+    machine = resources.machine()
+    omega = 2 * math.pi * 100.0
+    q = 1.25 * flooded_thresholds(machine, omega)
+    assert equilibrium_stability(resources.rotor(machine), film_bearings(machine, list(q), omega)).unstable
+    op = OperatingPoint(speed=100.0, q1=float(q[0]), q2=float(q[1]))
+    page = RotorPage(machine, op, _orbit_resolution=COARSE)
+    page.unbalance_scale = 0.25
+    asyncio.run(page._on_large_orbit())
+    assert not page._large_orbit_error.visible, page._large_orbit_error.object
+    whirl = page._large_orbit_whirl
+    assert whirl.visible and "Oil whirl" in whirl.object and "above the instability threshold" in whirl.object
+    assert "not what the machine shows" in whirl.object
