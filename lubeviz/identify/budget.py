@@ -11,7 +11,8 @@ fitted parameters, so it grows where the features amplify it, e.g. just above th
   per bearing (the mesh moves all entries together) plus an independent error per entry of that size.
   Above a bearing's Q_T (at its viscosity and clearance, so an oil or wear effect moves it) the film is
   flooded, the cavitation fronts that the mesh resolves worst are gone, and the study's differences are
-  less than half the worst case: the mesh terms there are `flooded_mesh` (0.4) of the stated ones;
+  less than half the worst case: the mesh terms there are `flooded_mesh` (0.4) of the stated ones (not
+  with large orbits declared: along such an orbit the cavitated region breathes even above Q_T);
 - the shaft's damping: the model file's stiffness-proportional beta is a guess (the paper gives none);
 - the oil's viscosity and each bearing's clearance: declared values with a tolerance (the dimensionless
   tables give the coefficients at the changed Sommerfeld number without a film solve);
@@ -107,7 +108,9 @@ def _dynamic_perturbations(chain, theta, budget: ModelBudget) -> list[np.ndarray
         factor, clearance = chain.bearing_changes(k, np.asarray(theta), ())
         K, C, _ = src.evaluate(theta[k], factor, clearance)
         sl = slice(2 * k, 2 * k + 2)
-        if budget.flooded_mesh < 1.0:  # Q_T of the bearing as it is (a viscosity or clearance change moves it)
+        # Q_T of the bearing as it is (a viscosity or clearance change moves it). Not with large orbits (a
+        # defect correction): along such an orbit the film cavitates and refills even above Q_T
+        if budget.flooded_mesh < 1.0 and chain.defect is None:
             u = float(np.clip((theta[k] / src.view(float(factor), float(clearance)).q_threshold - 1.0) / 0.1, 0.0, 1.0))
         else:
             u = 0.0

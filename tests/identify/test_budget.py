@@ -48,3 +48,17 @@ def test_the_flooded_scale_sets_in_smoothly_between_q_t_and_1_1_q_t(chain):
 def test_no_budget_is_the_noise_alone(chain):
     S = model_sensitivity(chain, chain.q_threshold, ALL_FEATURES, ModelBudget.none())
     assert not np.any(S)
+
+
+def test_with_large_orbits_the_flooded_bearing_keeps_the_full_mesh_terms(chain):
+    """Along a large orbit the film cavitates and refills even above Q_T: no flooded reduction then."""
+    from lubeviz.identify.chain import ResponseDefect
+
+    zero = np.zeros((2, 2), complex)
+    d = ResponseDefect(x=np.zeros(2, complex), y=np.zeros(2, complex), static=np.zeros((2, 2)),
+                       q0=chain.q_threshold.copy(), dx=zero, dy=zero, dstatic=np.zeros((2, 2, 2)))
+    theta = chain.q_threshold * np.array([0.8, 1.3])
+    big = chain.with_defect(d)
+    full = model_sensitivity(big, theta, ALL_FEATURES, ModelBudget(flooded_mesh=1.0))
+    half = model_sensitivity(big, theta, ALL_FEATURES, ModelBudget(flooded_mesh=0.5))
+    assert np.allclose(_mesh_columns(half, 1), _mesh_columns(full, 1))
