@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
@@ -36,6 +37,13 @@ NODE = 6  # the page's default node, a bearing-centre measurement plane
 SCALES = (0.25, 0.5, 1.0)
 
 
+def run(coroutine):
+    """Await a handler as the server would, on its own event loop in a thread: the browser tests' sync
+    Playwright keeps a loop running in the main thread for the whole session, where asyncio.run refuses."""
+    with ThreadPoolExecutor(1) as pool:
+        return pool.submit(asyncio.run, coroutine).result()
+
+
 def make_page() -> RotorPage:
     machine = resources.machine()
     q = FLOODED_MLMIN * M3S_PER_MLMIN
@@ -46,7 +54,7 @@ def make_page() -> RotorPage:
 def compute(page: RotorPage, scale: float):
     """Set the unbalance scale and press the button; the OrbitBalance the page now shows."""
     page.unbalance_scale = scale
-    asyncio.run(page._on_large_orbit())
+    run(page._on_large_orbit())
     assert not page._large_orbit_error.visible, page._large_orbit_error.object
     return page._large_orbit_data["result"]
 
@@ -137,7 +145,7 @@ def test_the_orbit_is_stale_after_a_change_until_recomputed():
         page.op.q1 = (FLOODED_MLMIN - 30.0) * M3S_PER_MLMIN
         await asyncio.sleep(0)
 
-    asyncio.run(move_flow())
+    run(move_flow())
     stale = page._large_orbit_stale
     assert stale.visible and "the flows have changed" in stale.object
     assert "(stale)" in page._large_orbit_pane.object.opts.get().kwargs["title"]
@@ -158,7 +166,7 @@ def test_a_failed_balance_shows_its_message_and_the_page_keeps_working(monkeypat
 
     monkeypatch.setattr(rotor_page, "orbit_balance", wall)
     page.unbalance_scale = 2.0
-    asyncio.run(page._on_large_orbit())  # does not raise
+    run(page._on_large_orbit())  # does not raise
     error = page._large_orbit_error
     assert error.visible and "reaches 0.96 of the clearance" in error.object
     assert "smaller unbalance scale" in error.object
@@ -187,7 +195,7 @@ def test_above_the_threshold_the_page_says_the_periodic_orbit_is_not_what_the_ma
     op = OperatingPoint(speed=100.0, q1=float(q[0]), q2=float(q[1]))
     page = RotorPage(machine, op, _orbit_resolution=COARSE)
     page.unbalance_scale = 0.25
-    asyncio.run(page._on_large_orbit())
+    run(page._on_large_orbit())
     assert not page._large_orbit_error.visible, page._large_orbit_error.object
     whirl = page._large_orbit_whirl
     assert whirl.visible and "Oil whirl" in whirl.object and "above the instability threshold" in whirl.object
