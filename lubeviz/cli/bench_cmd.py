@@ -33,6 +33,9 @@ def register(sub) -> None:
                    help="coverage: model budgets to try on the same records, each as NAME=VALUE pairs of "
                         "ModelBudget (e.g. 'coefficient_k=0.0025,shaft_damping=0.4'), budgets separated by ';'")
     p.add_argument("--seeds", type=int, default=2, help="diagnose: records per effect and strength (default 2)")
+    p.add_argument("--cases", default="",
+                   help="diagnose: only these effects' records, comma-separated (e.g. 'large_orbit'); the others' "
+                        "flows are still drawn, so each record is the one of the full run")
     p.add_argument("--no-ross", action="store_true", help="rotor: skip the side-by-side ROSS timings")
     p.add_argument("--reproduce", action="store_true",
                    help="identify: also time the paper's whole protocol, both locations, both modes (cold tables)")
@@ -98,7 +101,13 @@ def run_bench(args) -> dict:
             return vb.bench_budget(args.machine, n=args.records, seed=args.seed, progress=StderrBar())
         if args.seeds < 1:
             raise ValueError(f"--seeds {args.seeds}: expected at least 1")
-        return vb.bench_diagnose(args.machine, seeds=args.seeds, progress=StderrBar())
+        cases = tuple(c.strip() for c in args.cases.split(",") if c.strip())
+        known = [name.split(" ")[0] for name, _ in vb.DIAGNOSE_CASES]
+        unknown = [c for c in cases if c not in known]
+        if unknown:
+            raise ValueError(f"--cases {args.cases!r}: unknown {', '.join(unknown)}; expected some of "
+                             f"{', '.join(dict.fromkeys(known))}")
+        return vb.bench_diagnose(args.machine, seeds=args.seeds, cases=cases or None, progress=StderrBar())
     return bench_film(args.machine, repeat=args.repeat, progress=StderrBar())
 
 

@@ -41,6 +41,7 @@ class Candidate:
     fit: Fit | None
     error: str = ""
     defect: object = None  # large orbits: the balance's correction its fit used (`identify.chain.ResponseDefect`)
+    unbalance_scale: float | None = None  # large orbits: the unbalance's size the record's 1X implies (x declared)
 
     @property
     def aic(self) -> float:
@@ -60,6 +61,8 @@ class Candidate:
             out[p + "_std"] = float(s)
         for p, v in self.effect.values().items():
             out.setdefault(p, v)
+        if self.unbalance_scale is not None:
+            out["unbalance_scale"] = float(self.unbalance_scale)
         return out
 
 
@@ -265,7 +268,8 @@ def _fit_orbit(chain, measured, effect, names, budget, level, progress) -> Candi
                              progress=lambda i, n, t: progress(i, n, f"{effect.label()}: {t}"))
     except LubevizError as exc:
         return Candidate(label=effect.label(), effect=effect, fit=None, error=str(exc))
-    return Candidate(label=effect.label(), effect=effect, fit=of.fit, defect=of.defect)
+    return Candidate(label=effect.label(), effect=effect, fit=of.fit, defect=of.defect,
+                     unbalance_scale=of.unbalance_scale)
 
 
 def _set_intervals(after: Fit, others) -> tuple:
@@ -328,7 +332,9 @@ def _story(c: Candidate) -> str:
     main = ", ".join(f"{k} = {p[k]:.4g} +/- {p.get(k + '_std', float('nan')):.2g}" for k in c.effect.diagnose_free
                      if k in p)
     if c.defect is not None:
-        return f"{c.label} (the film force along the orbit, not its linearization)"
+        size = ("" if c.unbalance_scale is None else
+                f"; the orbit's size implies {c.unbalance_scale:.2f} x the declared unbalance")
+        return f"{c.label} (the film force along the orbit, not its linearization{size})"
     return f"{c.label} ({main})"
 
 

@@ -97,8 +97,10 @@ def _effect_parameters(c) -> str:
     for n in fitted:
         unit = c.effect.unit(n) if hasattr(c.effect, "unit") else ""
         parts.append(f"<b>{escape(n)}</b> = {p[n]:.4g} ± {p.get(n + '_std', float('nan')):.2g} {escape(unit)}")
+    if getattr(c, "unbalance_scale", None) is not None:  # large orbits: read from the record's 1X, not fitted
+        parts.append(f"unbalance {c.unbalance_scale:.2f} × the declared one (the orbit's size, from the 1X)")
     held = [f"{escape(n)} = {escape(_fmt(v))}" for n, v in p.items()
-            if not n.endswith("_std") and n not in fitted]
+            if not n.endswith("_std") and n not in fitted and n != "unbalance_scale"]
     return "; ".join(parts) + (f" <span class='small'>(held: {', '.join(held)})</span>" if held else "")
 
 

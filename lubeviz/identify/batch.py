@@ -350,7 +350,8 @@ def result_text(d: dict) -> list[str]:
         ratio = ", ".join(f"{v:.2f}" for v in lo["ratio_2x_model"])
         out.append(f"  large orbits: the film force along the orbit ({lo['rounds']} harmonic balances; the linear "
                    f"model alone gives Q1, Q2 = {lo['plain_q_mlmin'][0]:.0f}, {lo['plain_q_mlmin'][1]:.0f} ml/min, "
-                   f"chi2 {lo['plain_chi2']:.0f}); its 2X/1X at the planes: {ratio}")
+                   f"chi2 {lo['plain_chi2']:.0f}); its 2X/1X at the planes: {ratio}; the orbit's size implies "
+                   f"{lo.get('unbalance_scale', 1.0):.2f} x the declared unbalance")
         if lo.get("stability"):
             out.append(f"  stability at these flows: {lo['stability']}")
     for a in d.get("alternatives", []):

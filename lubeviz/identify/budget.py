@@ -78,8 +78,8 @@ class ModelBudget(param.Parameterized):
     orbit_defect = Quantity(0.03, bounds=(0.0, 1.0), unit="",
                             doc="The large-orbit correction (harmonic balance minus its linear orbit): each of its "
                                 "1X entries, relative to the whole correction's size (5 harmonics and 24 points "
-                                "against 6 and 36: 1.3 %; the 100^2 film against the 200^2 one: 1.8 %); only when "
-                                "large orbits are declared")
+                                "against 6 and 36: 1.3 %; the 100^2 film against the 200^2 one: 2.0 % at the paper's "
+                                "unbalance, 3.4 % at 0.6 x of it); only when large orbits are declared")
     flooded_mesh = Quantity(FLOODED_MESH, bounds=(0.0, 1.0), unit="",
                             doc="The film mesh terms (K, C) of a bearing supplied above its Q_T (at its viscosity and "
                                 "clearance), relative to the stated ones (reached at 1.1 Q_T, smoothly from 1 at "

@@ -25,6 +25,14 @@ independent source's record (`verification.orbit_record`). There Q2 lies above Q
 barely answers to the supply: the chi2 valley is flat along Q2 against Q1 and the answer can sit anywhere
 in it; the profile intervals, not the point, are what the record supports (forward differences of 2 % Q_T
 crept along that valley without settling).
+
+Why the unbalance's size: the linear features are invariants of an unknown unbalance (its size and phase
+cancel in them), but the nonlinearity grows with the orbit, so the balance must run at the orbit the record
+shows, not at the declared unbalance. Each round scales the machine's unbalance by the ratio of the measured
+1X amplitudes to the model's (RMS over the four channels) and divides the correction by the same factor, so
+that it adds to the chain's unit-unbalance output as the nonlinear part of an orbit of the record's size. (With
+the declared unbalance a record at 0.6 x of it was left "unexplained", chi2 47-62: the correction was that of
+an orbit 1.7 times too large.) A single unbalance's phase only shifts the orbit in time, so it needs no fit.
 """
 
 from __future__ import annotations
@@ -50,6 +58,7 @@ from .fit import Fit, fit
 SIGMA_TOL = 0.2  # the rounds also stop when the flows move by less than this fraction of their standard deviation
 # (along a flat valley the record cannot tell the points apart, and the rounds would creep along it)
 SLOPE_REUSE = 0.01  # the correction's slope is taken again when the flows move more than this (of Q_T) or cross Q_T
+SCALE_TOL = 0.01  # ... or when the unbalance's size moves by more than this fraction; the rounds stop only below it
 
 
 @dataclass(frozen=True)
@@ -65,6 +74,7 @@ class OrbitFit:
     converged: bool
     seconds: float
     stability: Stability | None = None  # of the equilibrium at the answer (rotor.whirl)
+    unbalance_scale: float = 1.0  # the unbalance's size the record's 1X implies, relative to the declared one
 
     @property
     def balances(self) -> int:
@@ -80,30 +90,44 @@ def check_orbit_chain(chain: ForwardChain) -> None:
                          f"machine); also declared: {', '.join(other)}")
 
 
-def _balance(chain: ForwardChain, flows, start, harmonics, points, tol, progress) -> OrbitBalance:
+def _balance(chain: ForwardChain, flows, start, harmonics, points, tol, progress, scale=1.0) -> OrbitBalance:
     fb = film_bearings(chain.machine, [float(q) for q in flows], chain.omega)
-    return orbit_balance(chain.rotor, fb, machine_unbalance(chain.machine), nodes=chain.nodes, harmonics=harmonics,
+    unbalances = [dataclasses.replace(u, moment=u.moment * scale) for u in machine_unbalance(chain.machine)]
+    return orbit_balance(chain.rotor, fb, unbalances, nodes=chain.nodes, harmonics=harmonics,
                          points=points, tol=tol, start=start, progress=progress)
 
 
-def _parts(chain: ForwardChain, ob: OrbitBalance):
-    """The balance's defect at the chain's planes: 1X minus its own linear 1X; the 0X at bearing centres."""
+def _parts(chain: ForwardChain, ob: OrbitBalance, scale: float = 1.0):
+    """The balance's defect at the chain's planes: 1X minus its own linear 1X, per unit of the unbalance's
+    scale (the chain's 1X is the declared unbalance's); the 0X at bearing centres (absolute, metres)."""
     static = np.zeros((2, 2))
     for k in chain.static_planes:
         static[k] = (ob.x[0, k].real, ob.y[0, k].real)
-    return ob.x[1] - ob.linear_x, ob.y[1] - ob.linear_y, static
+    return (ob.x[1] - ob.linear_x) / scale, (ob.y[1] - ob.linear_y) / scale, static
+
+
+def measured_scale(chain: ForwardChain, measured, theta, defect: ResponseDefect | None = None) -> float:
+    """The unbalance's size relative to the declared machine's that the record's 1X implies: the measured 1X
+    amplitudes (both planes, x and y) against the chain's at `theta` (with `defect`), RMS over the channels."""
+    out = (chain if defect is None else chain.with_defect(defect)).output(np.asarray(theta, dtype=float))
+    model = np.abs(np.concatenate([out.x, out.y])) ** 2
+    meas = np.abs(np.concatenate([np.asarray(measured.x), np.asarray(measured.y)])) ** 2
+    if not (np.sum(model) > 0 and np.isfinite(np.sum(meas))):
+        raise InputError("large orbits: the model's 1X is zero at the planes; the unbalance's size cannot be read")
+    return float(np.sqrt(np.sum(meas) / np.sum(model)))
 
 
 def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = None, slope: bool = True,
                  step: float = 0.05, harmonics: int = HARMONICS, points: int = POINTS, tol: float = 1e-6,
-                 progress: ProgressFn = silent) -> tuple[ResponseDefect, OrbitBalance]:
-    """The balance at `flows` (m^3/s) on the chain's machine, speed and rotor, and its defect with its slope
-    in each flow (`slope`: balances at +-`step` Q_T, continued from this one: a central difference, or a
-    one-sided one on the flow's side of Q_T where the film's response has its kink)."""
+                 scale: float = 1.0, progress: ProgressFn = silent) -> tuple[ResponseDefect, OrbitBalance]:
+    """The balance at `flows` (m^3/s) on the chain's machine, speed and rotor, with the machine's unbalance
+    times `scale`, and its defect per unit of that scale, with its slope in each flow (`slope`: balances at
+    +-`step` Q_T, continued from this one: a central difference, or a one-sided one on the flow's side of Q_T
+    where the film's response has its kink)."""
     q = np.asarray(flows, dtype=float)
     n_bal = 3 if slope else 1  # progress: the balance, then the slope in each flow
-    ob = _balance(chain, q, start, harmonics, points, tol, lambda i, n, t: progress(i / n, n_bal, t))
-    x, y, static = _parts(chain, ob)
+    ob = _balance(chain, q, start, harmonics, points, tol, lambda i, n, t: progress(i / n, n_bal, t), scale)
+    x, y, static = _parts(chain, ob, scale)
     dx, dy, dst = np.zeros((2, 2), complex), np.zeros((2, 2), complex), np.zeros((2, 2, 2))
     if slope:
         for k in range(2):
@@ -115,8 +139,8 @@ def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = Non
                 qk = q.copy()
                 qk[k] += hs
                 obk = _balance(chain, qk, ob, harmonics, points, tol,
-                               lambda i, n, t, k=k, j=j: progress(1 + (2 * k + j) / 2 + i / n / 2, n_bal, t))
-                got.append((hs, _parts(chain, obk)))
+                               lambda i, n, t, k=k, j=j: progress(1 + (2 * k + j) / 2 + i / n / 2, n_bal, t), scale)
+                got.append((hs, _parts(chain, obk, scale)))
             if len(got) == 2:
                 (ha, (xa, ya, sa)), (hb, (xb, yb, sb)) = got
                 dx[:, k], dy[:, k], dst[:, :, k] = (xa - xb) / (ha - hb), (ya - yb) / (ha - hb), (sa - sb) / (ha - hb)
@@ -148,20 +172,23 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     plain = fit(chain, measured, intervals=False, **kw)
     theta = plain.values.copy()  # every parameter is free here
     q = theta[:2].copy()
+    scale = measured_scale(chain, measured, theta)  # the linear model's reading; each round reads it again
     history = [q.copy()]
+    scales = [scale]
     converged = False
     defect = ob = None
-    slope_at = None
+    slope_at = scale_at = None
     for rnd in range(1, max_rounds + 1):
         def sub(i, n, text, rnd=rnd):
             progress(rnd - 1 + min(i / max(n, 1), 1.0), total, f"large orbits, round {rnd}: {text}")
 
         fresh = (slope_at is None or np.max(np.abs(q - slope_at) / chain.q_threshold) > SLOPE_REUSE
-                 or np.any((q >= chain.q_threshold) != (slope_at >= chain.q_threshold)))
+                 or np.any((q >= chain.q_threshold) != (slope_at >= chain.q_threshold))
+                 or abs(scale / scale_at - 1.0) > SCALE_TOL)
         new, ob = orbit_defect(chain, q, start=ob, slope=fresh, harmonics=harmonics, points=points,
-                               progress=sub)
+                               scale=scale, progress=sub)
         if fresh:
-            defect, slope_at = new, q.copy()
+            defect, slope_at, scale_at = new, q.copy(), scale
         else:  # the slope from nearby flows, the defect itself from here
             defect = ResponseDefect(new.x, new.y, new.static, new.q0, defect.dx, defect.dy, defect.dstatic)
         res = fit(chain.with_defect(defect), measured, intervals=False, start=theta, **kw)
@@ -170,9 +197,14 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
         moved = float(np.max(np.abs(theta[:2] - q) / chain.q_threshold))
         moved_sigma = float(np.max(np.abs(theta[:2] - q) / np.maximum(res.std[:2], 1e-300)))
         q = theta[:2].copy()
-        if moved < tol or moved_sigma < SIGMA_TOL:
+        new_scale = measured_scale(chain, measured, theta, defect)
+        scale_moved = abs(new_scale / scale - 1.0)
+        scale = new_scale
+        scales.append(scale)
+        if (moved < tol or moved_sigma < SIGMA_TOL) and scale_moved < SCALE_TOL:
             converged = True
             break
+    scale_used = scales[-2]  # the size the last balance ran at
     progress(max_rounds, total, "large orbits: intervals")
     final = fit(chain.with_defect(defect), measured, start=theta, **kw)
     warnings = list(final.warnings)
@@ -189,13 +221,15 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     final = dataclasses.replace(final, warnings=tuple(warnings), seconds=time.perf_counter() - t0)
     progress(total, total, "large orbits: done")
     return OrbitFit(fit=final, plain=plain, orbit=ob, defect=defect, history=tuple(history),
-                    converged=converged, seconds=time.perf_counter() - t0, stability=stability)
+                    converged=converged, seconds=time.perf_counter() - t0, stability=stability,
+                    unbalance_scale=scale_used)
 
 
 def orbit_summary(of: OrbitFit) -> dict:
     """What the identification reports of the large-orbit model at its answer (JSON-ready)."""
     ob = of.orbit
     return {"rounds": of.balances, "converged": of.converged,
+            "unbalance_scale": of.unbalance_scale,  # the balance's unbalance over the declared one
             "ratio_2x_model": [ob.harmonic_ratio(2, k) for k in range(len(ob.nodes))],
             "one_x_over_linear": [float(abs(ob.x[1, k]) / abs(ob.linear_x[k])) for k in range(len(ob.nodes))],
             "static_shift_um": (1e6 * np.stack([ob.x[0].real, ob.y[0].real], axis=-1)).tolist(),

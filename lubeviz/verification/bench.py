@@ -117,10 +117,12 @@ DIAGNOSE_CASES = (
 )
 
 
-def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0, candidates=None,
+def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0, candidates=None, cases=None,
                    progress: ProgressFn = silent) -> dict:
     """For each effect and two strengths, independent records (12 dB, flows 75-125 % Q_T, seeded): plain
-    identification, then diagnosis; the named effect, the residual and the flow errors before and after."""
+    identification, then diagnosis; the named effect, the residual and the flow errors before and after.
+    `cases`: only the records of these effects (the first word of a DIAGNOSE_CASES name); the flows of the
+    others are drawn all the same, so each record is the one of the full run."""
     from ..diagnose import diagnose
     from ..diagnose.loop import OTHER_FORCE
     from ..identify.batch import beyond_1x
@@ -143,6 +145,8 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
             for s in range(seeds):
                 i += 1
                 q = qt * rng.uniform(0.75, 1.25, 2)
+                if cases is not None and name.split(" ")[0] not in cases:
+                    continue
                 if name == "large_orbit":
                     spec = IndependentSpec(speed_hz=speed_hz, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]), seed=100 + i)
                     rec = make_orbit_record(spec, unbalance_scale=float(text.rpartition("=")[2])).record
@@ -174,6 +178,8 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
     for name, _ in DIAGNOSE_CASES:
         for level in (1, 2):
             rr = [r for r in rows if r["effect"] == name and r["strength"] == level]
+            if not rr:
+                continue
             summary[f"{name} #{level}"] = {
                 "spec": rr[0]["spec"], "records": len(rr),
                 "plain_flagged": sum(not r["plain_explained"] for r in rr),
