@@ -147,8 +147,8 @@ class BearingPage(pn.viewable.Viewer):
         # not of the overlays their callbacks return. Legends outside the frames never cover a curve.
         locus = (hv.DynamicMap(self._locus, streams=[self._sweep_pipe])
                  * hv.DynamicMap(self._locus_marker, streams=[self._detail_pipe])).opts(
-            frame_width=280, frame_height=280, legend_position="bottom", legend_cols=2)
-        coef = dict(responsive=True, min_height=245, legend_position="right")
+            frame_width=280, frame_height=280, **plotting.outside_legend("below", cols=2))
+        coef = dict(responsive=True, min_height=245, **plotting.outside_legend("right"))
         coef_k = (hv.DynamicMap(lambda data: self._coefficients(data, "K"), streams=[self._sweep_pipe])
                   * hv.DynamicMap(self._q_line, streams=[self._detail_pipe])).opts(**coef)
         coef_c = (hv.DynamicMap(lambda data: self._coefficients(data, "C"), streams=[self._sweep_pipe])
@@ -157,10 +157,9 @@ class BearingPage(pn.viewable.Viewer):
         controls = pn.Column(
             "### Bearing", self._bearing_select, self._slider_box, self._scale_select, self._summary, self.jobs,
             self.sweep_jobs, width=330)
-        fields = pn.Column(
-            pn.pane.HoloViews(pressure, css_classes=["lubeviz-pressure"], **pane),
-            pn.pane.HoloViews(theta, css_classes=["lubeviz-theta"], **pane),
-            sizing_mode="stretch_width")
+        self._pressure_pane = pn.pane.HoloViews(pressure, css_classes=["lubeviz-pressure"], **pane)
+        fields = pn.Column(self._pressure_pane, pn.pane.HoloViews(theta, css_classes=["lubeviz-theta"], **pane),
+                          sizing_mode="stretch_width")
         profiles = pn.Row(pn.pane.HoloViews(profile_p, **pane), pn.pane.HoloViews(profile_t, **pane),
                           sizing_mode="stretch_width")
         # The coefficient plots stacked beside the locus: each as wide as the row allows, so their legends
@@ -292,11 +291,13 @@ class BearingPage(pn.viewable.Viewer):
         self._error.visible = False
         # Two steps: the fields reach the browser first (one Bokeh patch for two plots), then the five
         # smaller plots; together they cost 0.35 s in the browser, the fields alone 0.14 s.
-        self._frame_pipe.send(frame)
-        self._summary.object = self._summary_text(frame)
-        await asyncio.sleep(0.02)  # lets the server send the fields' patch on its own
-        if self._frame is frame:
-            self._detail_pipe.send(frame)
+        # One walk of the session's models for all seven plots (see plotting.frozen), after the second step.
+        with plotting.frozen(self._pressure_pane):
+            self._frame_pipe.send(frame)
+            self._summary.object = self._summary_text(frame)
+            await asyncio.sleep(0.02)  # lets the server send the fields' patch on its own
+            if self._frame is frame:
+                self._detail_pipe.send(frame)
 
     async def _fill_sweep(self):
         k, speed = self.bearing, self.speed
@@ -325,7 +326,7 @@ class BearingPage(pn.viewable.Viewer):
         qt = self._q_threshold.get((k, speed))
         grid = resources.frame_grid(qt) if qt else np.zeros(0)
         self._widen_scales(k, speed, [store[q] for q in qs])
-        self._sweep_pipe.send(dict(frames=[store[q] for q in qs], q_threshold=qt,
+        self._send(self._sweep_pipe, dict(frames=[store[q] for q in qs], q_threshold=qt,
                                    q_range=(float(grid[0]), float(grid[-1])) if len(grid) else None))
 
     def _widen_scales(self, k: int, speed: float, frames):
@@ -338,8 +339,13 @@ class BearingPage(pn.viewable.Viewer):
             return
         self._scales[(k, speed)] = {name: max(old[name], new[name]) for name in old}
         if self._frame is not None and self.colour_scale == "fixed":
-            self._frame_pipe.send(self._frame)
-            self._detail_pipe.send(self._frame)
+            self._send(self._frame_pipe, self._frame)
+            self._send(self._detail_pipe, self._frame)
+
+    def _send(self, pipe, data):
+        """Send `data` to the plots fed by `pipe`, with one walk of the session's models for all of them."""
+        with plotting.frozen(self._pressure_pane):
+            pipe.send(data)
 
     def _fail(self, exc: Exception):
         self._error.object = f"**Could not solve the film**: {exc}"
@@ -370,8 +376,8 @@ class BearingPage(pn.viewable.Viewer):
     def _redraw(self):
         if self._frame is not None:
             self._frame_scaled = (self.bearing, self.speed) in self._scales
-            self._frame_pipe.send(self._frame)
-            self._detail_pipe.send(self._frame)
+            self._send(self._frame_pipe, self._frame)
+            self._send(self._detail_pipe, self._frame)
 
     def _fixed(self, name: str) -> tuple[float, float]:
         """The range `name` ("pressure", "profile") on the fixed scale, or AUTO (auto mode, or not known yet)."""
@@ -405,7 +411,7 @@ class BearingPage(pn.viewable.Viewer):
                            "Blues_r", clim=THETA_RANGE if self.colour_scale == "fixed" else AUTO)
 
     def _profile_pressure(self, data):
-        opts = dict(responsive=True, min_height=280, framewise=True, legend_position="top",
+        opts = dict(responsive=True, min_height=280, framewise=True, **plotting.outside_legend("above"),
                     title="Mid-plane pressure" + ("" if data is None else f" at Q = {data.q / M3S_PER_MLMIN:.0f} ml/min"))
         fixed = dict(ylim=self._fixed("profile"))  # on both curves: framewise would follow the data
         deg, p, hs = [], [], []
@@ -421,7 +427,7 @@ class BearingPage(pn.viewable.Viewer):
     def _profile_theta(self, data):
         opts = dict(responsive=True, min_height=280, xlabel="α (deg)", ylabel="θ and h/c (–)",
                     title="Mid-plane θ and film thickness h/c", framewise=True,
-                    legend_position="top")
+                    **plotting.outside_legend("above"))
         fixed = dict(ylim=FILM_RATIO_RANGE if self.colour_scale == "fixed" else AUTO)
         deg, th, h = [], [], []
         if data is not None:

@@ -163,8 +163,8 @@ class RotorPage(pn.viewable.Viewer):
         pane = dict(sizing_mode="stretch_width", linked_axes=False)
         drawing = pn.pane.HoloViews(hv.DynamicMap(self._drawing, streams=[self._pipe]),
                                     css_classes=["lubeviz-machine"], linked_axes=False)
-        orbit = pn.pane.HoloViews(hv.DynamicMap(self._orbit, streams=[self._pipe]), width=380,
-                                  css_classes=["lubeviz-orbit"], linked_axes=False)
+        self._orbit_pane = orbit = pn.pane.HoloViews(hv.DynamicMap(self._orbit, streams=[self._pipe]), width=380,
+                                                     css_classes=["lubeviz-orbit"], linked_axes=False)
         signals = pn.pane.HoloViews(hv.DynamicMap(self._signals, streams=[self._pipe]), min_width=300,
                                     styles={"flex": "1 1 300px"}, **pane)
         spectrum = pn.pane.HoloViews(hv.DynamicMap(self._spectrum, streams=[self._pipe]),
@@ -276,7 +276,8 @@ class RotorPage(pn.viewable.Viewer):
             self._fail(exc)
             return
         self._error.visible = False
-        self._pipe.send(state)
+        with plotting.frozen(self._orbit_pane):  # one walk of the session's models for the seven plots
+            self._pipe.send(state)
         self._summary.object = self._summary_text(state)
 
     async def _on_effect(self, event):
@@ -565,7 +566,7 @@ class RotorPage(pn.viewable.Viewer):
 
     def _modes(self, data):
         kd, vd = "axial position x (mm)", "mode shape (–)"
-        opts = dict(responsive=True, min_height=320, legend_position="right", framewise=True,
+        opts = dict(responsive=True, min_height=320, **plotting.outside_legend("right"), framewise=True,
                     title="Damped mode shapes at the operating speed (horizontal component)")
         if not data:
             return hv.Overlay([hv.Curve([], kd, vd) for _ in range(4)]).opts(**opts)
@@ -589,7 +590,7 @@ class RotorPage(pn.viewable.Viewer):
 
     def _campbell(self, data, stale: bool = False):
         kd, vd = "shaft speed (Hz)", "damped natural frequency (Hz)"
-        opts = dict(responsive=True, min_height=380, legend_position="right", framewise=True,
+        opts = dict(responsive=True, min_height=380, **plotting.outside_legend("right"), framewise=True,
                     title="Campbell diagram (press the button above; film recomputed at every speed)")
         if not data:
             return hv.Overlay([hv.Curve([], kd, vd)]).opts(**opts)
@@ -618,7 +619,7 @@ class RotorPage(pn.viewable.Viewer):
     def _large_orbit_plot(data, stale: bool = False):
         """The nonlinear orbit over one revolution (its static shift included) on the linear ellipse."""
         kd = ["x (µm)", "y (µm)"]
-        opts = dict(frame_width=300, frame_height=300, legend_position="bottom", framewise=True)
+        opts = dict(frame_width=300, frame_height=300, **plotting.outside_legend("below"), framewise=True)
         if not data:
             return (hv.Curve([], *kd) * hv.Curve([], *kd)).opts(
                 title="Large orbit (press the button above)", **opts)
@@ -697,7 +698,7 @@ class RotorPage(pn.viewable.Viewer):
     def _centreline(self, data, k: int):
         """Journal k's static position in its clearance circle (µm, from the bearing centre; Y up)."""
         kd = ["X (µm)", "Y (µm)"]
-        opts = dict(frame_width=250, frame_height=250, framewise=True, legend_position="right",
+        opts = dict(frame_width=250, frame_height=250, framewise=True, **plotting.outside_legend("right"),
                     title=f"Shaft centreline, bearing {k + 1}")
         if not data:
             return (hv.Curve([], *kd) * hv.Points([], kd)).opts(**opts)

@@ -46,6 +46,7 @@ def test_bearing_page_draws_the_film_and_the_slider_starves_it(app_page, screens
         return float(re.search(r"eccentricity ratio ε\s*([0-9.]+)", shown).group(1))
 
     assert eccentricity(after) > eccentricity(before)  # starving the bearing sinks the journal
+    wait_for_plot_title(app_page, "Mid-plane pressure at Q = 300 ml/min", timeout_ms=SLOW_MS)  # every plot follows
     screenshot(app_page, "bearing_starved_300")
 
 
