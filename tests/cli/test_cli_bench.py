@@ -27,3 +27,10 @@ def test_budget_variants_are_parsed_into_model_budgets():
     assert got == [{"coefficient_k": 0.0025, "shaft_damping": 0.4}, {"calibration": 0.9}]
     b = ModelBudget(**got[0])
     assert b.coefficient_k == 0.0025 and b.coefficient_c == ModelBudget().coefficient_c
+
+
+def test_an_unknown_diagnose_case_names_the_known_ones(capsys):
+    assert main(["bench", "diagnose", "--cases", "large_orbit,foo"]) == 2
+    err = capsys.readouterr().err
+    assert "--cases" in err and "unknown foo" in err
+    assert "large_orbit" in err and "viscosity" in err  # the cases it knows
