@@ -69,10 +69,18 @@ def film_code_version() -> str:
 
     Only the film code: the load enters the key as numbers, so the rotor and identification modules
     (which `lubeviz.identify.cache.solver_version` also hashes, and which change often) do not."""
-    package = Path(__file__).resolve().parents[1] / "film"
+    return code_version("film")
+
+
+@functools.lru_cache(maxsize=8)
+def code_version(*packages: str) -> str:
+    """sha256 of the source of these sub-packages of lubeviz (e.g. "film", "rotor"), in the order given."""
+    root = Path(__file__).resolve().parents[1]
     h = hashlib.sha256()
-    for f in sorted(package.rglob("*.py")):
-        h.update(f.relative_to(package).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
+    for name in packages:
+        package = root / name
+        for f in sorted(package.rglob("*.py")):
+            h.update(f.relative_to(package).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
     return h.hexdigest()
 
 
@@ -92,14 +100,17 @@ def _directory() -> Path:
 _SHAPES = {"position": (2,), "K": (2, 2), "C": (2, 2), "side_leakage": ()}
 
 
-def _load(path: Path, key: str) -> dict | None:
+def _load(path: Path, key: str, shapes: dict | None = None) -> dict | None:
+    """The arrays of a cache file if its stored key is `key` and each array has its shape in `shapes` and is
+    finite; else None (the file deleted, with a warning)."""
+    shapes = _SHAPES if shapes is None else shapes
     if not path.exists():
         return None
     try:
         with np.load(path, allow_pickle=False) as f:
-            data = {k: np.array(f[k]) for k in ("key", *_SHAPES)}
+            data = {k: np.array(f[k]) for k in ("key", *shapes)}
         ok = str(data["key"]) == key and all(data[k].shape == s and np.all(np.isfinite(data[k]))
-                                             for k, s in _SHAPES.items())
+                                             for k, s in shapes.items())
     except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as exc:
         ok, data = False, None
         reason = f"unreadable ({exc})"

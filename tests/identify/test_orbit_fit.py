@@ -14,26 +14,33 @@ from lubeviz.identify.orbit_fit import measured_scale, orbit_defect
 from lubeviz.model.machine import DEFAULT_MACHINE
 from lubeviz.verification import IndependentSpec
 from lubeviz.verification.independent import make_record
-from lubeviz.verification.orbit_record import make_orbit_record
+from lubeviz.verification.orbit_record import make_orbit_records
 
 pytestmark = pytest.mark.slow
 
 Q = (460.0, 600.0)
 
 
-@pytest.fixture(scope="module")
-def independent():
-    return make_orbit_record(IndependentSpec(speed_hz=75.0, q1_mlmin=Q[0], q2_mlmin=Q[1], seed=5))
-
-
 WEAKER_Q = (480.0, 520.0)
 
 
 @pytest.fixture(scope="module")
-def weaker():
+def orbit_records():
+    """Both records of this module, their balances (3.5 min each, then cached on disk) solved side by side."""
+    return make_orbit_records([
+        (IndependentSpec(speed_hz=75.0, q1_mlmin=Q[0], q2_mlmin=Q[1], seed=5), 1.0),
+        (IndependentSpec(speed_hz=75.0, q1_mlmin=WEAKER_Q[0], q2_mlmin=WEAKER_Q[1], seed=5), 0.6)])
+
+
+@pytest.fixture(scope="module")
+def independent(orbit_records):
+    return orbit_records[0]
+
+
+@pytest.fixture(scope="module")
+def weaker(orbit_records):
     """The same source at 0.6 x the machine's unbalance (2X 23 / 12 % of 1X, max eccentricity 0.23)."""
-    return make_orbit_record(IndependentSpec(speed_hz=75.0, q1_mlmin=WEAKER_Q[0], q2_mlmin=WEAKER_Q[1], seed=5),
-                             unbalance_scale=0.6)
+    return orbit_records[1]
 
 
 def _inside(interval, q):

@@ -229,3 +229,45 @@ def test_film_cache_is_keyed_validated_and_rebuilt(tmp_path, monkeypatch, paper_
         again = equilibria.film_point(*args)
     assert not again.cached
     np.testing.assert_array_equal(again.K, cold.K)
+
+
+def test_orbit_balance_cache_round_trips_is_keyed_and_rebuilt(tmp_path, monkeypatch):
+    """The large-orbit records' balance (3.5 min each) is cached like the equilibria: the same harmonics back
+    on a hit without solving, another key for other flows or another unbalance, a damaged file solved again."""
+    from lubeviz.rotor.orbit_balance import OrbitBalance
+    from lubeviz.verification import equilibria, orbit_record
+
+    monkeypatch.setenv("LUBEVIZ_CACHE_DIR", str(tmp_path))
+    rng = np.random.default_rng(3)
+    h = orbit_record.HARMONICS + 1
+
+    def c(*shape):
+        return rng.normal(size=shape) + 1j * rng.normal(size=shape)
+
+    solved = []
+
+    def solve():
+        ob = OrbitBalance(omega=2 * math.pi * 75.0, nodes=(11, 39), x=c(h, 2), y=c(h, 2), bearing_x=c(h, 2),
+                          bearing_y=c(h, 2), linear_x=c(2), linear_y=c(2), iterations=7, film_solves=400,
+                          residual=1e-8, max_eccentricity=0.28, seconds=200.0)
+        solved.append(ob)
+        return ob
+
+    spec = IndependentSpec(speed_hz=75.0, q1_mlmin=460.0, q2_mlmin=600.0, seed=5)
+    cold = orbit_record._cached_balance(spec, 1.0, solve)
+    warm = orbit_record._cached_balance(spec, 1.0, solve)
+    assert len(solved) == 1
+    for name in ("x", "y", "bearing_x", "bearing_y", "linear_x", "linear_y"):
+        np.testing.assert_array_equal(getattr(warm, name), getattr(cold, name))
+    assert warm.iterations == 7 and warm.max_eccentricity == 0.28 and warm.nodes == cold.nodes
+    orbit_record._cached_balance(IndependentSpec(speed_hz=75.0, q1_mlmin=460.0, q2_mlmin=601.0, seed=5), 1.0, solve)
+    orbit_record._cached_balance(spec, 0.6, solve)
+    orbit_record._cached_balance(IndependentSpec(speed_hz=75.0, q1_mlmin=460.0, q2_mlmin=600.0, seed=9), 1.0, solve)
+    assert len(solved) == 3  # flows and unbalance are keys; the seed (noise, after the balance) is not
+    files = sorted((tmp_path / "independent").glob("orbit-*.npz"))
+    assert len(files) == 3
+    for f in files:
+        f.write_bytes(b"not a zip file")
+    with pytest.warns(equilibria.StaleIndependentCacheWarning):
+        orbit_record._cached_balance(spec, 1.0, solve)
+    assert len(solved) == 4
