@@ -78,11 +78,13 @@ _FIGURE_CSS = """
 .lubeviz-figures svg { display: block; width: 100%; height: auto; }
 .lubeviz-figures figcaption { font-size: 0.9em; margin-top: 4px; opacity: 0.85; }
 """
-# The header holds the title, the Glossary button, the theme switch and the busy indicator on one line: the
-# title gives way (ellipsis) on a narrow window instead of pushing the others past its right edge.
+# The header holds the title, the Glossary button, the theme switch and the busy indicator on one line: on a
+# narrow window the title's letters get smaller so that it is read whole at 800 px, and below that it gives
+# way (ellipsis) instead of pushing the others past its right edge.
 _HEADER_CSS = """
 #header .title { min-width: 0; overflow: hidden; text-overflow: ellipsis; white-space: nowrap; flex: 0 1 auto; }
 #header-items { width: auto; flex: 1 0 auto; }
+@media (max-width: 1100px) { #header .title { font-size: 1.2em; } }
 """
 _GLOSSARY_CSS = """
 dl.lubeviz-glossary { margin: 0; }

@@ -151,6 +151,18 @@ def test_page_is_no_wider_than_the_window(page, app_server, name, width):
         f"{len(past)} element(s) reach past its right edge:\n" + "\n".join(past[:25]))
 
 
+@pytest.mark.parametrize("width", WIDTHS)
+def test_the_header_title_is_read_whole(page, app_server, width):
+    """At 800 px the title's letters get smaller rather than cut (an ellipsis only below that)."""
+    page.set_viewport_size({"width": width, "height": 600})
+    page.goto(app_server + "/app")
+    wait_for_panel(page)
+    title = page.locator("#header .title").first
+    expect(title).to_contain_text("bearing lubrication from shaft vibration")
+    scroll, client = title.evaluate("e => [e.scrollWidth, e.clientWidth]")
+    assert scroll <= client, f"the header title is cut at {width} px: {scroll} px of text in {client} px"
+
+
 # --- dark theme --------------------------------------------------------------------------------------------
 
 def test_dark_theme_screenshots_of_every_page(page, app_server, screenshot):
