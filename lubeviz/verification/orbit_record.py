@@ -155,6 +155,9 @@ def make_orbit_record(spec: IndependentSpec, *, unbalance_scale: float = 1.0, pr
 
 
 def _solve_into_cache(spec: IndependentSpec, unbalance_scale: float) -> None:
+    from ..rotor import orbit_balance as module
+
+    module.FILM_THREADS = 1  # this worker process is one of several, one per core
     make_orbit_record(spec, unbalance_scale=unbalance_scale)
 
 

@@ -48,21 +48,14 @@ def _inside(interval, q):
     return low * 6e7 <= q <= (np.inf if high is None else high * 6e7)
 
 
-def _within_half_widths(interval, value, q, factor):
-    """Whether q (ml/min) lies within `factor` times the interval's half-width on its side of `value`."""
-    low, high = interval
-    edge = low * 6e7 if q < value else (np.inf if high is None else high * 6e7)
-    return abs(q - value) <= factor * abs(edge - value)
-
-
 def test_the_linear_fit_is_biased_and_flagged_the_large_orbit_fit_recovers_the_flows(machine, independent):
     """The plain linear fit: biased (-3.7 / -24.7 % measured) and flagged (chi2 ~1e4). With `large_orbit`
-    declared the record is explained (chi2 0.3) and the answer is within 5 % (measured -3.2 / -4.1 %, the
+    declared the record is explained (chi2 0.4) and the answer is within 5 % (measured -2.7 / -4.4 %, the
     fixed point of the rounds), not the 1 % of issue 11: Q2 lies above Q_T, in a flat chi2 valley along which
-    it trades against Q1. Q1's 95 % interval holds the truth ([408, 468] for 460). Q2's ends 0.5 % short of it
-    ([558, 597] for 600; it held at [560, 601] before the unbalance's size was read from the 1X, at a scale of
-    0.996): the truth is allowed 1.25 of the interval's half-width on its side (1.14 measured, an error of
-    about 2.2 sigma), the shortfall stated in BENCHMARKS. At 0.6 x the unbalance the intervals hold (below)."""
+    it trades against Q1, and the record itself supports no more: the 95 % intervals are +-9 % / +-4 % wide
+    ([399, 477] for 460, [558, 600.4] for 600). They hold the truth since they carry the uncertainty of the
+    correction's slope (`orbit_fit.SLOPE_UNCERTAINTY`); without it Q2's ended at 594-597, 0.5-1 % short.
+    At 0.6 x the unbalance the answer is within 2 % (below)."""
     rec, truth = independent.record, independent.truth
     assert min(truth["ratio_2x"]) > 0.08  # a large orbit: a 2X the linear model lacks
     plain = identify_record(rec, machine).result
@@ -72,8 +65,7 @@ def test_the_linear_fit_is_biased_and_flagged_the_large_orbit_fit_recovers_the_f
     err = np.abs(r.q * 6e7 / np.array(Q) - 1)
     assert err.max() < 0.05
     assert r.model_explains_data  # the residual back to noise + model level
-    assert _inside(r.intervals[0], Q[0])
-    assert _within_half_widths(r.intervals[1], r.q[1] * 6e7, Q[1], 1.25)
+    assert _inside(r.intervals[0], Q[0]) and _inside(r.intervals[1], Q[1])
     assert r.effects["large_orbit"]["unbalance_scale"] == pytest.approx(1.0, abs=0.02)  # the declared unbalance
     info = r.effects["large_orbit"]
     assert info["converged"]
