@@ -24,7 +24,8 @@ at Q_T's kink), Newton's method: 6 rounds on a clean record of this model (flows
 independent source's record (`verification.orbit_record`). There Q2 lies above Q_T, where the flooded film
 barely answers to the supply: the chi2 valley is flat along Q2 against Q1 and the answer can sit anywhere
 in it; the profile intervals, not the point, are what the record supports (forward differences of 2 % Q_T
-crept along that valley without settling).
+crept along that valley without settling). The slope comes from balances on coarser films (SLOPE_MESH), up to
+20 % off, and along that valley it sets the intervals' ends: they are the union over the slope x (1 +- 0.2).
 
 Why the unbalance's size: the linear features are invariants of an unknown unbalance (its size and phase
 cancel in them), but the nonlinearity grows with the orbit, so the balance must run at the orbit the record
