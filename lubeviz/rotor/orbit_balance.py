@@ -31,6 +31,8 @@ stability at the equilibrium (`rotor.stability`) says whether it is to be expect
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import math
 import os
 import time
@@ -109,6 +111,13 @@ class OrbitBalance:
         return np.real(self.x.T @ e), np.real(self.y.T @ e)
 
 
+@functools.lru_cache(maxsize=None)
+def _pool(threads: int) -> ThreadPoolExecutor:
+    """One lasting pool per thread count: a new pool per balance made new threads, and each new thread a new
+    malloc arena, which kept the freed factorizations' memory (3 GB more per large-orbit fit, measured)."""
+    return ThreadPoolExecutor(threads, thread_name_prefix="lubeviz-film")
+
+
 def _dynamic_stiffness(rotor: Rotor, omega: float, frequency: float, K, C) -> np.ndarray:
     """At `frequency` with the shaft spinning at `omega`; K, C: shaft + bearings (`bearing_matrices`)."""
     return K - frequency**2 * rotor.M + 1j * frequency * (C + omega * rotor.G)
@@ -183,9 +192,11 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
                         method="sor", warm=films[j][k], relax=1.9, tol=1e-10)
         if not sol.converged:
             raise ConvergenceError(f"film {j + 1} at phase {360 * k / N:.0f} deg: {sol.message}")
-        films[j][k] = sol
         dF = force_jacobian(sol) if sol.linear is not None else None  # the film's tangent with its pattern held
-        return sol.force, dF  # (SOR carries none: there the step uses the static tangent, a quasi-Newton step)
+        # (SOR carries none: there the step uses the static tangent, a quasi-Newton step). The warm start needs
+        # the fields only: the factorization (~10 MB at 100 x 100) is not kept, 48 of them per balance were
+        films[j][k] = dataclasses.replace(sol, linear=None)
+        return sol.force, dF
 
     def residual_harmonics(qb):
         """R (2nb, H+1) of the orbit qb, and each film's tangent along it: dr/dq, dr/dv (nb, N, 2, 2)."""
@@ -246,46 +257,42 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
         cols = np.einsum("hij,zjh->zhi", B, dR)
         return np.array([pack(c) for c in cols]).T
 
-    pool = ThreadPoolExecutor(threads) if threads > 1 else None  # the films of one revolution, side by side
-    try:
-        scale = max(np.abs(A[1]).max(), 1e-12)
-        z = pack(A if start is None else start.journal_harmonics)
-        g, (R, dq, dv, max_eps) = G(z)
-        f = g - z
+    pool = _pool(threads) if threads > 1 else None  # the films of one revolution, side by side
+    scale = max(np.abs(A[1]).max(), 1e-12)
+    z = pack(A if start is None else start.journal_harmonics)
+    g, (R, dq, dv, max_eps) = G(z)
+    f = g - z
+    change = float(np.abs(f).max() / scale)
+    it = 0
+    while change >= tol:  # Newton on F(z) = G(z) - z with the films' tangents, halving a step that fails
+        it += 1
+        if it > max_iter:
+            raise ConvergenceError(f"harmonic balance did not settle in {max_iter} Newton steps (last change "
+                                   f"{change:.1e} of the 1X orbit): the orbit is too large for a periodic "
+                                   "solution near the linear one")
+        step = -np.linalg.solve(G_jacobian(dq, dv) - np.eye(z.size), f)
+        reach = np.abs(unpack(step)).sum(axis=0).reshape(nb, 2).max(axis=1)  # bound on each journal's move
+        cap = float(np.max(reach / (MAX_STEP * np.array([e.bearing.clearance for e in eqs]))))
+        if cap > 1.0:  # far from the orbit the tangent misleads: no step moves a journal by more than this
+            step = step / cap
+        lam, taken = 1.0, None
+        for tries in range(6):  # the full step, or a fraction that lowers |F| (the last one taken regardless);
+            trial = z + lam * step  # a step that makes the journal touch or a film fail is halved too
+            try:
+                g_t, aux = G(trial)
+            except ConvergenceError as exc:
+                failure = exc
+            else:
+                f_trial = g_t - trial
+                taken = (trial, f_trial, g_t, aux)
+                if np.linalg.norm(f_trial) < np.linalg.norm(f):
+                    break
+            lam *= 0.5
+        if taken is None:
+            raise failure
+        z, f, g, (R, dq, dv, max_eps) = taken
         change = float(np.abs(f).max() / scale)
-        it = 0
-        while change >= tol:  # Newton on F(z) = G(z) - z with the films' tangents, halving a step that fails
-            it += 1
-            if it > max_iter:
-                raise ConvergenceError(f"harmonic balance did not settle in {max_iter} Newton steps (last change "
-                                       f"{change:.1e} of the 1X orbit): the orbit is too large for a periodic "
-                                       "solution near the linear one")
-            step = -np.linalg.solve(G_jacobian(dq, dv) - np.eye(z.size), f)
-            reach = np.abs(unpack(step)).sum(axis=0).reshape(nb, 2).max(axis=1)  # bound on each journal's move
-            cap = float(np.max(reach / (MAX_STEP * np.array([e.bearing.clearance for e in eqs]))))
-            if cap > 1.0:  # far from the orbit the tangent misleads: no step moves a journal by more than this
-                step = step / cap
-            lam, taken = 1.0, None
-            for tries in range(6):  # the full step, or a fraction that lowers |F| (the last one taken regardless);
-                trial = z + lam * step  # a step that makes the journal touch or a film fail is halved too
-                try:
-                    g_t, aux = G(trial)
-                except ConvergenceError as exc:
-                    failure = exc
-                else:
-                    f_trial = g_t - trial
-                    taken = (trial, f_trial, g_t, aux)
-                    if np.linalg.norm(f_trial) < np.linalg.norm(f):
-                        break
-                lam *= 0.5
-            if taken is None:
-                raise failure
-            z, f, g, (R, dq, dv, max_eps) = taken
-            change = float(np.abs(f).max() / scale)
-            progress(it, max_iter, f"harmonic balance: change {change:.1e}" + ("" if lam == 1.0 else " (step shortened)"))
-    finally:
-        if pool is not None:
-            pool.shutdown()
+        progress(it, max_iter, f"harmonic balance: change {change:.1e}" + ("" if lam == 1.0 else " (step shortened)"))
     z = g  # the map's image at the last point: R belongs to it
     qb = unpack(z)
     out = np.array([Ao[h] + Bo[h] @ R[:, h] for h in range(H + 1)])  # (H+1, 2 n_nodes)
