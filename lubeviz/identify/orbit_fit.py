@@ -24,9 +24,10 @@ at Q_T's kink), Newton's method: 6 rounds on a clean record of this model (flows
 independent source's record (`verification.orbit_record`). There Q2 lies above Q_T, where the flooded film
 barely answers to the supply: the chi2 valley is flat along Q2 against Q1 and the answer can sit anywhere
 in it; the profile intervals, not the point, are what the record supports (forward differences of 2 % Q_T
-crept along that valley without settling). The slope comes from balances on coarser films (SLOPE_MESH), 20 % off
-at 1.1 Q_T, and along that valley it sets the intervals' ends: they are the union over the slope x (1 +- 0.2).
-Further above Q_T the coarse slope is wrong by more than that (a known defect, see SLOPE_MESH).
+crept along that valley without settling). Along that valley the slope sets the intervals' ends, so they are
+the union over the slope x (1 +- 0.2). A flow below its Q_T takes its slope from balances on coarser films
+(SLOPE_MESH, 5 % off, 4.5 x cheaper); a flow at or above Q_T takes it on the model's own films, since there
+the coarse slope was 20 % off and a record's fit settled on a false fixed point (see SLOPE_MESH).
 
 Why the unbalance's size: the linear features are invariants of an unknown unbalance (its size and phase
 cancel in them), but the nonlinearity grows with the orbit, so the balance must run at the orbit the record
@@ -61,17 +62,18 @@ SIGMA_TOL = 0.2  # the rounds also stop when the flows move by less than this fr
 # (along a flat valley the record cannot tell the points apart, and the rounds would creep along it)
 SLOPE_REUSE = 0.01  # the correction's slope is taken again when the flows move more than this (of Q_T) or cross Q_T
 SCALE_TOL = 0.01  # ... or when the unbalance's size moves by more than this fraction; the rounds stop only below it
-SLOPE_MESH = 50  # film volumes each way for the correction's slope (the value keeps the model's mesh). A film
-# solve costs 4.5 x less than on 100 x 100. Measured at 75 Hz against the slope on the model's own films: 5-6 % of
-# the slope's size, 20 % for a flow at 1.1 Q_T (where the slope is small). On the two records of
-# tests/identify/test_orbit_fit.py the flows moved by under 1 % of Q_T. KNOWN DEFECT: further above Q_T it fails;
-# a bench record with Q1 at 1.23 Q_T ends 14.5 / 12.7 % off with intervals that miss, where this mesh's slope
-# gives 1.4 / 1.7 % held (BENCHMARKS "Large orbits", session 12). To fix: such a flow's slope on the model's films
-
-
-SLOPE_UNCERTAINTY = 0.2  # of the correction's slope: 50 x 50 against 100 x 100 films differ by 20 % at 1.1 Q_T
-# (more further above: see SLOPE_MESH), and the model's 100 x 100 slope is itself not the 200 x 200 source's; the
-# intervals are the union over the slope x (1 +- this) (`_slope_union`). The reported std is the nominal slope's
+SLOPE_MESH = 50  # film volumes each way for the slope of a flow below its Q_T (the value, and the slope of a flow
+# at or above Q_T, keep the model's mesh). A balance from the linear orbit: 8.0 s against 35.9 s on 100 x 100. Its
+# slope against the model's films', relative to the slope's size, at 75 Hz and the paper's unbalance:
+# 4.9 / 5.5 % at 0.86 / 0.95 Q_T; 19.5 / 7.4 / 5.3 / 5.1 % at 1.06 / 1.14 / 1.24 / 1.39 Q_T. Above Q_T the slope is
+# small (the flooded film barely answers) and the 50 x 50 films' Q_T lies 1.7 % higher, so near the kink a
+# difference straddles it on one mesh and not the other. With coarse slopes for every flow, a record with Q1 at
+# 1.23 Q_T settled on Q1 = 575 ml/min (1.06 Q_T), 14.5 % off, intervals missing the truth; with the rule here it
+# lands where the model's films put it (BENCHMARKS "Large orbits", sessions 12-13). Scaling the coarse flows
+# by the two meshes' Q_T ratio instead halved the error at 1.06 Q_T and tripled it at 1.24 Q_T: not used.
+SLOPE_UNCERTAINTY = 0.2  # of the correction's slope: the model's 100 x 100 slope is not the 200 x 200 source's, and
+# below Q_T the slope comes from 50 x 50 films, 5 % off (see SLOPE_MESH); the intervals are the union over the
+# slope x (1 +- this) (`_slope_union`), and each flow's std is at least their half-width / 1.96 (`_with_std_of`)
 
 
 def _with_mesh(machine, mesh: int):
@@ -165,8 +167,10 @@ def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = Non
     q = np.asarray(flows, dtype=float)
     n_bal = 3 if slope else 1  # progress: the balance, then the slope in each flow
     films = (SlopeFilms(chain) if slope_films is None else slope_films) if slope else None
+    # a flow at or above its Q_T takes its slope on the model's own films (see SLOPE_MESH); the others on `films`
+    coarse = [k for k in range(2) if slope and not films.own_mesh and q[k] < chain.q_threshold[k]]
     base = None
-    if slope and not films.own_mesh:  # the slope's own centre on its films, continued from their last balance;
+    if coarse:  # the slope's own centre on its films, continued from their last balance;
         last = films.last if films.last is not None and films.last.harmonics == harmonics else None
         base = _balance(chain, q, last, harmonics, points, tol, lambda i, n, t: progress(0, n_bal, t), scale,
                         machine=films.machine)
@@ -175,27 +179,26 @@ def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = Non
     ob = _balance(chain, q, start, harmonics, points, tol, lambda i, n, t: progress(i / n, n_bal, t), scale)
     x, y, static = _parts(chain, ob, scale)
     dx, dy, dst = np.zeros((2, 2), complex), np.zeros((2, 2), complex), np.zeros((2, 2, 2))
-    if slope:
-        base = ob if base is None else base
-        bx, by, bst = _parts(chain, base, scale)
-        for k in range(2):
-            qt, h = chain.q_threshold[k], step * chain.q_threshold[k]
-            # central where both sides lie on the flow's side of Q_T (the film's kink), else one-sided there
-            sides = (+h, -h) if (q[k] - h >= qt or q[k] + h < qt) else ((+h,) if q[k] >= qt else (-h,))
-            got = []
-            for j, hs in enumerate(sides):
-                qk = q.copy()
-                qk[k] += hs
-                obk = _balance(chain, qk, base, harmonics, points, tol,
-                               lambda i, n, t, k=k, j=j: progress(1 + (2 * k + j) / 2 + i / n / 2, n_bal, t), scale,
-                               machine=films.machine)
-                got.append((hs, _parts(chain, obk, scale)))
-            if len(got) == 2:
-                (ha, (xa, ya, sa)), (hb, (xb, yb, sb)) = got
-                dx[:, k], dy[:, k], dst[:, :, k] = (xa - xb) / (ha - hb), (ya - yb) / (ha - hb), (sa - sb) / (ha - hb)
-            else:
-                hs, (xk, yk, sk) = got[0]
-                dx[:, k], dy[:, k], dst[:, :, k] = (xk - bx) / hs, (yk - by) / hs, (sk - bst) / hs
+    for k in range(2 if slope else 0):
+        centre, machine = (base, films.machine) if k in coarse else (ob, chain.machine)
+        bx, by, bst = _parts(chain, centre, scale)
+        qt, h = chain.q_threshold[k], step * chain.q_threshold[k]
+        # central where both sides lie on the flow's side of Q_T (the film's kink), else one-sided there
+        sides = (+h, -h) if (q[k] - h >= qt or q[k] + h < qt) else ((+h,) if q[k] >= qt else (-h,))
+        got = []
+        for j, hs in enumerate(sides):
+            qk = q.copy()
+            qk[k] += hs
+            obk = _balance(chain, qk, centre, harmonics, points, tol,
+                           lambda i, n, t, k=k, j=j: progress(1 + (2 * k + j) / 2 + i / n / 2, n_bal, t), scale,
+                           machine=machine)
+            got.append((hs, _parts(chain, obk, scale)))
+        if len(got) == 2:
+            (ha, (xa, ya, sa)), (hb, (xb, yb, sb)) = got
+            dx[:, k], dy[:, k], dst[:, :, k] = (xa - xb) / (ha - hb), (ya - yb) / (ha - hb), (sa - sb) / (ha - hb)
+        else:
+            hs, (xk, yk, sk) = got[0]
+            dx[:, k], dy[:, k], dst[:, :, k] = (xk - bx) / hs, (yk - by) / hs, (sk - bst) / hs
     return ResponseDefect(x=x, y=y, static=static, q0=q, dx=dx, dy=dy, dstatic=dst), ob
 
 
@@ -211,8 +214,9 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     nonlinear model. (A slope taken below Q_T and used above it made the iteration settle on flows 7 % off
     with chi2 24 on a clean record of this very model.) It stops when the flows move by less than `tol` of
     Q_T, or by less than SIGMA_TOL of their own standard deviation. `tol`: largest flow change between rounds,
-    relative to Q_T, at which it stops. `slope_mesh`: film volumes each way of the slope's balances (None: the
-    model's own mesh; the correction itself is always solved on the model's films).
+    relative to Q_T, at which it stops. `slope_mesh`: film volumes each way of the slope's balances for flows
+    below Q_T (None: the model's own mesh; the correction itself, and the slope of a flow at or above Q_T, are
+    always solved on the model's films).
     """
     t0 = time.perf_counter()
     check_orbit_chain(chain)
@@ -258,7 +262,7 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     scale_used = scales[-2]  # the size the last balance ran at
     progress(max_rounds, total, "large orbits: intervals")
     final = fit(chain.with_defect(defect), measured, start=theta, **kw)
-    final = dataclasses.replace(final, intervals=_slope_union(chain, measured, defect, theta, final, kw))
+    final = _with_std_of(final, _slope_union(chain, measured, defect, theta, final, kw))
     warnings = list(final.warnings)
     if not converged:
         warnings.append(f"large orbits: the flows still moved by more than {100 * tol:g} % of Q_T after "
@@ -295,6 +299,24 @@ def _slope_union(chain: ForwardChain, measured, defect: ResponseDefect, theta, f
                 lo0, hi0 = out[n]
                 out[n] = (min(lo0, lo), None if (hi is None or hi0 is None) else max(hi0, hi))
     return out
+
+
+def _with_std_of(final: Fit, intervals: dict) -> Fit:
+    """`final` with `intervals`, each flow's std at least the interval's larger half-width / 1.96 (the std
+    as solved is the nominal slope's, and must not claim more than the intervals do); its covariance's row
+    and column scaled alike, so the correlations stay."""
+    std, cov = final.std.copy(), final.cov.copy()
+    for j, n in enumerate(final.names):
+        if n not in intervals or intervals[n][1] is None or not std[j] > 0:
+            continue
+        lo, hi = intervals[n]
+        wider = max(final.values[j] - lo, hi - final.values[j]) / 1.959964
+        if wider > std[j]:
+            f = wider / std[j]
+            cov[j, :] *= f
+            cov[:, j] *= f
+            std[j] = wider
+    return dataclasses.replace(final, intervals=intervals, std=std, cov=cov)
 
 
 def orbit_summary(of: OrbitFit) -> dict:
