@@ -41,6 +41,7 @@ STATUS = {
     3: "the best fit lies on a bound of the search box",
 }
 CHI2_95_1DOF = float(stats.chi2.ppf(0.95, 1))
+Z95 = float(stats.norm.ppf(0.975))  # 1.96: a 95 % interval's half-width in standard deviations
 
 
 @dataclass(frozen=True)
@@ -350,6 +351,7 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
                                 "more oil barely changes the vibration)")
     fs = prob.difference(theta) + fm
     n = len(all_names)
+    std, cov = std_within([ref.names[i] for i in free], theta[free], std, cov, ivals)
     return Fit(names=tuple(ref.names[i] for i in free), values=theta[free], std=std, cov=cov,
                chi2=chi2, dof=dof, p_value=p, level=level, aic=chi2 + 2 * n_free,
                bic=chi2 + n_free * math.log(max(n, 1)), status=status, at_bound=at_bound,
@@ -358,6 +360,25 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
                features_model=fs, residual=r, intervals=ivals, alternatives=tuple(alternatives),
                paths=tuple(x[5] for x in reversed(refined)), inflation=inflation, warnings=tuple(warnings),
                q_threshold=ref.q_threshold.copy(), features_sigma=np.sqrt(np.sum(prob.L ** 2, axis=1)))
+
+
+def std_within(names, values, std, cov, intervals: dict) -> tuple[np.ndarray, np.ndarray]:
+    """(std, cov) with each flow's std at least its 95 % interval's larger half-width / 1.96, that row and
+    column of the covariance scaled alike (the correlations stay). The covariance is the fit's linearization
+    at the answer; near Q_T's kink, or where the chi2 valley bends, the profile interval is wider on one side,
+    and the +- shown must not claim more than it. An interval open above leaves the std as it is."""
+    std, cov = np.array(std, dtype=float), np.array(cov, dtype=float)
+    for j, n in enumerate(names):
+        iv = intervals.get(n)
+        if iv is None or iv[1] is None or not std[j] > 0:
+            continue
+        wider = max(values[j] - iv[0], iv[1] - values[j]) / Z95
+        if wider > std[j]:
+            f = wider / std[j]
+            cov[j, :] *= f
+            cov[:, j] *= f
+            std[j] = wider
+    return std, cov
 
 
 def _profile(problem: _Problem, theta, chi2_min, k, lo, hi, scale, sigma, threshold, q_t):

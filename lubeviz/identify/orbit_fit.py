@@ -55,7 +55,7 @@ from ..rotor.response import machine_unbalance
 from ..rotor.whirl import Stability, equilibrium_stability
 from .budget import ModelBudget
 from .chain import ForwardChain, ResponseDefect
-from .fit import Fit, fit
+from .fit import Fit, fit, std_within
 
 
 SIGMA_TOL = 0.2  # the rounds also stop when the flows move by less than this fraction of their standard deviation
@@ -73,7 +73,7 @@ SLOPE_MESH = 50  # film volumes each way for the slope of a flow below its Q_T (
 # by the two meshes' Q_T ratio instead halved the error at 1.06 Q_T and tripled it at 1.24 Q_T: not used.
 SLOPE_UNCERTAINTY = 0.2  # of the correction's slope: the model's 100 x 100 slope is not the 200 x 200 source's, and
 # below Q_T the slope comes from 50 x 50 films, 5 % off (see SLOPE_MESH); the intervals are the union over the
-# slope x (1 +- this) (`_slope_union`), and each flow's std is at least their half-width / 1.96 (`_with_std_of`)
+# slope x (1 +- this) (`_slope_union`), and each flow's std is at least their half-width / 1.96 (`fit.std_within`)
 
 
 def _with_mesh(machine, mesh: int):
@@ -162,8 +162,9 @@ def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = Non
     """The balance at `flows` (m^3/s) on the chain's machine, speed and rotor, with the machine's unbalance
     times `scale`, and its defect per unit of that scale, with its slope in each flow (`slope`: balances at
     +-`step` Q_T: a central difference, or a one-sided one on the flow's side of Q_T where the film's response
-    has its kink). The slope's balances run on `slope_films` (default: SLOPE_MESH films), continued from a
-    balance at `flows` on those films (or, on the chain's own mesh, from this one)."""
+    has its kink). The slope of a flow below its Q_T runs on `slope_films` (default: SLOPE_MESH films),
+    continued from a balance at `flows` on those films; a flow at or above Q_T, or any flow when those films
+    are the chain's own, runs on the model's films from this balance."""
     q = np.asarray(flows, dtype=float)
     n_bal = 3 if slope else 1  # progress: the balance, then the slope in each flow
     films = (SlopeFilms(chain) if slope_films is None else slope_films) if slope else None
@@ -302,20 +303,8 @@ def _slope_union(chain: ForwardChain, measured, defect: ResponseDefect, theta, f
 
 
 def _with_std_of(final: Fit, intervals: dict) -> Fit:
-    """`final` with `intervals`, each flow's std at least the interval's larger half-width / 1.96 (the std
-    as solved is the nominal slope's, and must not claim more than the intervals do); its covariance's row
-    and column scaled alike, so the correlations stay."""
-    std, cov = final.std.copy(), final.cov.copy()
-    for j, n in enumerate(final.names):
-        if n not in intervals or intervals[n][1] is None or not std[j] > 0:
-            continue
-        lo, hi = intervals[n]
-        wider = max(final.values[j] - lo, hi - final.values[j]) / 1.959964
-        if wider > std[j]:
-            f = wider / std[j]
-            cov[j, :] *= f
-            cov[:, j] *= f
-            std[j] = wider
+    """`final` with `intervals` (the slope's union), each flow's std at least their half-width / 1.96."""
+    std, cov = std_within(final.names, final.values, final.std, final.cov, intervals)
     return dataclasses.replace(final, intervals=intervals, std=std, cov=cov)
 
 

@@ -43,6 +43,9 @@ def test_clean_independent_records_are_explained_and_their_intervals_hold(machin
         errors.append(np.abs(err).max())
         held.extend(_holds(r, q))
         flagged += not r.model_explains_data
+        for k, (low, high) in enumerate(r.intervals):  # the +- shown claims no more than the interval
+            if high is not None:
+                assert 1.96 * r.q_std[k] >= 0.999 * max(r.q[k] - low, high - r.q[k]), (spec, k)
         noise_only = IdentificationSettings(include_model_error=False)  # the app's switch: ModelBudget.none()
         flagged_noise_only += not identify_record(rec, machine, noise_only).result.model_explains_data
     assert flagged <= 1, f"{flagged} of {len(clean_records)} clean records flagged"

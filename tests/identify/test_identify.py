@@ -138,3 +138,25 @@ def test_a_record_from_a_different_machine_is_flagged_as_unexplained(model):
     rec = synthesize_record(other, (450 / 6e7, 600 / 6e7), rng=np.random.default_rng(4), method="steady")
     res = identify(model, measure(rec))
     assert res.model_explains_data is False and "does not explain" in res.message
+
+
+def test_the_std_shown_is_never_narrower_than_the_profile_interval():
+    """`fit.std_within`: a flow whose 95 % profile interval is wider on one side than 1.96 sigma gets that
+    side's half-width / 1.96 as its std, its covariance row and column scaled so the correlations stay;
+    a narrower or an open interval, or a parameter without one, is left as it is."""
+    from lubeviz.identify.fit import Z95, std_within
+
+    names = ("q1", "q2", "effect.factor")
+    values = np.array([8e-6, 9e-6, 1.1])
+    std = np.array([1e-7, 2e-7, 0.05])
+    corr = np.array([[1.0, -0.6, 0.3], [-0.6, 1.0, 0.2], [0.3, 0.2, 1.0]])
+    cov = corr * np.outer(std, std)
+    intervals = {"q1": (values[0] - 1.5e-7, values[0] + 4e-7),  # wider above: 4e-7 / 1.96 > 1e-7
+                 "q2": (values[1] - 3e-7, None)}  # open above: the interval says so, the std stays
+    s2, c2 = std_within(names, values, std, cov, intervals)
+    assert Z95 == pytest.approx(1.959964, abs=1e-6)
+    assert s2[0] == pytest.approx(4e-7 / Z95) and s2[1] == std[1] and s2[2] == std[2]
+    assert np.allclose(c2 / np.outer(s2, s2), corr)
+    assert np.allclose(np.sqrt(np.diag(c2)), s2)
+    s3, c3 = std_within(names, values, std, cov, {"q1": (values[0] - 1e-7, values[0] + 1e-7)})
+    assert np.array_equal(s3, std) and np.array_equal(c3, cov)
