@@ -26,7 +26,7 @@ WEAKER_Q = (480.0, 520.0)
 
 @pytest.fixture(scope="module")
 def orbit_records():
-    """Both records of this module, their balances (3.5 min each, then cached on disk) solved side by side."""
+    """Both records of this module, their balances (1.5 min each, then cached on disk) solved side by side."""
     return make_orbit_records([
         (IndependentSpec(speed_hz=75.0, q1_mlmin=Q[0], q2_mlmin=Q[1], seed=5), 1.0),
         (IndependentSpec(speed_hz=75.0, q1_mlmin=WEAKER_Q[0], q2_mlmin=WEAKER_Q[1], seed=5), 0.6)])

@@ -232,7 +232,7 @@ def test_film_cache_is_keyed_validated_and_rebuilt(tmp_path, monkeypatch, paper_
 
 
 def test_orbit_balance_cache_round_trips_is_keyed_and_rebuilt(tmp_path, monkeypatch):
-    """The large-orbit records' balance (3.5 min each) is cached like the equilibria: the same harmonics back
+    """The large-orbit records' balance (1.5 min each) is cached like the equilibria: the same harmonics back
     on a hit without solving, another key for other flows or another unbalance, a damaged file solved again."""
     from lubeviz.rotor.orbit_balance import OrbitBalance
     from lubeviz.verification import equilibria, orbit_record
