@@ -12,6 +12,8 @@ from ..progress import ProgressFn, silent
 from .equilibrium import DEFAULT_COEFFICIENTS, Equilibrium, find_equilibrium
 from .feed import Feed
 
+PREDICT_MAX_ECCENTRICITY = 0.9  # a secant guess beyond this (of the clearance) is not used: the last position is
+
 
 @dataclass(frozen=True)
 class SupplySweep:
@@ -42,15 +44,21 @@ def sweep_supply(bearing: Bearing, omega: float, load, flows, *, progress: Progr
     flows = np.asarray(flows, dtype=float)
     order = np.argsort(flows)
     out: list[Equilibrium | None] = [None] * flows.size
-    prev = None
+    prev = before = None
+    q_prev = q_before = None
     for n, k in enumerate(order):
-        eq = find_equilibrium(bearing, omega, load, Feed.flow(flows[k]),
-                              start=None if prev is None else prev.position,
+        start = None if prev is None else prev.position
+        if before is not None and q_prev > q_before:  # the secant through the last two positions
+            guess = prev.position + (prev.position - before.position) * (flows[k] - q_prev) / (q_prev - q_before)
+            if np.hypot(*guess) < PREDICT_MAX_ECCENTRICITY * bearing.clearance:
+                start = guess
+        eq = find_equilibrium(bearing, omega, load, Feed.flow(flows[k]), start=start,
                               warm=None if prev is None else prev.film,
                               coefficients=coefficients, smoothing=smoothing)
         if not eq.converged:
             raise ConvergenceError(f"equilibrium at supply {flows[k] * 6e7:.4g} ml/min: {eq.message}")
-        out[k] = prev = eq
+        out[k], before, prev = eq, prev, eq
+        q_before, q_prev = q_prev, flows[k]
         progress(n + 1, flows.size, f"{flows[k] * 6e7:.0f} ml/min")
     if keep is not None:
         keep.extend(out)
