@@ -12,7 +12,8 @@ from ..progress import ProgressFn, silent
 from .equilibrium import DEFAULT_COEFFICIENTS, Equilibrium, find_equilibrium
 from .feed import Feed
 
-PREDICT_MAX_ECCENTRICITY = 0.9  # a secant guess beyond this (of the clearance) is not used: the last position is
+PREDICT_MAX_ECCENTRICITY = 0.9  # a secant guess beyond this (of the clearance) is not used; the equilibrium then
+# starts from the last position, as before the secant (one slice: -16 % time, values equal to 6e-9)
 
 
 @dataclass(frozen=True)
