@@ -81,12 +81,14 @@ DEFAULT_COEFFICIENTS = "subcell"
 
 
 def find_equilibrium(bearing: Bearing, omega: float, load, feed: Feed, *,
-                     start=None, warm: FilmSolution | None = None, tol: float = 1e-9,
-                     max_iter: int = 40, coefficients: str = DEFAULT_COEFFICIENTS,
+                     start=None, warm: FilmSolution | None = None, pattern: np.ndarray | None = None,
+                     tol: float = 1e-9, max_iter: int = 40, coefficients: str = DEFAULT_COEFFICIENTS,
                      smoothing: float | None = None) -> Equilibrium:
     """Journal position where the film force balances `load` (N, external, on the journal).
 
-    `start` (position) and `warm` (a film solution, for its cavitation pattern) speed up sweeps.
+    `start` (position) and `warm` (a film solution, for its cavitation pattern) speed up sweeps;
+    `pattern` (full cells, the mesh's shape), if given, is the first film solve's starting pattern
+    instead of `warm`'s (a sweep's prediction, film.sweep); the later solves start from the last film.
     `coefficients` chooses how K and C are computed at the equilibrium:
     - "subcell" (default): tangent of the exact film with each rupture/reformation front placed
       inside its pair of cells (subcell.py); continuous in the supply and position (staircase along
@@ -113,11 +115,11 @@ def find_equilibrium(bearing: Bearing, omega: float, load, feed: Feed, *,
     e = initial_position(bearing, omega, load) if start is None else np.array(start, dtype=float)
     target = -load
 
-    def film_at(pos, warm_sol):
-        sol = solve(setup_problem(bearing, omega, pos, feed), warm=warm_sol)
+    def film_at(pos, warm_sol, full0=None):
+        sol = solve(setup_problem(bearing, omega, pos, feed), warm=warm_sol, pattern=full0)
         return sol, sol.force - target
 
-    sol, g = film_at(e, warm)
+    sol, g = film_at(e, warm, pattern)
     message = ""
     it = 0
     converged = False

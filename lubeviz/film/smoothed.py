@@ -50,6 +50,9 @@ DEFAULT_SMOOTHING = 1e-7  # mu: P (1 - theta) = mu in every free cell (P in unit
 # uniform 100 x 100 mesh: it acts per cell, so on the refined groove columns (mesh.refined_split) it smooths more
 
 
+NEGLIGIBLE = 1e-200  # a scale this small multiplies an entry by nothing a double can add to its row's others
+
+
 class _ReducedSystem:
     """Sparse structure of the balances restricted to free cells, reused by every Newton step.
 
@@ -71,13 +74,22 @@ class _ReducedSystem:
         uniq, self.slot = np.unique(key, return_inverse=True)
         self.indices = (uniq % n).astype(np.int32)
         self.indptr = np.searchsorted(uniq // n, np.arange(n + 1)).astype(np.int32)
+        self.slot_col = (uniq // n).astype(np.int64)  # the column of each stored entry
         self.n = n
         self.free_idx = t.free_idx
 
     def matrix(self, Tp: np.ndarray, Tt: np.ndarray) -> sp.csc_matrix:
+        """The reduced matrix; an entry whose scale is below `NEGLIGIBLE` (a cell that is simply full,
+        Tt = 0, or simply cavitated, Tp = 1e-300 in subcell.py) is left out of the sparsity pattern: kept,
+        it would only add fill (a sub-cell tangent's two LUs took 15 ms each instead of 5 ms)."""
         scale = np.where(self.is_p, Tp[self.cols], Tt[self.cols])
+        scale = np.where(np.abs(scale) < NEGLIGIBLE, 0.0, scale)
         data = np.bincount(self.slot, weights=self.vals * scale, minlength=self.indices.size)
-        return sp.csc_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
+        keep = np.bincount(self.slot, weights=(scale != 0.0).astype(float), minlength=self.indices.size) > 0
+        if keep.all():
+            return sp.csc_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
+        indptr = np.concatenate([[0], np.cumsum(np.bincount(self.slot_col[keep], minlength=self.n))])
+        return sp.csc_matrix((data[keep], self.indices[keep], indptr.astype(np.int32)), shape=(self.n, self.n))
 
     def apply(self, vp: np.ndarray, vt: np.ndarray) -> np.ndarray:
         """A_P vp + A_theta vt on the free cells."""

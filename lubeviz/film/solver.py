@@ -247,11 +247,15 @@ def solve_sor(problem: FilmProblem, *, relax: float = 1.85, tol: float = 1e-10, 
 
 
 def solve(problem: FilmProblem, *, method: str = "active-set", warm: FilmSolution | None = None,
-          **options) -> FilmSolution:
-    """Solve with `method` ('active-set' or 'sor'), warm-started from a previous solution."""
+          pattern: np.ndarray | None = None, **options) -> FilmSolution:
+    """Solve with `method` ('active-set' or 'sor'), warm-started from a previous solution.
+
+    `pattern` (active-set only): the full cells to start from, instead of `warm`'s."""
     if method == "active-set":
         full0 = None
-        if warm is not None and warm.P.shape == problem.mesh.shape:
+        if pattern is not None and pattern.shape == problem.mesh.shape:
+            full0 = pattern
+        elif warm is not None and warm.P.shape == problem.mesh.shape:
             full0 = warm.full
         return solve_active_set(problem, full0, **options)
     if method == "sor":

@@ -69,3 +69,24 @@ def test_warm_start_gives_the_same_solution_in_fewer_solves(paper_bearing):
     again = solve(moved)
     assert warm.iterations < again.iterations
     np.testing.assert_allclose(warm.force, again.force, rtol=1e-12)
+
+
+def test_a_sweep_s_predicted_starts_change_the_work_not_the_answer(paper_bearing):
+    """`sweep_supply` starts each equilibrium at the parabola through the last positions and at the cavitation
+    pattern extrapolated along the last two films (`predicted_pattern`). The starts decide only the work:
+    each equilibrium equals the one solved cold to the force tolerance, and the extrapolated pattern is
+    nearer the next film's than the last film's own pattern is."""
+    from lubeviz.film.equilibrium import find_equilibrium
+    from lubeviz.film.sweep import predicted_pattern, sweep_supply
+    from tests.conftest import PAPER_LOAD
+
+    flows = np.array([400.0, 410.0, 420.0, 430.0]) / 6e7
+    keep = []
+    sweep = sweep_supply(paper_bearing, OMEGA_75HZ, PAPER_LOAD, flows, keep=keep)
+    for k in (2, 3):
+        cold = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, Feed.flow(flows[k]))
+        np.testing.assert_allclose(sweep.position[k], cold.position, rtol=0, atol=1e-8 * paper_bearing.clearance)
+        np.testing.assert_allclose(sweep.K[k], cold.coefficients.K, rtol=1e-6, atol=1e-6 * np.abs(cold.coefficients.K).max())
+    predicted = predicted_pattern(keep[1].film, keep[2].film, 1.0)
+    actual = keep[3].film.full
+    assert (predicted != actual).sum() < (keep[2].film.full != actual).sum()
