@@ -193,11 +193,14 @@ def _finish(problem, P, theta, iterations, converged, message, method, t0, linea
     )
 
 
-def solve_active_set(problem: FilmProblem, full0: np.ndarray | None = None, max_iter: int = 60) -> FilmSolution:
+def solve_active_set(problem: FilmProblem, full0: np.ndarray | None = None, max_iter: int = 60, *,
+                     partial: bool = False) -> FilmSolution:
     """Semismooth-Newton (primal-dual active set) solve of the p-theta system; see module doc.
 
     `full0` warm-starts the pattern (e.g. from a neighbouring flow or position). A pattern seen
     before (a cycle) is broken by switching only the single most violating cell of each kind.
+    `partial`: when the pattern still changes after `max_iter` solves, the result (converged False) keeps
+    its last pattern's linear system, so an outer Newton iteration can use its tangent (an inexact solve).
     """
     t0 = time.perf_counter()
     trip = _triplets(problem)
@@ -227,7 +230,7 @@ def solve_active_set(problem: FilmProblem, full0: np.ndarray | None = None, max_
             full = (full & ~to_cav) | to_full
     return _finish(problem, P, theta, max_iter, False,
                    f"active-set solver: cavitation pattern still changing after {max_iter} linear solves",
-                   "active-set", t0)
+                   "active-set", t0, system if partial else None)
 
 
 def solve_sor(problem: FilmProblem, *, relax: float = 1.85, tol: float = 1e-10, max_sweeps: int = 50000,
