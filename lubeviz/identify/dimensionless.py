@@ -70,9 +70,9 @@ S_ANCHOR = 1.9084
 SNAP_LN = 5e-5
 # A slice's equilibria balance the load to SLICE_TOL (relative; find_equilibrium's default is 1e-9).
 # Measured at S = 0.05 / 1.91 / 8.0: the values move by <= 4e-7 of their column's max (the table's own
-# error against direct solves: median 4e-5, max 9e-4), and one Newton step of the equilibrium is saved
-# on 125 of 141 ratios (the sweep's predicted start is ~4e-5 c off: the position is rough at that level
-# as cells switch, so a better predictor does not help).
+# error against direct solves: median 4e-5, max 9e-4), and 125 of 141 equilibria take one Newton step
+# instead of two (39 at 1e-9; the sweep's predicted start is ~4e-5 c off: the position is rough at that
+# level as cells switch, so a better predictor does not help).
 SLICE_TOL = 1e-7
 
 _NAMES = ("Kxx", "Kxy", "Kyx", "Kyy", "Cxx", "Cxy", "Cyx", "Cyy", "eps_x", "eps_y")
