@@ -202,8 +202,7 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
             return sol.force, force_jacobian(sol)
         sol = solve(problem, warm=warm)
         if not sol.converged:  # the active set can cycle under strong squeeze: projected SOR does not
-            sol = solve(setup_problem(e.bearing, omega, pos, Feed.flow(bearings.flows[j]), velocity=v),
-                        method="sor", warm=films[j][k], relax=1.9, tol=1e-10)
+            sol = solve(problem, method="sor", warm=warm, relax=1.9, tol=1e-10)
         if not sol.converged:
             raise ConvergenceError(f"film {j + 1} at phase {360 * k / N:.0f} deg: {sol.message}")
         dF = force_jacobian(sol) if sol.linear is not None else None  # the film's tangent with its pattern held

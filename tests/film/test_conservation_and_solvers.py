@@ -86,7 +86,8 @@ def test_a_sweep_s_predicted_starts_change_the_work_not_the_answer(paper_bearing
     for k in (2, 3):
         cold = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, Feed.flow(flows[k]))
         np.testing.assert_allclose(sweep.position[k], cold.position, rtol=0, atol=1e-8 * paper_bearing.clearance)
-        np.testing.assert_allclose(sweep.K[k], cold.coefficients.K, rtol=1e-6, atol=1e-6 * np.abs(cold.coefficients.K).max())
+        K = cold.coefficients.K
+        np.testing.assert_allclose(sweep.K[k], K, rtol=1e-6, atol=1e-6 * np.abs(K).max())
     predicted = predicted_pattern(keep[1].film, keep[2].film, 1.0)
     actual = keep[3].film.full
     assert (predicted != actual).sum() < (keep[2].film.full != actual).sum()
