@@ -240,8 +240,18 @@ def bench_budget(machine_path=None, *, n: int = 120, seed: int = 2026, progress:
         z = d / sigma
         cov1 = model_covariance(chain, theta, ALL_FEATURES, ModelBudget(calibration=1.0))
         chi2 = float(d @ np.linalg.lstsq(cov1, d, rcond=1e-12)[0])
+        # the static journal position at each bearing centre (SPEC §6), from the rest position (0, -c): the
+        # source's film equilibrium on its finer films against the model's, in units of the budget's film term
+        truth = steady_truth(spec)
+        s_true = np.asarray(truth["journal_positions_m"]) + np.array([[0.0, c] for c in truth["clearance_m"]])
+        skey = ("static", spec.speed_hz)
+        if skey not in chains:
+            chains[skey] = ForwardChain(machine, spec.speed_hz, tuple(chain.rotor.bearing_nodes))
+        s_model = chains[skey].output(theta).static
+        s_term = ModelBudget().static_position * np.array([[s.bearing.clearance] * 2 for s in chain.sources])
         rows.append({"speed_hz": spec.speed_hz, "q_mlmin": [spec.q1_mlmin, spec.q2_mlmin], "z": z.tolist(),
-                     "chi2_as_stated": chi2})
+                     "chi2_as_stated": chi2, "static_difference_um": (1e6 * (s_true - s_model)).ravel().tolist(),
+                     "static_z": ((s_true - s_model) / s_term).ravel().tolist()})
         progress(i, len(specs), f"{spec.speed_hz:g} Hz")
     z = np.array([r["z"] for r in rows])
     out = {"points": len(rows), "features": list(ALL_FEATURES),
@@ -250,6 +260,12 @@ def bench_budget(machine_path=None, *, n: int = 120, seed: int = 2026, progress:
            "calibration_ml": float(np.sqrt(sum(r["chi2_as_stated"] for r in rows) / (len(rows) * len(ALL_FEATURES)))),
            "calibration_in_use": ModelBudget().calibration, "seed": seed,
            "by_band": {}, "seconds": time.perf_counter() - t0, "rows": rows}
+    sd = np.abs(np.array([r["static_difference_um"] for r in rows]))
+    sz = np.array([r["static_z"] for r in rows])
+    out["static"] = {  # per component sx1, sy1, sx2, sy2: the film term alone (the rest reading's is apart)
+        "term_um": [1e6 * ModelBudget().static_position * s.bearing.clearance for s in chain.sources],
+        "abs_difference_um_median": np.median(sd, axis=0).tolist(), "abs_difference_um_max": sd.max(axis=0).tolist(),
+        "rms_ratio_observed_over_term": np.sqrt(np.mean(sz**2, axis=0)).tolist()}
     for lo, hi in BANDS:
         zb = np.array([r["z"] for r in rows if lo <= r["speed_hz"] < hi])
         if zb.size:

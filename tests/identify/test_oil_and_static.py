@@ -50,8 +50,9 @@ def test_the_static_position_separates_hot_oil_from_less_oil(machine, seed):
     r = identify_record(rec, machine, effects=(parse_effect("viscosity:bearing=both"),)).result
     err = r.q * 6e7 / np.array(Q) - 1
     factor = r.effects["viscosity"]["factor"]
-    # measured: flows -2.2 / -2.1 % and -1.7 / -1.3 %, factor 0.769 and 0.762 (BENCHMARKS "oil and static")
-    assert np.abs(err).max() < 0.03
+    # measured: flows -1.8 / -1.7 % and -1.4 / -1.1 %, factor 0.765 and 0.760 (BENCHMARKS "oil and static");
+    # issue 11: within 2 %
+    assert np.abs(err).max() < 0.02
     assert abs(factor / 0.75 - 1) < 0.05
     assert r.model_explains_data
     assert all(_inside(r.intervals[k], Q[k]) for k in range(2))
