@@ -66,6 +66,24 @@ def force_jacobian(sol: FilmSolution) -> np.ndarray:
     return np.einsum("fij,kij->fk", w, dP)
 
 
+def supply_derivative(sol: FilmSolution) -> np.ndarray:
+    """dF/dQ (2,): the film force's change with the supply flow (N per m^3/s) at fixed journal position and
+    velocity, pattern held. The supply enters the balances only as the groove volumes' source, linear in Q
+    (operator: outflow - inflow - source), so dR/dQ = -source / Q and one more back-substitution gives it."""
+    if sol.linear is None:
+        raise ValueError("this film solution carries no factorization; solve it with the active-set method")
+    pr = sol.problem
+    src = pr.coef.S
+    if not np.any(src):
+        return np.zeros(2)
+    # the source is Q * (groove area share) / (mirror * flux_ref) (`build_problem`), summing to
+    # Q / (mirror * flux_ref): per unit of Q it is the source over that sum times mirror * flux_ref
+    per_q = src / (np.sum(src) * pr.flux_ref * pr.mesh.mirror_factor)
+    dP = sol.linear.tangent(-per_q[None])
+    w = force_weights(pr)
+    return np.einsum("fij,kij->fk", w, dP)[:, 0]
+
+
 def fixed_pattern_coefficients(sol: FilmSolution) -> DynamicCoefficients:
     """K and C from the fixed-pattern linearization of a converged active-set solution."""
     dF = force_jacobian(sol)

@@ -57,7 +57,8 @@ FLOODED_MESH = 0.4
 # the model's static journal position against the independent source's (200^2 films, its own rotor) differs by
 # 0.005 / 0.015 um (x / y, median) and 0.026 um at most; 0.005 c (0.6 um) was 40 x that RMS. 0.001 c (0.12 um)
 # keeps five times the largest difference seen. The rest reading's repeatability (1 um, `rest_reading`) stays the
-# larger static term. One-record hot oil with the static position: -2.2 / -2.1 % -> -1.8 / -1.7 % (seed 1), -1.7 / -1.3 % -> -1.4 / -1.1 % (seed 2).
+# larger static term. One-record hot oil with the static position: -2.2 / -2.1 % -> -1.8 / -1.7 % (seed 1),
+# -1.7 / -1.3 % -> -1.4 / -1.1 % (seed 2).
 STATIC_POSITION = 0.001
 
 

@@ -26,6 +26,8 @@ when there is one). Tests check every path against a direct solve of the assembl
 
 from __future__ import annotations
 
+import dataclasses
+
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -173,6 +175,11 @@ class ResponseDefect:
     dx: np.ndarray  # (2 planes, 2 flows) complex, per m^3/s
     dy: np.ndarray
     dstatic: np.ndarray  # (2, 2, 2 flows)
+    # the correction's curvature in the flows at q0, when solved: (2 planes, 2, 2 flows) complex for x, y and
+    # (2, 2, 2, 2) for the static offsets; at q it adds 1/2 (q - q0)^T H (q - q0)
+    hx: np.ndarray | None = None
+    hy: np.ndarray | None = None
+    hstatic: np.ndarray | None = None
 
     @classmethod
     def constant(cls, x, y, static, q0) -> "ResponseDefect":
@@ -180,15 +187,22 @@ class ResponseDefect:
                    np.zeros((2, 2), complex), np.zeros((2, 2), complex), np.zeros((2, 2, 2)))
 
     def scaled(self, factor: float) -> "ResponseDefect":
-        return ResponseDefect(self.x * factor, self.y * factor, self.static * factor, self.q0,
-                              self.dx * factor, self.dy * factor, self.dstatic * factor)
+        return dataclasses.replace(self, x=self.x * factor, y=self.y * factor, static=self.static * factor,
+                                   dx=self.dx * factor, dy=self.dy * factor, dstatic=self.dstatic * factor,
+                                   **({} if self.hx is None else dict(
+                                       hx=self.hx * factor, hy=self.hy * factor, hstatic=self.hstatic * factor)))
 
     def at(self, q) -> tuple[np.ndarray, np.ndarray]:
         """(d (..., 2 planes, 2 [x, y]) complex, static (..., 2, 2)) at flows q (..., 2)."""
         dq = np.asarray(q, dtype=float) - self.q0
         x = self.x + np.einsum("pk,...k->...p", self.dx, dq)
         y = self.y + np.einsum("pk,...k->...p", self.dy, dq)
-        return np.stack([x, y], axis=-1), self.static + np.einsum("pjk,...k->...pj", self.dstatic, dq)
+        static = self.static + np.einsum("pjk,...k->...pj", self.dstatic, dq)
+        if self.hx is not None:
+            x = x + 0.5 * np.einsum("pkl,...k,...l->...p", self.hx, dq, dq)
+            y = y + 0.5 * np.einsum("pkl,...k,...l->...p", self.hy, dq, dq)
+            static = static + 0.5 * np.einsum("pjkl,...k,...l->...pj", self.hstatic, dq, dq)
+        return np.stack([x, y], axis=-1), static
 
 
 @dataclass(frozen=True)

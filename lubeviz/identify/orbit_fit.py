@@ -5,8 +5,8 @@ Every evaluation of the nonlinear model is a harmonic balance on the p-theta fil
 the fast linear chain and adds to it, as a fixed correction, what the nonlinearity changes at the last
 flows (a defect correction, as in multigrid and in iterative refinement):
 
-    d_k(q) = [orbit_balance(q_k) - its own linear orbit(q_k)] + slope_k (q - q_k)
-             (1X at both planes; 0X at bearing-centre planes; the slope from balances on coarser films)
+    d_k(q) = [orbit_balance(q_k) - its own linear orbit(q_k)] + D_k (q - q_k) + 1/2 (q - q_k)^T H_k (q - q_k)
+             (1X at both planes; 0X at bearing-centre planes)
     q_{k+1} = argmin chi2( chain(q) + d_k(q) )   (the usual fit, refined locally from q_k)
 
 repeated until the flows move by less than `tol` of Q_T. At the fixed point the model is the balance's
@@ -18,16 +18,22 @@ more budget column (`ModelBudget.orbit_defect`).
 
 Why the slope: the nonlinear part is not small in its dependence on the flows. At the paper's unbalance
 near Q_T it cancels about two thirds of the linear model's sensitivity to the flows: a correction held
-constant converged by a factor 0.68 per balance (six balances left the flows 1 % off) and gave intervals
-three times too narrow that missed the truth. With the slope (central differences of +-5 % Q_T, one-sided
-at Q_T's kink), Newton's method: 6 rounds on a clean record of this model (flows within 0.3 %), 9 on the
-independent source's record (`verification.orbit_record`). There Q2 lies above Q_T, where the flooded film
-barely answers to the supply: the chi2 valley is flat along Q2 against Q1 and the answer can sit anywhere
-in it; the profile intervals, not the point, are what the record supports (forward differences of 2 % Q_T
-crept along that valley without settling). Along that valley the slope sets the intervals' ends, so they are
-the union over the slope x (1 +- 0.2). A flow below its Q_T takes its slope from balances on coarser films
-(SLOPE_MESH, 5 % off, 4.5 x cheaper); a flow at or above Q_T takes it on the model's own films, since there
-the coarse slope was 20 % off and a record's fit settled on a false fixed point (see SLOPE_MESH).
+constant converged by a factor 0.68 per balance and gave intervals three times too narrow. The slope D_k is
+the balance's own derivative (session 15): implicit differentiation of the converged balance (each film's
+supply derivative, the equilibria's, the balance's Newton matrix; `orbit_balance(flow_slopes=...)`), exact on
+the model's films and nearly free. Within 5 % Q_T of a flow's Q_T, where the film's response has its kink and
+the local derivative on the flooded side is nearly zero (with it a record's rounds stopped on a false point
+17 % off, chi2 13), the slope is a one-sided difference of balances over 5 % Q_T on the flow's side (on coarser
+films below Q_T, SLOPE_MESH; on the model's films above).
+
+Why the curvature H_k: Q2 or Q1 above Q_T, where the flooded film barely answers to the supply, leaves the chi2
+valley flat along the two flows together: there the linear model's and the correction's first-order
+sensitivities nearly cancel, and where the minimum lies along the valley hangs on second-order terms. The
+chain carries its own; without the correction's, the rounds crept along the valley about one sigma each (10
+rounds on the independent source's 1 x record, `verification.orbit_record`, with 5 % differences or exact
+slopes alike). H_k is Powell's symmetric secant update from the exact slopes of consecutive rounds (exact
+along the step, which runs along the valley): 10 -> 8 rounds there, 206 -> 86 s, the last rounds converging
+fast. Along the valley the slope sets the intervals' ends, so they are the union over the slope x (1 +- 0.2).
 
 Why the unbalance's size: the linear features are invariants of an unknown unbalance (its size and phase
 cancel in them), but the nonlinearity grows with the orbit, so the balance must run at the orbit the record
@@ -49,7 +55,7 @@ import numpy as np
 
 from ..errors import InputError, LubevizError
 from ..progress import ProgressFn, silent
-from ..rotor.film_bearings import film_bearings
+from ..rotor.film_bearings import equilibrium_flow_slopes, film_bearings
 from ..rotor.orbit_balance import HARMONICS, POINTS, OrbitBalance, orbit_balance
 from ..rotor.response import machine_unbalance
 from ..rotor.whirl import Stability, equilibrium_stability
@@ -128,12 +134,13 @@ def check_orbit_chain(chain: ForwardChain) -> None:
 
 
 def _balance(chain: ForwardChain, flows, start, harmonics, points, tol, progress, scale=1.0,
-             machine=None) -> OrbitBalance:
+             machine=None, slopes: bool = False) -> OrbitBalance:
     machine = chain.machine if machine is None else machine
     fb = film_bearings(machine, [float(q) for q in flows], chain.omega)
     unbalances = [dataclasses.replace(u, moment=u.moment * scale) for u in machine_unbalance(machine)]
+    fs = equilibrium_flow_slopes(machine, fb, chain.q_threshold) if slopes else None
     return orbit_balance(chain.rotor, fb, unbalances, nodes=chain.nodes, harmonics=harmonics,
-                         points=points, tol=tol, start=start, progress=progress)
+                         points=points, tol=tol, start=start, flow_slopes=fs, progress=progress)
 
 
 def _parts(chain: ForwardChain, ob: OrbitBalance, scale: float = 1.0):
@@ -167,10 +174,13 @@ def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = Non
     continued from a balance at `flows` on those films; a flow at or above Q_T, or any flow when those films
     are the chain's own, runs on the model's films from this balance."""
     q = np.asarray(flows, dtype=float)
+    # a flow whose +-step lies on one side of its Q_T takes the balance's own derivative (implicit, exact, local);
+    # one within a step of the kink a one-sided difference of balances over the step (below)
+    smooth = smooth_flows(chain, q, step) if slope else []
     n_bal = 3 if slope else 1  # progress: the balance, then the slope in each flow
     films = (SlopeFilms(chain) if slope_films is None else slope_films) if slope else None
     # a flow at or above its Q_T takes its slope on the model's own films (see SLOPE_MESH); the others on `films`
-    coarse = [k for k in range(2) if slope and not films.own_mesh and q[k] < chain.q_threshold[k]]
+    coarse = [k for k in range(2) if slope and not films.own_mesh and q[k] < chain.q_threshold[k] and k not in smooth]
     base = None
     if coarse:  # the slope's own centre on its films, continued from their last balance;
         last = films.last if films.last is not None and films.last.harmonics == harmonics else None
@@ -178,30 +188,55 @@ def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = Non
                         machine=films.machine)
         films.last = base
         start = base if start is None else start  # a first balance starts from the coarse orbit's harmonics
-    ob = _balance(chain, q, start, harmonics, points, tol, lambda i, n, t: progress(i / n, n_bal, t), scale)
+    ob = _balance(chain, q, start, harmonics, points, tol, lambda i, n, t: progress(i / n, n_bal, t), scale,
+                  slopes=bool(smooth))
     x, y, static = _parts(chain, ob, scale)
     dx, dy, dst = np.zeros((2, 2), complex), np.zeros((2, 2), complex), np.zeros((2, 2, 2))
-    for k in range(2 if slope else 0):
+    for k in smooth:
+        dx[:, k], dy[:, k] = ob.flow_slope_x[k, 1] / scale, ob.flow_slope_y[k, 1] / scale
+        for p in chain.static_planes:
+            dst[p, :, k] = ob.flow_slope_x[k, 0, p].real, ob.flow_slope_y[k, 0, p].real
+    for k in [k for k in range(2) if slope and k not in smooth]:
         centre, machine = (base, films.machine) if k in coarse else (ob, chain.machine)
         bx, by, bst = _parts(chain, centre, scale)
-        qt, h = chain.q_threshold[k], step * chain.q_threshold[k]
-        # central where both sides lie on the flow's side of Q_T (the film's kink), else one-sided there
-        sides = (+h, -h) if (q[k] - h >= qt or q[k] + h < qt) else ((+h,) if q[k] >= qt else (-h,))
-        got = []
-        for j, hs in enumerate(sides):
-            qk = q.copy()
-            qk[k] += hs
-            obk = _balance(chain, qk, centre, harmonics, points, tol,
-                           lambda i, n, t, k=k, j=j: progress(1 + (2 * k + j) / 2 + i / n / 2, n_bal, t), scale,
-                           machine=machine)
-            got.append((hs, _parts(chain, obk, scale)))
-        if len(got) == 2:
-            (ha, (xa, ya, sa)), (hb, (xb, yb, sb)) = got
-            dx[:, k], dy[:, k], dst[:, :, k] = (xa - xb) / (ha - hb), (ya - yb) / (ha - hb), (sa - sb) / (ha - hb)
-        else:
-            hs, (xk, yk, sk) = got[0]
-            dx[:, k], dy[:, k], dst[:, :, k] = (xk - bx) / hs, (yk - by) / hs, (sk - bst) / hs
+        # within a step of Q_T (the film's kink): one-sided on the flow's own side, over the step
+        hs = step * chain.q_threshold[k] * (1.0 if q[k] >= chain.q_threshold[k] else -1.0)
+        qk = q.copy()
+        qk[k] += hs
+        obk = _balance(chain, qk, centre, harmonics, points, tol,
+                       lambda i, n, t, k=k: progress(1 + k + i / n, n_bal, t), scale, machine=machine)
+        xk, yk, sk = _parts(chain, obk, scale)
+        dx[:, k], dy[:, k], dst[:, :, k] = (xk - bx) / hs, (yk - by) / hs, (sk - bst) / hs
     return ResponseDefect(x=x, y=y, static=static, q0=q, dx=dx, dy=dy, dstatic=dst), ob
+
+
+def smooth_flows(chain: ForwardChain, q, step: float = 0.05) -> list[int]:
+    """The flows whose +-`step` Q_T lies on one side of their Q_T (away from the film's kink)."""
+    qt = chain.q_threshold
+    return [k for k in range(2) if q[k] - step * qt[k] >= qt[k] or q[k] + step * qt[k] < qt[k]]
+
+
+def secant_curvature(prev: ResponseDefect, new: ResponseDefect) -> ResponseDefect:
+    """`new` with the correction's curvature in the flows from the change of its exact slope since `prev`
+    (symmetric secant update, Powell's, of prev's curvature: exact along the step, unchanged across it).
+
+    Along the chi2 valley the linear model's and the correction's first-order sensitivities nearly cancel, so
+    where the minimum lies along it hangs on their second-order terms; the chain carries its own, the
+    correction's come from here (with slopes alone the rounds crept along the valley at about one sigma each)."""
+    s = np.asarray(new.q0, float) - np.asarray(prev.q0, float)
+    ss = float(s @ s)
+    if not ss > 0:
+        return new
+
+    def update(H, d_new, d_old):
+        H = np.zeros(d_new.shape + (2,), d_new.dtype) if H is None else H
+        r = (d_new - d_old) - H @ s
+        rs = r @ s
+        sym = (r[..., :, None] * s + s[:, None] * r[..., None, :]) / ss
+        return H + sym - rs[..., None, None] * np.outer(s, s) / ss**2
+
+    return dataclasses.replace(new, hx=update(prev.hx, new.dx, prev.dx), hy=update(prev.hy, new.dy, prev.dy),
+                               hstatic=update(prev.hstatic, new.dstatic, prev.dstatic))
 
 
 def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | None = None,
@@ -235,19 +270,24 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     defect = ob = None
     slope_at = scale_at = None
     slope_films = SlopeFilms(chain, slope_mesh)
+    last_smooth = None
     for rnd in range(1, max_rounds + 1):
         def sub(i, n, text, rnd=rnd):
             progress(rnd - 1 + min(i / max(n, 1), 1.0), total, f"large orbits, round {rnd}: {text}")
 
-        fresh = (slope_at is None or np.max(np.abs(q - slope_at) / chain.q_threshold) > SLOPE_REUSE
+        smooth = len(smooth_flows(chain, q)) == 2
+        fresh = (smooth or slope_at is None or np.max(np.abs(q - slope_at) / chain.q_threshold) > SLOPE_REUSE
                  or np.any((q >= chain.q_threshold) != (slope_at >= chain.q_threshold))
                  or abs(scale / scale_at - 1.0) > SCALE_TOL)
         new, ob = orbit_defect(chain, q, start=ob, slope=fresh, harmonics=harmonics, points=points,
                                scale=scale, slope_films=slope_films, progress=sub)
         if fresh:
+            if smooth and last_smooth is not None:
+                new = secant_curvature(last_smooth, new)
+            last_smooth = new if smooth else None
             defect, slope_at, scale_at = new, q.copy(), scale
         else:  # the slope from nearby flows, the defect itself from here
-            defect = ResponseDefect(new.x, new.y, new.static, new.q0, defect.dx, defect.dy, defect.dstatic)
+            defect = dataclasses.replace(defect, x=new.x, y=new.y, static=new.static, q0=new.q0)
         res = fit(chain.with_defect(defect), measured, intervals=False, start=theta, **kw)
         theta = res.values.copy()
         history.append(theta[:2].copy())
@@ -290,8 +330,9 @@ def _slope_union(chain: ForwardChain, measured, defect: ResponseDefect, theta, f
     unbalance a 20 % change of the slope moves Q2's upper end by 1 %)."""
     out = dict(final.intervals)
     for f in (1.0 - SLOPE_UNCERTAINTY, 1.0 + SLOPE_UNCERTAINTY):
-        moved = ResponseDefect(defect.x, defect.y, defect.static, defect.q0, defect.dx * f, defect.dy * f,
-                               defect.dstatic * f)
+        moved = dataclasses.replace(defect, dx=defect.dx * f, dy=defect.dy * f, dstatic=defect.dstatic * f,
+                                    **({} if defect.hx is None else dict(hx=defect.hx * f, hy=defect.hy * f,
+                                                                        hstatic=defect.hstatic * f)))
         try:
             other = fit(chain.with_defect(moved), measured, start=theta, **kw)
         except LubevizError:

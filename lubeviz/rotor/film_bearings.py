@@ -73,6 +73,34 @@ def film_bearings(machine, flows: Sequence[float], omega: float | None = None, *
     return FilmBearings(omega=omega, flows=flows, equilibria=tuple(eqs))
 
 
+def equilibrium_flow_slopes(machine, fb: FilmBearings, thresholds=None, *, rel: float = 1e-3) -> list[tuple]:
+    """Each bearing's equilibrium derivatives in its own supply flow: (d position (2,), d K (2, 2), d C (2, 2))
+    per m^3/s, by central differences of +-`rel` of the flow, warm-started from `fb` (two equilibria each). A
+    flow within that step of its Q_T (`thresholds`, m^3/s), where the film's response has its kink, takes the
+    one-sided difference on its own side. For the harmonic balance's `flow_slopes`."""
+    loads = bearing_static_loads(machine)
+    out = []
+    for k, (b, q, load, e0) in enumerate(zip(machine.bearings, fb.flows, loads, fb.equilibria)):
+        h = rel * q
+        qt = None if thresholds is None else float(thresholds[k])
+        if qt is None or q - h >= qt or q + h < qt:
+            sides = (+h, -h)
+        else:
+            sides = (+h,) if q >= qt else (-h,)
+        got = []
+        for hs in sides:
+            eq = find_equilibrium(b, fb.omega, load, Feed.flow(q + hs), start=e0.position, warm=e0.film,
+                                  coefficients=DEFAULT_COEFFICIENTS)
+            if not eq.converged:
+                raise ConvergenceError(f"bearing {k + 1} at {(q + hs) * 6e7:.1f} ml/min: {eq.message}")
+            got.append((hs, np.asarray(eq.position, float), eq.coefficients.K, eq.coefficients.C))
+        if len(got) == 1:
+            got.append((0.0, np.asarray(e0.position, float), e0.coefficients.K, e0.coefficients.C))
+        (ha, pa, Ka, Ca), (hb, pb, Kb, Cb) = got
+        out.append(((pa - pb) / (ha - hb), (Ka - Kb) / (ha - hb), (Ca - Cb) / (ha - hb)))
+    return out
+
+
 def flooded_thresholds(machine, omega: float | None = None) -> np.ndarray:
     """Q_T of each bearing (m^3/s) under its static load at `omega` (rad/s; default the operating speed)."""
     omega = 2.0 * math.pi * machine.operating_speed if omega is None else float(omega)

@@ -49,7 +49,7 @@ import numpy as np
 
 from ..errors import ConvergenceError, InputError
 from ..film.feed import Feed, setup_problem
-from ..film.linearize import force_jacobian
+from ..film.linearize import force_jacobian, supply_derivative
 from ..film.solver import solve, solve_active_set
 from ..progress import ProgressFn, silent
 from .assembly import Rotor, bearing_matrices
@@ -85,6 +85,10 @@ class OrbitBalance:
     max_eccentricity: float
     seconds: float
     dofs: np.ndarray | None = None  # (H + 1, n_dof) every degree of freedom's harmonics (the initial state)
+    # with `flow_slopes`: the derivative of the nonlinear part (x, y minus the linear orbit, every harmonic) at
+    # the nodes in each bearing's supply flow, (n_bearings, H + 1, n_nodes) complex, per m^3/s
+    flow_slope_x: np.ndarray | None = None
+    flow_slope_y: np.ndarray | None = None
     films: tuple | None = field(default=None, repr=False, compare=False)  # the last film at each bearing, phase
 
     @property
@@ -133,7 +137,7 @@ def _dynamic_stiffness(rotor: Rotor, omega: float, frequency: float, K, C) -> np
 def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unbalance], *,
                   nodes: Sequence[int] = (6, 20), harmonics: int = HARMONICS, points: int = POINTS, tol: float = 1e-5,
                   max_iter: int = 30, start: OrbitBalance | None = None, threads: int | None = None,
-                  progress: ProgressFn = silent) -> OrbitBalance:
+                  flow_slopes: Sequence | None = None, progress: ProgressFn = silent) -> OrbitBalance:
     """The periodic orbit of `rotor` on the films of `bearings` under `unbalances` (harmonic balance).
 
     `harmonics` H (>= 1) and `points` N per revolution (>= 2H + 2, so no harmonic aliases onto another).
@@ -144,6 +148,11 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
     that grows from the linear orbit. Without it Newton starts at the linear orbit. (Far from it, e.g. from the orbit at flows
     10-20 % away, a fixed-point iteration was seen to land on another periodic solution with the same 1X
     within 3 % and another 0X and 3X: the branch that grows from the linear orbit is the one computed here.)
+    `flow_slopes`: per bearing, the derivatives of its equilibrium in its own supply flow, (d position (2,),
+    d K0 (2, 2), d C0 (2, 2)) per m^3/s; with them the balance also returns the derivative of its nonlinear part
+    in each flow (`flow_slope_x`, `_y`) by implicit differentiation of the converged balance: each exact film
+    also gives its force's derivative in the supply at fixed motion (`film.linearize.supply_derivative`, one
+    back-substitution), and the balance's own Newton matrix carries it to the orbit. No further balance.
     """
     t0 = time.perf_counter()
     threads = FILM_THREADS if threads is None else max(1, int(threads))
@@ -189,6 +198,8 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
         # else: an orbit on another film mesh: its harmonics are the start, the films start from equilibrium
     solves = 0
 
+    want_q = flow_slopes is not None
+
     def one_film(j, k, pos, v, exact=True):
         """The film of bearing j at phase point k (journal at `pos`, velocity `v`), solved (thread-safe: each
         (j, k) has its own warm start), with its force residual and tangent. Not `exact`: at most
@@ -199,17 +210,18 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
         if not exact and warm.P.shape == problem.mesh.shape:
             sol = solve_active_set(problem, warm.full, max_iter=INEXACT_STEPS, partial=True)
             films[j][k] = dataclasses.replace(sol, linear=None)
-            return sol.force, force_jacobian(sol)
+            return sol.force, force_jacobian(sol), None
         sol = solve(problem, warm=warm)
         if not sol.converged:  # the active set can cycle under strong squeeze: projected SOR does not
             sol = solve(problem, method="sor", warm=warm, relax=1.9, tol=1e-10)
         if not sol.converged:
             raise ConvergenceError(f"film {j + 1} at phase {360 * k / N:.0f} deg: {sol.message}")
         dF = force_jacobian(sol) if sol.linear is not None else None  # the film's tangent with its pattern held
+        dQ = supply_derivative(sol) if (want_q and sol.linear is not None) else None
         # (SOR carries none: there the step uses the static tangent, a quasi-Newton step). The warm start needs
         # the fields only: the factorization (~10 MB at 100 x 100) is not kept, 48 of them per balance were
         films[j][k] = dataclasses.replace(sol, linear=None)
-        return sol.force, dF
+        return sol.force, dF, dQ
 
     def residual_harmonics(qb, exact=True):
         """R (2nb, H+1) of the orbit qb, and each film's tangent along it: dr/dq, dr/dv (nb, N, 2, 2)."""
@@ -219,6 +231,7 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
         r = np.empty((2 * nb, N))
         dq = np.zeros((nb, N, 2, 2))
         dv = np.zeros((nb, N, 2, 2))
+        dfq = np.zeros((nb, N, 2))
         jobs, max_eps = [], 0.0
         for j, e in enumerate(eqs):
             for k in range(N):
@@ -232,12 +245,14 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
         results = list(pool.map(lambda job: one_film(*job), jobs)) if pool is not None else \
             [one_film(*job) for job in jobs]
         solves += len(jobs)
-        for (j, k, *_), (force, dF) in zip(jobs, results):
+        for (j, k, *_), (force, dF, dQ) in zip(jobs, results):
             q, v = q_t[2 * j:2 * j + 2, k], v_t[2 * j:2 * j + 2, k]
             r[2 * j:2 * j + 2, k] = force - f0[j] + K0[j] @ q + C0[j] @ v
             if dF is not None:
                 dq[j, k], dv[j, k] = dF[:, :2] + K0[j], dF[:, 2:] + C0[j]
-        return harmonics_of(r), dq, dv, max_eps
+            if dQ is not None:
+                dfq[j, k] = dQ
+        return harmonics_of(r), dq, dv, max_eps, dfq
 
     def harmonics_of(r):
         R = (r @ E.conj().T) / N  # (..., 2nb, H+1)
@@ -256,8 +271,14 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
         return re + 1j * im
 
     def G(z, exact=True):
-        R, dq, dv, eps = residual_harmonics(unpack(z), exact)
-        return pack(A + np.einsum("hij,jh->hi", B, R)), (R, dq, dv, eps)
+        R, dq, dv, eps, dfq = residual_harmonics(unpack(z), exact)
+        return pack(A + np.einsum("hij,jh->hi", B, R)), (R, dq, dv, eps, dfq)
+
+    def orbit_r(dq, dv, dqb):
+        """The residual force's change r (2nb, N) for an orbit change dqb (H+1, 2nb) with the films' tangents."""
+        q_t = np.real(dqb.T @ E).reshape(nb, 2, N)
+        v_t = np.real((dqb * hw[:, None]).T @ E).reshape(nb, 2, N)
+        return (np.einsum("bnij,bjn->bin", dq, q_t) + np.einsum("bnij,bjn->bin", dv, v_t)).reshape(2 * nb, N)
 
     def G_jacobian(dq, dv):
         """dG/dz (n_z, n_z): G is linear in R, R in r, and r's tangent is the films' (dq, dv)."""
@@ -274,14 +295,14 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
     scale = max(np.abs(A[1]).max(), 1e-12)
     z = pack(A if start is None else start.journal_harmonics)
     exact = False  # the first steps move the orbit far: their films inexact (also from a nearby orbit's start)
-    g, (R, dq, dv, max_eps) = G(z, exact)
+    g, (R, dq, dv, max_eps, dfq) = G(z, exact)
     f = g - z
     change = float(np.abs(f).max() / scale)
     it = 0
     while True:  # Newton on F(z) = G(z) - z with the films' tangents, halving a step that fails
         if not exact and change < INEXACT_ABOVE:  # close enough: every film exact from here on, this point too
             exact = True
-            g, (R, dq, dv, max_eps) = G(z)
+            g, (R, dq, dv, max_eps, dfq) = G(z)
             f = g - z
             change = float(np.abs(f).max() / scale)
         if change < tol:
@@ -311,9 +332,34 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
             lam *= 0.5
         if taken is None:
             raise failure
-        z, f, g, (R, dq, dv, max_eps) = taken
+        z, f, g, (R, dq, dv, max_eps, dfq) = taken
         change = float(np.abs(f).max() / scale)
         progress(it, max_iter, f"harmonic balance: change {change:.1e}" + ("" if lam == 1.0 else " (step shortened)"))
+    slopes = None
+    if want_q:  # implicit differentiation at the last point (its films exact, their tangents and dF/dQ at hand)
+        qb_at = unpack(z)
+        q_t = np.real(qb_at.T @ E)
+        v_t = np.real((qb_at * hw[:, None]).T @ E)
+        M = G_jacobian(dq, dv) - np.eye(z.size)
+        slopes = np.zeros((nb, H + 1, Lo.size), complex)
+        for j, (de0, dK, dC) in enumerate(flow_slopes):
+            sl = slice(2 * j, 2 * j + 2)
+            dr = np.zeros((2 * nb, N))
+            dF_pos = dq[j] - K0[j]  # the film's own position tangent along the orbit (N, 2, 2)
+            dr[sl] = (dfq[j].T + np.einsum("nik,k->in", dF_pos, np.asarray(de0, float))
+                      + np.asarray(dK, float) @ q_t[sl] + np.asarray(dC, float) @ v_t[sl])
+            dR_q = harmonics_of(dr)
+            dD = []
+            dGq = np.zeros((H + 1, 2 * nb), complex)
+            for h in range(H + 1):
+                d = np.zeros((2 * nb, 2 * nb), complex)
+                d[sl, sl] = np.asarray(dK, float) + 1j * h * omega * np.asarray(dC, float)
+                dD.append(d)
+                dGq[h] = -B[h] @ d @ (A[h] + B[h] @ R[:, h]) + B[h] @ dR_q[:, h]
+            dz = -np.linalg.solve(M, pack(dGq))
+            dR = dR_q + harmonics_of(orbit_r(dq, dv, unpack(dz)).astype(complex))
+            for h in range(H + 1):  # the nonlinear part Bo_h R_h
+                slopes[j, h] = -Bo[h] @ dD[h] @ B[h] @ R[:, h] + Bo[h] @ dR[:, h]
     z = g  # the map's image at the last point: R belongs to it
     qb = unpack(z)
     out = np.array([Ao[h] + Bo[h] @ R[:, h] for h in range(H + 1)])  # (H+1, 2 n_nodes)
@@ -322,4 +368,6 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
                         bearing_x=qb[:, 0::2], bearing_y=qb[:, 1::2], linear_x=np.asarray(Ao[1][0::2]),
                         linear_y=np.asarray(Ao[1][1::2]), iterations=it, film_solves=solves, residual=change,
                         max_eccentricity=max_eps, seconds=time.perf_counter() - t0, dofs=dofs,
-                        films=tuple(tuple(f) for f in films))
+                        films=tuple(tuple(f) for f in films),
+                        flow_slope_x=None if slopes is None else slopes[..., 0::2],
+                        flow_slope_y=None if slopes is None else slopes[..., 1::2])

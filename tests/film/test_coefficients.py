@@ -63,3 +63,24 @@ def test_large_fd_steps_drift_near_the_threshold(paper_bearing):
     K = eq.coefficients.K
     assert np.abs(small.K - K).max() < 1e-4 * np.abs(K).max()
     assert np.abs(big.K - K).max() > 1e-2 * np.abs(K).max()
+
+
+@pytest.mark.parametrize("q_mlmin, pos, vel", [
+    (300.0, (0.2, -0.4), (0.0, 0.0)),  # starved
+    (545.0, (0.3, -0.5), (-0.05, 0.0)),  # about Q_T, squeezing
+    (700.0, (0.1, -0.2), (0.0, 0.03)),  # flooded
+])
+def test_the_supply_derivative_is_the_force_s_change_with_the_supply(paper_bearing, q_mlmin, pos, vel):
+    """dF/dQ at fixed journal motion (one back-substitution, pattern held) against central differences of
+    re-solved films (+-0.1 % of Q): the supply enters the balances only as the groove's source."""
+    from lubeviz.film.linearize import supply_derivative
+
+    c, om = paper_bearing.clearance, OMEGA_75HZ
+    pos = (pos[0] * c, pos[1] * c)
+    vel = (vel[0] * c * om, vel[1] * c * om)
+    q = q_mlmin / 6e7
+    sol = solve(setup_problem(paper_bearing, om, pos, Feed.flow(q), velocity=vel))
+    f = [solve(setup_problem(paper_bearing, om, pos, Feed.flow(q * (1 + s * 1e-3)), velocity=vel), warm=sol).force
+         for s in (1, -1)]
+    fd = (f[0] - f[1]) / (2e-3 * q)
+    np.testing.assert_allclose(supply_derivative(sol), fd, rtol=0, atol=0.005 * np.abs(fd).max())

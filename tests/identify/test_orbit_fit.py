@@ -140,3 +140,40 @@ def test_the_unbalance_s_size_is_read_from_the_record(machine, tmp_path, moment_
     chain = ForwardChain(machine, 75.0, ind.record.nodes)
     q = np.array([450.0, 520.0]) / 6e7
     assert measured_scale(chain, measure(ind.record), q) == pytest.approx(moment_scale, rel=0.03)
+
+
+def test_the_secant_curvature_is_exact_along_the_step_and_the_correction_carries_it():
+    """Powell's symmetric secant update from two exact slopes of a quadratic correction: its curvature times
+    the step is the slopes' change, it stays symmetric, and `ResponseDefect.at` then reproduces the quadratic
+    along the step (a fit round's model of the correction between its balances)."""
+    from lubeviz.identify.chain import ResponseDefect
+    from lubeviz.identify.orbit_fit import secant_curvature
+
+    rng = np.random.default_rng(3)
+    H = rng.normal(size=(2, 2, 2)) + 1j * rng.normal(size=(2, 2, 2))
+    H = H + H.transpose(0, 2, 1)
+    b = rng.normal(size=(2, 2)) + 1j * rng.normal(size=(2, 2))
+    a = rng.normal(size=2) + 1j * rng.normal(size=2)
+    Hs = rng.normal(size=(2, 2, 2, 2))
+    Hs = Hs + Hs.transpose(0, 1, 3, 2)
+    bs = rng.normal(size=(2, 2, 2))
+
+    def value(q):
+        return a + b @ q + 0.5 * np.einsum("pkl,k,l->p", H, q, q)
+
+    def defect(q):
+        return ResponseDefect(x=value(q), y=2 * value(q), static=np.einsum("pjk,k->pj", bs, q), q0=q,
+                              dx=b + H @ q, dy=2 * (b + H @ q), dstatic=bs + Hs @ q)
+
+    q0, q1 = np.array([1.0, 2.0]), np.array([1.4, 2.3])
+    new = secant_curvature(defect(q0), defect(q1))
+    s = q1 - q0
+    np.testing.assert_allclose(new.hx @ s, H @ s, atol=1e-12)
+    np.testing.assert_allclose(new.hstatic @ s, Hs @ s, atol=1e-12)
+    np.testing.assert_allclose(new.hx, new.hx.transpose(0, 2, 1))
+    for t in (-1.0, 0.5, 2.0):  # along the step the quadratic model is exact
+        d, _ = new.at(q1 + t * s)
+        np.testing.assert_allclose(d[:, 0], value(q1 + t * s), atol=1e-12)
+    # across the step nothing is known from a first update: no curvature is invented there
+    n = np.array([-s[1], s[0]])
+    assert np.abs(np.einsum("pkl,k,l->p", new.hx, n, n)).max() < 1e-12
