@@ -175,6 +175,9 @@ class ResponseDefect:
     dx: np.ndarray  # (2 planes, 2 flows) complex, per m^3/s
     dy: np.ndarray
     dstatic: np.ndarray  # (2, 2, 2 flows)
+    # the correction's change with the unbalance's scale at q0 ((x, y, static) per unit of scale), when solved:
+    # the large-orbit fit folds it into dx, dy, dstatic through the scale the record implies at each flow
+    dscale: tuple | None = None
     # the correction's curvature in the flows at q0, when solved: (2 planes, 2, 2 flows) complex for x, y and
     # (2, 2, 2, 2) for the static offsets; at q it adds 1/2 (q - q0)^T H (q - q0)
     hx: np.ndarray | None = None
@@ -189,7 +192,7 @@ class ResponseDefect:
     def scaled(self, factor: float) -> "ResponseDefect":
         return dataclasses.replace(self, x=self.x * factor, y=self.y * factor, static=self.static * factor,
                                    dx=self.dx * factor, dy=self.dy * factor, dstatic=self.dstatic * factor,
-                                   **({} if self.hx is None else dict(
+                                   dscale=None, **({} if self.hx is None else dict(
                                        hx=self.hx * factor, hy=self.hy * factor, hstatic=self.hstatic * factor)))
 
     def at(self, q) -> tuple[np.ndarray, np.ndarray]:

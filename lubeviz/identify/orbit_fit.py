@@ -31,9 +31,15 @@ valley flat along the two flows together: there the linear model's and the corre
 sensitivities nearly cancel, and where the minimum lies along the valley hangs on second-order terms. The
 chain carries its own; without the correction's, the rounds crept along the valley about one sigma each (10
 rounds on the independent source's 1 x record, `verification.orbit_record`, with 5 % differences or exact
-slopes alike). H_k is Powell's symmetric secant update from the exact slopes of consecutive rounds (exact
-along the step, which runs along the valley): 10 -> 8 rounds there, 206 -> 86 s, the last rounds converging
-fast. Along the valley the slope sets the intervals' ends, so they are the union over the slope x (1 +- 0.2).
+slopes alike). H_k is Powell's symmetric secant update from the slopes of consecutive rounds that took them
+the same way (exact along the step, which runs along the valley): 10 -> 8 rounds there, 206 -> 86 s, the last
+rounds converging fast. Within 5 % of Q_T (one-sided differences over the step) the rounds still move about
+0.2 sigma each on a record whose chi2 is already < 0.4 (1 x, 592 / 491 ml/min: 8 rounds, 67 s). Along the valley
+the slope sets the intervals' ends, so they are the union over the slope x (1 +- 0.2).
+
+The slope also carries the correction's change through the unbalance's size the record implies at other flows
+(`with_scale_coupling`; the balance's derivative in its unbalance's size is implicit too, free): the fit's
+Jacobian is then the nonlinear model's total derivative. It changed no round count measured.
 
 Why the unbalance's size: the linear features are invariants of an unknown unbalance (its size and phase
 cancel in them), but the nonlinearity grows with the orbit, so the balance must run at the orbit the record
@@ -189,9 +195,15 @@ def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = Non
         films.last = base
         start = base if start is None else start  # a first balance starts from the coarse orbit's harmonics
     ob = _balance(chain, q, start, harmonics, points, tol, lambda i, n, t: progress(i / n, n_bal, t), scale,
-                  slopes=bool(smooth))
+                  slopes=slope)
     x, y, static = _parts(chain, ob, scale)
     dx, dy, dst = np.zeros((2, 2), complex), np.zeros((2, 2), complex), np.zeros((2, 2, 2))
+    dscale = None
+    if slope:  # per unit scale: d(nl / s)/ds = (dnl/d ln s - nl) / s^2; the static shift is absolute: dnl/d ln s / s
+        dss = np.zeros((2, 2))
+        for p in chain.static_planes:
+            dss[p] = ob.scale_slope_x[0, p].real / scale, ob.scale_slope_y[0, p].real / scale
+        dscale = ((ob.scale_slope_x[1] - x * scale) / scale**2, (ob.scale_slope_y[1] - y * scale) / scale**2, dss)
     for k in smooth:
         dx[:, k], dy[:, k] = ob.flow_slope_x[k, 1] / scale, ob.flow_slope_y[k, 1] / scale
         for p in chain.static_planes:
@@ -207,7 +219,30 @@ def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = Non
                        lambda i, n, t, k=k: progress(1 + k + i / n, n_bal, t), scale, machine=machine)
         xk, yk, sk = _parts(chain, obk, scale)
         dx[:, k], dy[:, k], dst[:, :, k] = (xk - bx) / hs, (yk - by) / hs, (sk - bst) / hs
-    return ResponseDefect(x=x, y=y, static=static, q0=q, dx=dx, dy=dy, dstatic=dst), ob
+    return ResponseDefect(x=x, y=y, static=static, q0=q, dx=dx, dy=dy, dstatic=dst, dscale=dscale), ob
+
+
+def with_scale_coupling(chain: ForwardChain, measured, theta, defect: ResponseDefect) -> ResponseDefect:
+    """`defect` with its change through the unbalance's scale folded into its slope in the flows.
+
+    The balance runs at the scale the record's 1X implies at the last flows; at other flows the model's 1X
+    per unit unbalance differs, so the record implies another scale, and the correction (nonlinear in the
+    orbit's size) another value. The slope at a fixed scale misses that: d(q, s(q)) has the slope
+    dd/dq + dd/ds ds/dq, dd/ds from the balance (implicit, `OrbitBalance.scale_slope_x`), ds/dq from the chain
+    (the measured amplitudes against the model's)."""
+    if defect.dscale is None:
+        return defect
+    th = np.asarray(theta, dtype=float)
+    ds = np.zeros(2)
+    for k in range(2):
+        h = 1e-3 * chain.q_threshold[k]
+        tp, tm = th.copy(), th.copy()
+        tp[k] += h
+        tm[k] -= h
+        ds[k] = (measured_scale(chain, measured, tp, defect) - measured_scale(chain, measured, tm, defect)) / (2 * h)
+    sx, sy, ss = defect.dscale
+    return dataclasses.replace(defect, dx=defect.dx + np.outer(sx, ds), dy=defect.dy + np.outer(sy, ds),
+                               dstatic=defect.dstatic + ss[:, :, None] * ds[None, None, :])
 
 
 def smooth_flows(chain: ForwardChain, q, step: float = 0.05) -> list[int]:
@@ -270,21 +305,31 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     defect = ob = None
     slope_at = scale_at = None
     slope_films = SlopeFilms(chain, slope_mesh)
-    last_smooth = None
+    if not slope_films.own_mesh:  # Newton's method on the model's films starts from the orbit on the coarser ones
+        # (1 x record at 472 / 446 ml/min: 13 steps, 18 s from the linear orbit on 100 x 100), which the slope's
+        # coarse balances then continue from
+        progress(0, total, "large orbits: the first orbit on coarser films")
+        ob = slope_films.last = _balance(chain, q, None, harmonics, points, 1e-6, silent, scale,
+                                         machine=slope_films.machine)
+    last_fresh = None  # (how the slopes were taken, the correction) of the last round that took them
     for rnd in range(1, max_rounds + 1):
         def sub(i, n, text, rnd=rnd):
             progress(rnd - 1 + min(i / max(n, 1), 1.0), total, f"large orbits, round {rnd}: {text}")
 
         smooth = len(smooth_flows(chain, q)) == 2
+        # how each flow's slope is taken (exact, or a difference over the step on its side of Q_T): the secant
+        # curvature is consistent between rounds that take every slope the same way
+        how = tuple((k in smooth_flows(chain, q), bool(q[k] >= chain.q_threshold[k])) for k in range(2))
         fresh = (smooth or slope_at is None or np.max(np.abs(q - slope_at) / chain.q_threshold) > SLOPE_REUSE
                  or np.any((q >= chain.q_threshold) != (slope_at >= chain.q_threshold))
                  or abs(scale / scale_at - 1.0) > SCALE_TOL)
         new, ob = orbit_defect(chain, q, start=ob, slope=fresh, harmonics=harmonics, points=points,
                                scale=scale, slope_films=slope_films, progress=sub)
         if fresh:
-            if smooth and last_smooth is not None:
-                new = secant_curvature(last_smooth, new)
-            last_smooth = new if smooth else None
+            new = with_scale_coupling(chain, measured, theta, new)
+            if last_fresh is not None and last_fresh[0] == how:
+                new = secant_curvature(last_fresh[1], new)
+            last_fresh = (how, new)
             defect, slope_at, scale_at = new, q.copy(), scale
         else:  # the slope from nearby flows, the defect itself from here
             defect = dataclasses.replace(defect, x=new.x, y=new.y, static=new.static, q0=new.q0)

@@ -89,6 +89,9 @@ class OrbitBalance:
     # the nodes in each bearing's supply flow, (n_bearings, H + 1, n_nodes) complex, per m^3/s
     flow_slope_x: np.ndarray | None = None
     flow_slope_y: np.ndarray | None = None
+    # and its derivative in the logarithm of the unbalance's size (all unbalances scaled alike), (H + 1, n_nodes)
+    scale_slope_x: np.ndarray | None = None
+    scale_slope_y: np.ndarray | None = None
     films: tuple | None = field(default=None, repr=False, compare=False)  # the last film at each bearing, phase
 
     @property
@@ -360,6 +363,10 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
             dR = dR_q + harmonics_of(orbit_r(dq, dv, unpack(dz)).astype(complex))
             for h in range(H + 1):  # the nonlinear part Bo_h R_h
                 slopes[j, h] = -Bo[h] @ dD[h] @ B[h] @ R[:, h] + Bo[h] @ dR[:, h]
+        # the unbalance's size enters through A alone (A scales with it): d/d ln(size) at fixed z is A
+        dz = -np.linalg.solve(M, pack(A))
+        dR = harmonics_of(orbit_r(dq, dv, unpack(dz)).astype(complex))
+        scale_slopes = np.array([Bo[h] @ dR[:, h] for h in range(H + 1)])
     z = g  # the map's image at the last point: R belongs to it
     qb = unpack(z)
     out = np.array([Ao[h] + Bo[h] @ R[:, h] for h in range(H + 1)])  # (H+1, 2 n_nodes)
@@ -370,4 +377,6 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
                         max_eccentricity=max_eps, seconds=time.perf_counter() - t0, dofs=dofs,
                         films=tuple(tuple(f) for f in films),
                         flow_slope_x=None if slopes is None else slopes[..., 0::2],
-                        flow_slope_y=None if slopes is None else slopes[..., 1::2])
+                        flow_slope_y=None if slopes is None else slopes[..., 1::2],
+                        scale_slope_x=None if slopes is None else scale_slopes[:, 0::2],
+                        scale_slope_y=None if slopes is None else scale_slopes[:, 1::2])

@@ -114,7 +114,7 @@ def test_inexact_early_films_reach_the_same_orbit_for_less_work(coarse, monkeypa
 
 @pytest.mark.parametrize("flows_mlmin", [(900.0, 900.0), (420.0, 700.0)])
 def test_the_flow_slope_is_the_balance_s_derivative_in_the_supply(coarse, flows_mlmin):
-    """The nonlinear part's derivative in each supply flow by implicit differentiation of the converged balance
+    """The nonlinear part's derivative in each supply flow and in the unbalance's size by implicit differentiation of the converged balance
     (the films' supply derivative, the equilibria's, the balance's own Newton matrix) against central
     differences of converged balances (+-0.1 % of the flow): 1X and 0X at both planes, starved and flooded.
     (Measured at 420 / 700 ml/min, the flooded flow: 0.14 % apart at +-0.1 %, 5.9 % at +-1 %, 12 % at +-4 %:
@@ -146,3 +146,11 @@ def test_the_flow_slope_is_the_balance_s_derivative_in_the_supply(coarse, flows_
         an_0x = np.concatenate([ob.flow_slope_x[k, 0].real, ob.flow_slope_y[k, 0].real])
         assert np.linalg.norm(an_1x - fd_1x) < 0.02 * np.linalg.norm(fd_1x), (k, an_1x, fd_1x)
         assert np.linalg.norm(an_0x - fd_0x) < 0.02 * np.linalg.norm(fd_0x), (k, an_0x, fd_0x)
+    # and in the unbalance's size (its logarithm: every unbalance x (1 +- 1e-3))
+    parts = [nonlinear(orbit_balance(rotor, fb, _unbalance(machine, 0.5 * (1 + s * 1e-3)), nodes=NODES, tol=1e-10,
+                                     start=ob)) for s in (1, -1)]
+    fd_1x, fd_0x = ((a - b) / 2e-3 for a, b in zip(*parts))
+    an_1x = np.concatenate([ob.scale_slope_x[1], ob.scale_slope_y[1]])
+    an_0x = np.concatenate([ob.scale_slope_x[0].real, ob.scale_slope_y[0].real])
+    assert np.linalg.norm(an_1x - fd_1x) < 0.02 * np.linalg.norm(fd_1x)
+    assert np.linalg.norm(an_0x - fd_0x) < 0.02 * np.linalg.norm(fd_0x)
