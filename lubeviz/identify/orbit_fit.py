@@ -252,8 +252,9 @@ def smooth_flows(chain: ForwardChain, q, step: float = 0.05) -> list[int]:
 
 
 def secant_curvature(prev: ResponseDefect, new: ResponseDefect) -> ResponseDefect:
-    """`new` with the correction's curvature in the flows from the change of its exact slope since `prev`
-    (symmetric secant update, Powell's, of prev's curvature: exact along the step, unchanged across it).
+    """`new` with the correction's curvature in the flows from the change of its slope since `prev` (both taken
+    the same way: exact, or a difference over the same step on the same side of Q_T), by Powell's symmetric
+    secant update of prev's curvature: exact along the step, unchanged across it.
 
     Along the chi2 valley the linear model's and the correction's first-order sensitivities nearly cancel, so
     where the minimum lies along it hangs on their second-order terms; the chain carries its own, the
