@@ -26,8 +26,6 @@ when there is one). Tests check every path against a direct solve of the assembl
 
 from __future__ import annotations
 
-import dataclasses
-
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -188,12 +186,6 @@ class ResponseDefect:
     def constant(cls, x, y, static, q0) -> "ResponseDefect":
         return cls(np.asarray(x), np.asarray(y), np.asarray(static), np.asarray(q0, dtype=float),
                    np.zeros((2, 2), complex), np.zeros((2, 2), complex), np.zeros((2, 2, 2)))
-
-    def scaled(self, factor: float) -> "ResponseDefect":
-        return dataclasses.replace(self, x=self.x * factor, y=self.y * factor, static=self.static * factor,
-                                   dx=self.dx * factor, dy=self.dy * factor, dstatic=self.dstatic * factor,
-                                   dscale=None, **({} if self.hx is None else dict(
-                                       hx=self.hx * factor, hy=self.hy * factor, hstatic=self.hstatic * factor)))
 
     def at(self, q) -> tuple[np.ndarray, np.ndarray]:
         """(d (..., 2 planes, 2 [x, y]) complex, static (..., 2, 2)) at flows q (..., 2)."""

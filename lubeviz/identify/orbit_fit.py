@@ -174,11 +174,12 @@ def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = Non
                  scale: float = 1.0, slope_films: SlopeFilms | None = None,
                  progress: ProgressFn = silent) -> tuple[ResponseDefect, OrbitBalance]:
     """The balance at `flows` (m^3/s) on the chain's machine, speed and rotor, with the machine's unbalance
-    times `scale`, and its defect per unit of that scale, with its slope in each flow (`slope`: balances at
-    +-`step` Q_T: a central difference, or a one-sided one on the flow's side of Q_T where the film's response
-    has its kink). The slope of a flow below its Q_T runs on `slope_films` (default: SLOPE_MESH films),
-    continued from a balance at `flows` on those films; a flow at or above Q_T, or any flow when those films
-    are the chain's own, runs on the model's films from this balance."""
+    times `scale`, and its defect per unit of that scale, with (`slope`) its slope in each flow and its change
+    with the scale (`ResponseDefect.dscale`). A flow whose +-`step` Q_T lies on one side of its Q_T takes the
+    balance's own derivative (implicit, `orbit_balance(flow_slopes=...)`); one within `step` of its Q_T, where
+    the film's response has its kink, a one-sided difference of balances over `step` Q_T on its own side: on
+    `slope_films` (default: SLOPE_MESH films, continued from a balance at `flows` there) below Q_T, on the
+    model's films from this balance at or above it, or when those films are the chain's own."""
     q = np.asarray(flows, dtype=float)
     # a flow whose +-step lies on one side of its Q_T takes the balance's own derivative (implicit, exact, local);
     # one within a step of the kink a one-sided difference of balances over the step (below)
@@ -281,10 +282,11 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
                     slope_mesh: int | None = SLOPE_MESH, progress: ProgressFn = silent) -> OrbitFit:
     """Fit the flows (and the chain's free probe parameters) with the film force along the orbit.
 
-    Starts from the linear fit (global search); each round solves the balance at the last flows (and, when
-    the flows have moved more than SLOPE_REUSE of Q_T from where it was last taken or crossed Q_T, where the
-    film's response has a kink, its slope) and refits locally with the correction: Newton's method on the
-    nonlinear model. (A slope taken below Q_T and used above it made the iteration settle on flows 7 % off
+    Starts from the linear fit (global search); each round solves the balance at the last flows with its slope
+    (taken again every round while both flows lie more than 5 % Q_T from their Q_T, where it is exact and free;
+    nearer, when the flows have moved more than SLOPE_REUSE of Q_T since, crossed Q_T or the scale moved), the
+    secant curvature between rounds that took their slopes the same way, and refits locally with the
+    correction: Newton's method on the nonlinear model. (A slope taken below Q_T and used above it made the iteration settle on flows 7 % off
     with chi2 24 on a clean record of this very model.) It stops when the flows move by less than `tol` of
     Q_T, or by less than SIGMA_TOL of their own standard deviation. `tol`: largest flow change between rounds,
     relative to Q_T, at which it stops. `slope_mesh`: film volumes each way of the slope's balances for flows
@@ -317,10 +319,11 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
         def sub(i, n, text, rnd=rnd):
             progress(rnd - 1 + min(i / max(n, 1), 1.0), total, f"large orbits, round {rnd}: {text}")
 
-        smooth = len(smooth_flows(chain, q)) == 2
+        exact = smooth_flows(chain, q)
+        smooth = len(exact) == 2
         # how each flow's slope is taken (exact, or a difference over the step on its side of Q_T): the secant
         # curvature is consistent between rounds that take every slope the same way
-        how = tuple((k in smooth_flows(chain, q), bool(q[k] >= chain.q_threshold[k])) for k in range(2))
+        how = tuple((k in exact, bool(q[k] >= chain.q_threshold[k])) for k in range(2))
         fresh = (smooth or slope_at is None or np.max(np.abs(q - slope_at) / chain.q_threshold) > SLOPE_REUSE
                  or np.any((q >= chain.q_threshold) != (slope_at >= chain.q_threshold))
                  or abs(scale / scale_at - 1.0) > SCALE_TOL)

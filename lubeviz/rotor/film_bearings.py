@@ -73,11 +73,13 @@ def film_bearings(machine, flows: Sequence[float], omega: float | None = None, *
     return FilmBearings(omega=omega, flows=flows, equilibria=tuple(eqs))
 
 
-def equilibrium_flow_slopes(machine, fb: FilmBearings, thresholds=None, *, rel: float = 1e-3) -> list[tuple]:
+def equilibrium_flow_slopes(machine, fb: FilmBearings, thresholds=None, *, rel: float = 1e-3,
+                            coefficients: str = DEFAULT_COEFFICIENTS) -> list[tuple]:
     """Each bearing's equilibrium derivatives in its own supply flow: (d position (2,), d K (2, 2), d C (2, 2))
     per m^3/s, by central differences of +-`rel` of the flow, warm-started from `fb` (two equilibria each). A
     flow within that step of its Q_T (`thresholds`, m^3/s), where the film's response has its kink, takes the
-    one-sided difference on its own side. For the harmonic balance's `flow_slopes`."""
+    one-sided difference on its own side. `coefficients`: how K, C are computed, as `fb` was (`film_bearings`).
+    For the harmonic balance's `flow_slopes`."""
     loads = bearing_static_loads(machine)
     out = []
     for k, (b, q, load, e0) in enumerate(zip(machine.bearings, fb.flows, loads, fb.equilibria)):
@@ -90,7 +92,7 @@ def equilibrium_flow_slopes(machine, fb: FilmBearings, thresholds=None, *, rel: 
         got = []
         for hs in sides:
             eq = find_equilibrium(b, fb.omega, load, Feed.flow(q + hs), start=e0.position, warm=e0.film,
-                                  coefficients=DEFAULT_COEFFICIENTS)
+                                  coefficients=coefficients)
             if not eq.converged:
                 raise ConvergenceError(f"bearing {k + 1} at {(q + hs) * 6e7:.1f} ml/min: {eq.message}")
             got.append((hs, np.asarray(eq.position, float), eq.coefficients.K, eq.coefficients.C))

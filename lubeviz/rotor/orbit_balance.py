@@ -278,19 +278,19 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
         return pack(A + np.einsum("hij,jh->hi", B, R)), (R, dq, dv, eps, dfq)
 
     def orbit_r(dq, dv, dqb):
-        """The residual force's change r (2nb, N) for an orbit change dqb (H+1, 2nb) with the films' tangents."""
-        q_t = np.real(dqb.T @ E).reshape(nb, 2, N)
-        v_t = np.real((dqb * hw[:, None]).T @ E).reshape(nb, 2, N)
-        return (np.einsum("bnij,bjn->bin", dq, q_t) + np.einsum("bnij,bjn->bin", dv, v_t)).reshape(2 * nb, N)
+        """The residual force's change r (..., 2nb, N) for orbit changes dqb (..., H+1, 2nb), with the films'
+        tangents along the orbit (dq, dv)."""
+        lead = dqb.shape[:-2]
+        q_t = np.real(np.einsum("...hm,hn->...mn", dqb, E)).reshape(lead + (nb, 2, N))
+        v_t = np.real(np.einsum("...hm,hn->...mn", dqb * hw[:, None], E)).reshape(lead + (nb, 2, N))
+        dr = np.einsum("bnij,...bjn->...bin", dq, q_t) + np.einsum("bnij,...bjn->...bin", dv, v_t)
+        return dr.reshape(lead + (2 * nb, N))
 
     def G_jacobian(dq, dv):
         """dG/dz (n_z, n_z): G is linear in R, R in r, and r's tangent is the films' (dq, dv)."""
         nz = (2 * H + 1) * 2 * nb
         dqb = np.array([unpack(u) for u in np.eye(nz)])  # (nz, H+1, 2nb): each unknown's unit orbit
-        q_t = np.real(np.einsum("zhm,hn->zmn", dqb, E)).reshape(nz, nb, 2, N)
-        v_t = np.real(np.einsum("zhm,hn->zmn", dqb * hw[None, :, None], E)).reshape(nz, nb, 2, N)
-        dr = (np.einsum("bnij,zbjn->zbin", dq, q_t) + np.einsum("bnij,zbjn->zbin", dv, v_t)).reshape(nz, 2 * nb, N)
-        dR = harmonics_of(dr.astype(complex))  # (nz, 2nb, H+1)
+        dR = harmonics_of(orbit_r(dq, dv, dqb).astype(complex))  # (nz, 2nb, H+1)
         cols = np.einsum("hij,zjh->zhi", B, dR)
         return np.array([pack(c) for c in cols]).T
 
