@@ -286,8 +286,8 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     (taken again every round while both flows lie more than 5 % Q_T from their Q_T, where it is exact and free;
     nearer, when the flows have moved more than SLOPE_REUSE of Q_T since, crossed Q_T or the scale moved), the
     secant curvature between rounds that took their slopes the same way, and refits locally with the
-    correction: Newton's method on the nonlinear model. (A slope taken below Q_T and used above it made the iteration settle on flows 7 % off
-    with chi2 24 on a clean record of this very model.) It stops when the flows move by less than `tol` of
+    correction: Newton's method on the nonlinear model. (A slope taken below Q_T and used above it made the
+    iteration settle on flows 7 % off with chi2 24 on a clean record of this very model.) It stops when the flows move by less than `tol` of
     Q_T, or by less than SIGMA_TOL of their own standard deviation. `tol`: largest flow change between rounds,
     relative to Q_T, at which it stops. `slope_mesh`: film volumes each way of the slope's balances for flows
     below Q_T (None: the model's own mesh; the correction itself, and the slope of a flow at or above Q_T, are
