@@ -91,3 +91,42 @@ def test_a_sweep_s_predicted_starts_change_the_work_not_the_answer(paper_bearing
     predicted = predicted_pattern(keep[1].film, keep[2].film, 1.0)
     actual = keep[3].film.full
     assert (predicted != actual).sum() < (keep[2].film.full != actual).sum()
+
+
+def test_a_reused_factorization_changes_the_work_not_the_answer(paper_bearing):
+    """A pattern system may solve with another system's LU (the switched columns by Woodbury, a moved journal by
+    iterative refinement; `solver.PatternSystem`). Every film and tangent then equals the one solved with its own
+    factorization to round-off: within one active-set solve (same position), after an equilibrium-sized Newton
+    step (4e-5 c, refined), and from a root too far away to refine (factorized afresh)."""
+    from lubeviz.film.linearize import fixed_pattern_coefficients
+    from lubeviz.film.solver import PatternSystem, _triplets, solve_active_set
+
+    feed = Feed.flow(400 / 6e7)
+    first = solve(setup_problem(paper_bearing, OMEGA_75HZ, POSITION, feed), base=None)
+    c = paper_bearing.clearance
+    for shift, expect_reuse in ((4e-5, True), (3e-2, False)):
+        pos = (POSITION[0] + shift * c, POSITION[1] - shift * c)
+        problem = setup_problem(paper_bearing, OMEGA_75HZ, pos, feed)
+        own = solve_active_set(problem, first.full)
+        reused = solve_active_set(problem, first.full, base=first.linear)
+        assert reused.converged and reused.iterations == own.iterations
+        np.testing.assert_allclose(reused.P, own.P, rtol=0, atol=1e-12 * own.P.max())
+        np.testing.assert_allclose(reused.theta, own.theta, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(reused.force, own.force, rtol=1e-11)
+        ka, kb = fixed_pattern_coefficients(reused), fixed_pattern_coefficients(own)
+        np.testing.assert_allclose(ka.K, kb.K, rtol=0, atol=1e-10 * np.abs(kb.K).max())
+        np.testing.assert_allclose(ka.C, kb.C, rtol=0, atol=1e-10 * np.abs(kb.C).max())
+        if own.iterations == 1:  # the pattern held: the only system is the one that reused (or not) the root
+            assert reused.linear.reused is expect_reuse
+    # the same position, a few switched cells: the exact Woodbury update, no refinement needed
+    problem = first.problem
+    full = first.full.copy()
+    cells = np.argwhere(full & ~problem.fixed)[:5]
+    full[tuple(cells.T)] = False
+    trip = _triplets(problem)
+    fresh = PatternSystem(problem, full, trip)
+    update = PatternSystem(problem, full, trip, base=PatternSystem(problem, first.full, trip))
+    assert update.reused and update._update[0].size == 5
+    x, y = update.solve(), fresh.solve()
+    assert update.reused  # solved by the update, not factorized afresh after a failed check
+    np.testing.assert_allclose(x, y, rtol=0, atol=1e-12 * np.abs(y).max())
