@@ -67,11 +67,13 @@ class SupplySweep:
 
 def sweep_supply(bearing: Bearing, omega: float, load, flows, *, progress: ProgressFn = silent,
                  keep: list | None = None, coefficients: str = DEFAULT_COEFFICIENTS,
-                 smoothing: float | None = None, tol: float = 1e-9) -> SupplySweep:
+                 smoothing: float | None = None, tol: float = 1e-9, start: Equilibrium | None = None) -> SupplySweep:
     """Equilibria at every flow in `flows` (m^3/s), each warm-started from its neighbour.
 
     `coefficients` ("subcell", the default, "fixed-pattern" or "smoothed"), `smoothing` and `tol` (the
-    force balance, relative to the load): see find_equilibrium.
+    force balance, relative to the load): see find_equilibrium. `start`: an equilibrium of the same bearing,
+    speed and load near the first flow (e.g. the flooded one for a sweep from Q_T up), whose position and
+    film start the first equilibrium (else the short-bearing guess).
 
     Raises ConvergenceError naming the flow if one equilibrium fails. `keep`, if a list, receives
     the Equilibrium objects (for views that need the fields).
@@ -80,8 +82,9 @@ def sweep_supply(bearing: Bearing, omega: float, load, flows, *, progress: Progr
     order = np.argsort(flows)
     out: list[Equilibrium | None] = [None] * flows.size
     done: list[tuple[float, Equilibrium]] = []  # (flow, equilibrium) so far, in flow order
+    first = start
     for n, k in enumerate(order):
-        prev = done[-1][1] if done else None
+        prev = done[-1][1] if done else first
         start, pattern = None if prev is None else prev.position, None
         if len(done) >= 2 and done[-1][0] > done[-2][0]:
             guess = predicted_position(done[-3:], flows[k])

@@ -14,12 +14,14 @@ slice under a valid name.
 
 A bearing's dimensional table (`bearing_view`, `cached_table`, `machine_tables`) is a view: its
 Sommerfeld number picks the 4 slices around it (one on a node), those missing are built (in
-parallel, two worker processes per slice, one per part r <= 1 and r > 1: forked from a single-threaded caller, spawned from a threaded one such as the
-app, `_process_context`), and the view is scaled to the bearing's viscosity, clearance, load and
+parallel: a whole slice per worker process when there are at least as many slices as processes, else two
+per slice, one per part r <= 1 and r > 1; forked from a single-threaded caller, spawned from a threaded one
+such as the app, `_process_context`), and the view is scaled to the bearing's viscosity, clearance, load and
 speed. So a change of viscosity, clearance, speed or load costs no film solve once its slices exist,
 and bearings of one geometry (the paper's two) share them. Workers get plain values (the geometry
-and S) and run `dimensionless.build_slice_part`, the same code the serial path runs, so parallel
-and serial slices are identical. Progress: every worker reports each solved ratio through a
+and S) and run `dimensionless.build_slice` or `build_slice_part`, the same code the serial path runs (a
+part solves the slice's flooded equilibrium itself, deterministically), so parallel and serial slices are
+identical. Progress: every worker reports each solved ratio through a
 `multiprocessing.Manager` queue; the parent drains it while it waits and calls
 `progress(done, total, label)` with the sum over the slices being built. If that callback raises
 `Cancelled`, the workers are told to stop at their next ratio, pending work is cancelled, the pool is
@@ -334,8 +336,8 @@ def geometry_table(bearing: Bearing, sommerfeld=None, *, span=DEFAULT_SPAN, poin
     """The dimensionless table of `bearing`'s geometry with the slices that queries at S value(s)
     `sommerfeld` need (None: every slice, the full range) loaded from the cache or built and stored.
 
-    `workers` defaults to min(2 x number missing, CPU count) (each slice is solved in two parts, r <= 1
-    and r > 1, one job each); `workers=1` builds in this process. Progress counts solved ratios over the
+    `workers` defaults to min(2 x number missing, CPU count) (with fewer slices than workers each slice is
+    solved in two parts, r <= 1 and r > 1, one job each); `workers=1` builds in this process. Progress counts solved ratios over the
     slices being built. `nodes`: the S grid (default `sommerfeld_nodes()`)."""
     geometry = geometry_values(bearing)
     nodes = sommerfeld_nodes() if nodes is None else np.asarray(nodes, dtype=float)
@@ -352,7 +354,7 @@ def geometry_table(bearing: Bearing, sommerfeld=None, *, span=DEFAULT_SPAN, poin
     if not missing:
         progress(1, 1, "tables from cache")
         return table
-    # two jobs per slice (its parts r <= 1 and r > 1), so even one slice uses two processes
+    # up to two jobs per slice (its parts r <= 1 and r > 1), so even one slice uses two processes
     workers = min(2 * len(missing), os.cpu_count() or 1) if workers is None else int(workers)
     if workers < 1:
         raise InputError(f"workers = {workers}; expected at least 1")
@@ -454,6 +456,8 @@ def _build_worker(geometry: dict, sommerfeld: float, index: int, part: str, span
         messages.put(((index, part), done, total, label))
 
     try:
+        if part == WHOLE:
+            return _dimensionless.build_slice(geometry, sommerfeld, span=span, points=points, progress=report)
         return _dimensionless.build_slice_part(geometry, sommerfeld, part, span=span, points=points, progress=report)
     except ConvergenceError as exc:
         raise ConvergenceError(f"dimensionless table slice at S = {sommerfeld:.4g}: {exc}") from exc
@@ -469,9 +473,17 @@ def _process_context():
     return multiprocessing.get_context("spawn")
 
 
+WHOLE = "whole"  # a job that solves a whole slice (both parts in one process, Q_T once)
+
+
 def _build_parallel(geometry, nodes, missing, span, points, progress, workers, total, store) -> None:
     ctx = _process_context()
-    jobs = [(i, part) for i in missing for part in _dimensionless.PARTS]
+    # Whole slices when there are enough to keep every process busy (each part would solve the slice's
+    # flooded equilibrium again); else each slice's two parts as two jobs, so even one slice uses two processes.
+    if len(missing) >= workers:
+        jobs = [(i, WHOLE) for i in missing]
+    else:
+        jobs = [(i, part) for i in missing for part in _dimensionless.PARTS]
     done = {job: 0 for job in jobs}
     parts: dict[int, dict] = {i: {} for i in missing}
     with ctx.Manager() as manager:
@@ -500,7 +512,9 @@ def _build_parallel(geometry, nodes, missing, span, points, progress, workers, t
                     if part in parts[i]:
                         continue
                     parts[i][part] = f.result()
-                    if len(parts[i]) == len(_dimensionless.PARTS):
+                    if part == WHOLE:
+                        store(i, parts[i][part])
+                    elif len(parts[i]) == len(_dimensionless.PARTS):
                         store(i, _dimensionless.join_slice(float(nodes[i]), parts[i]["below"], parts[i]["above"],
                                                            span=span, points=points))
 

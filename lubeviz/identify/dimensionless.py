@@ -183,16 +183,24 @@ def _reference_point(geometry: dict, sommerfeld: float):
     return b, omega, np.array([0.0, -w]), w
 
 
+def slice_threshold(geometry: dict, sommerfeld: float):
+    """The slice's flooded equilibrium on the reference bearing: (Q_T in m^3/s, the Equilibrium)."""
+    b, omega, load, _w = _reference_point(geometry, sommerfeld)
+    return flooded_threshold(b, omega, load)
+
+
 def build_slice_part(geometry: dict, sommerfeld: float, part: str, *, span=DEFAULT_SPAN,
-                     points: int = DEFAULT_POINTS, progress: ProgressFn = silent) -> dict:
+                     points: int = DEFAULT_POINTS, progress: ProgressFn = silent, threshold=None) -> dict:
     """Half a slice, so two processes can share one: Q_T, then the sweep over the ratios <= 1
-    ("below", from the lowest up, each warm-started from the last) or > 1 ("above": from r = 1 up;
-    its solve at r = 1 only starts the sweep and is not kept). Returns plain arrays (`join_slice`)."""
+    ("below", from the lowest up, each warm-started from the last) or > 1 ("above": from r = 1 up, started
+    at the flooded equilibrium, which is the film at Q = Q_T; its solve at r = 1 only starts the sweep and is
+    not kept). `threshold`: `slice_threshold`'s result when the caller has it (the same deterministic
+    computation, so a slice does not depend on who solved it). Returns plain arrays (`join_slice`)."""
     if part not in PARTS:
         raise InputError(f"slice part {part!r}; expected one of {PARTS}")
     t0 = time.perf_counter()
     b, omega, load, w = _reference_point(geometry, sommerfeld)
-    q_t, _ = flooded_threshold(b, omega, load)
+    q_t, flooded = slice_threshold(geometry, sommerfeld) if threshold is None else threshold
     ratio = ratio_grid(span, points)
     k = int(np.argmin(np.abs(ratio - 1.0)))
     if abs(ratio[k] - 1.0) > 1e-12:  # no node at Q_T (a span that does not hold it): one part holds all
@@ -206,7 +214,8 @@ def build_slice_part(geometry: dict, sommerfeld: float, part: str, *, span=DEFAU
         if done > skip:
             progress(done - skip, sel.size - skip, f"Q/Q_T = {sel[done - 1]:.3f}")
 
-    sweep = sweep_supply(b, omega, load, sel * q_t, progress=report, tol=SLICE_TOL)
+    sweep = sweep_supply(b, omega, load, sel * q_t, progress=report, tol=SLICE_TOL,
+                         start=flooded if part == "above" else None)
     c = b.clearance
     values = np.concatenate([sweep.K.reshape(-1, 4) * (c / w), sweep.C.reshape(-1, 4) * (c * omega / w),
                              sweep.position / c], axis=1)
@@ -228,9 +237,11 @@ def build_slice(geometry: dict, sommerfeld: float, *, span=DEFAULT_SPAN, points:
                 progress: ProgressFn = silent) -> Slice:
     """Solve one slice on the reference bearing at load W(S): its two parts one after the other (the
     same computation the parallel build runs in two processes, so both give identical slices)."""
-    below = build_slice_part(geometry, sommerfeld, "below", span=span, points=points, progress=progress)
+    threshold = slice_threshold(geometry, sommerfeld)  # once for both parts
+    below = build_slice_part(geometry, sommerfeld, "below", span=span, points=points, progress=progress,
+                             threshold=threshold)
     n = below["values"].shape[0]
-    above = build_slice_part(geometry, sommerfeld, "above", span=span, points=points,
+    above = build_slice_part(geometry, sommerfeld, "above", span=span, points=points, threshold=threshold,
                              progress=lambda done, total, label="": progress(n + done, points, label))
     return join_slice(sommerfeld, below, above, span=span, points=points)
 

@@ -293,6 +293,24 @@ def test_parallel_build_equals_serial_build_and_reports_progress(tmp_path):
     assert_same_table(machine_tables(m, points=POINTS, directory=tmp_path / "parallel")[1], serial[1])
 
 
+def test_whole_slice_jobs_equal_two_part_jobs_and_the_serial_build(tmp_path):
+    """With at least as many slices as processes each job solves a whole slice (its flooded equilibrium once);
+    with fewer, each slice's two parts are two jobs (each solving that equilibrium itself). Same slices, bit
+    for bit, as the serial build."""
+    from lubeviz.identify.cache import geometry_table
+
+    b = coarse_machine().bearings[0]
+    nodes = sommerfeld_nodes()[20:22]
+    serial = geometry_table(b, None, points=POINTS, directory=tmp_path / "serial", workers=1, nodes=nodes)
+    whole = geometry_table(b, None, points=POINTS, directory=tmp_path / "whole", workers=2, nodes=nodes)
+    parts = geometry_table(b, None, points=POINTS, directory=tmp_path / "parts", workers=4, nodes=nodes)
+    assert len(serial.slices) == 2
+    for i, s in serial.slices.items():
+        for other in (whole, parts):
+            np.testing.assert_array_equal(other.slices[i].values, s.values)
+            assert other.slices[i].q_threshold == s.q_threshold
+
+
 @pytest.mark.parametrize("workers", [1, 2])
 def test_cancel_from_progress_stops_the_build(tmp_path, workers):
     def cancel_soon(done, total, label=""):
