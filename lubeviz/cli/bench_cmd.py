@@ -24,6 +24,9 @@ def register(sub) -> None:
                         "against the model-vs-independent feature differences; diagnose: every effect at two "
                         "strengths on independent records, named / ambiguous / unexplained, flows before and after")
     p.add_argument("--records", type=int, default=120, help="coverage: independent records (default 120)")
+    p.add_argument("--static", action="store_true",
+                   help="coverage: records with the static shaft position and the oil's viscosity x0.7-1.3 of the "
+                        "declared, identified with the oil free: flows' and oil's error and coverage")
     p.add_argument("--seed", type=int, default=2026,
                    help="coverage, budget: the corpus seed (2026: the budget's calibration corpus; another seed "
                         "is a held-out check)")
@@ -95,6 +98,8 @@ def run_bench(args) -> dict:
                 raise ValueError(f"--calibrations {args.calibrations!r}: expected numbers separated by commas") from None
             if any(not (0.0 < c <= 10.0) for c in cal):
                 raise ValueError(f"--calibrations {args.calibrations!r}: expected factors in (0, 10]")
+            if args.static:
+                return vb.bench_static(args.machine, n=args.records, seed=args.seed, progress=StderrBar())
             return vb.bench_coverage(args.machine, n=args.records, seed=args.seed, calibrations=cal,
                                      budgets=_budgets(args.budgets), progress=StderrBar())
         if args.what == "budget":

@@ -8,6 +8,7 @@ their Wilson 95 % interval.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 
@@ -99,6 +100,65 @@ def bench_coverage(machine_path=None, *, n: int = 120, seed: int = 2026, calibra
         for lo, hi in BANDS:
             out[key][f"{lo:g}-{min(hi, 100):g} Hz"] = _summary([r for r in rr if lo <= r["speed_hz"] < hi])
     out["rows"] = rows["budget"]
+    return out
+
+
+STATIC_OIL_RANGE = (0.7, 1.3)  # `bench_static`: the oil's true viscosity over the declared one, uniform
+
+
+def bench_static(machine_path=None, *, n: int = 100, seed: int = 2026, progress: ProgressFn = silent) -> dict:
+    """Records with the static shaft position (SPEC §6 `static: absolute`) and an oil whose viscosity differs
+    from the declared one by a factor uniform in STATIC_OIL_RANGE (the corpus of `bench_coverage` otherwise:
+    50-100 Hz, flows 30-180 % Q_T, both plane and probe layouts), identified with the oil free on both bearings
+    (`viscosity:bearing=both`): the flows' and the factor's error, the 95 % coverage of the flows' profile
+    intervals and of the factor's +-1.96 std, the chi^2 flag rate. A draw whose slowest mode does not decay
+    with its oil (thinner oil whirls sooner) is drawn again."""
+    from ..effects import parse_effect
+    from ..identify.batch import identify_record
+    from ..model.machine import load_machine
+    from .independent import clean_corpus, make_record, max_growth_rate
+
+    t0 = time.perf_counter()
+    machine = load_machine(machine_path)
+    rng = np.random.default_rng(seed)
+    specs = []
+    for _ in range(5):  # batches of draws until n decay with their oil
+        for base in clean_corpus(n - len(specs), rng, machine=machine_path, static=True):
+            factor = float(rng.uniform(*STATIC_OIL_RANGE))
+            spec = dataclasses.replace(base, effects=(f"viscosity:factor={factor:.6g}",))
+            if max_growth_rate(spec) < -5.0 / (spec.total_s - spec.duration_s):
+                specs.append((spec, factor))
+        if len(specs) == n:
+            break
+    oil = (parse_effect("viscosity:bearing=both"),)
+    rows = []
+    for i, (spec, factor) in enumerate(specs, start=1):
+        rec = make_record(spec).record
+        q = np.array([spec.q1_mlmin, spec.q2_mlmin])
+        r = identify_record(rec, machine, effects=oil).result
+        qi = r.q * 6e7
+        holds = []
+        for k in range(2):
+            low, high = r.intervals[k]
+            holds.append(bool(low * 6e7 <= q[k] <= (math.inf if high is None else high * 6e7)))
+        f, f_std = r.effects["viscosity"]["factor"], r.effects["viscosity"]["factor_std"]
+        rows.append({"speed_hz": spec.speed_hz, "q_mlmin": q.tolist(), "q_id_mlmin": qi.tolist(),
+                     "factor": factor, "factor_id": f, "factor_std": f_std,
+                     "max_abs_error_pct": float(np.max(np.abs(qi / q - 1)) * 100),
+                     "factor_error_pct": float((f / factor - 1) * 100), "holds": holds,
+                     "factor_holds": bool(abs(f - factor) <= 1.959964 * f_std),
+                     "above_qt": [bool(q[k] > r.q_threshold[k] * 6e7) for k in range(2)],
+                     "explained": bool(r.model_explains_data), "chi2": r.chi2, "seconds": r.seconds,
+                     "truth_in_alt": any(np.all(np.abs(a * 6e7 / q - 1) < 0.05) for a in r.alternatives)})
+        progress(i, len(specs), f"{spec.speed_hz:g} Hz, oil x{factor:.2f}")
+    ferr = np.abs([r["factor_error_pct"] for r in rows])
+    out = {"records": len(rows), "seed": seed, "oil_range": list(STATIC_OIL_RANGE), "all": _summary(rows),
+           "coverage_factor": _rate(r["factor_holds"] for r in rows),
+           "factor_error_pct_median": float(np.median(ferr)), "factor_error_pct_p90": float(np.percentile(ferr, 90)),
+           "factor_error_pct_max": float(ferr.max()), "seconds": time.perf_counter() - t0}
+    for lo, hi in BANDS:
+        out[f"{lo:g}-{min(hi, 100):g} Hz"] = _summary([r for r in rows if lo <= r["speed_hz"] < hi])
+    out["rows"] = rows
     return out
 
 
