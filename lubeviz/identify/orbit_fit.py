@@ -143,12 +143,17 @@ def check_orbit_chain(chain: ForwardChain) -> None:
 
 
 def _balance(chain: ForwardChain, flows, start, harmonics, points, tol, progress, scale=1.0,
-             machine=None, slopes: bool = False, q_threshold=None) -> OrbitBalance:
+             machine=None, slopes: bool = False, q_threshold=None, flow_factor=None) -> OrbitBalance:
+    """The balance at `flows` on `machine` (default the chain's); with `flow_factor`, at flows x that factor
+    (per bearing; Q_T `q_threshold` is in the unscaled flows), and its flow slopes per unit unscaled flow."""
     machine = chain.machine if machine is None else machine
-    fb = film_bearings(machine, [float(q) for q in flows], chain.omega)
+    factor = np.ones(2) if flow_factor is None else np.asarray(flow_factor, float)
+    fb = film_bearings(machine, [float(q) for q in np.asarray(flows, float) * factor], chain.omega)
     unbalances = [dataclasses.replace(u, moment=u.moment * scale) for u in machine_unbalance(machine)]
-    qt = chain.q_threshold if q_threshold is None else q_threshold
+    qt = (chain.q_threshold if q_threshold is None else np.asarray(q_threshold, float)) * factor
     fs = equilibrium_flow_slopes(machine, fb, qt) if slopes else None
+    if fs is not None and flow_factor is not None:  # d/dq = factor d/d(scaled q)
+        fs = [tuple(np.asarray(v) * f for v in parts) for parts, f in zip(fs, factor)]
     return orbit_balance(chain.rotor, fb, unbalances, nodes=chain.nodes, harmonics=harmonics,
                          points=points, tol=tol, start=start, flow_slopes=fs, progress=progress)
 
@@ -176,7 +181,7 @@ def measured_scale(chain: ForwardChain, measured, theta, defect: ResponseDefect 
 def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = None, slope: bool = True,
                  step: float = 0.05, harmonics: int = HARMONICS, points: int = POINTS, tol: float = 1e-6,
                  scale: float = 1.0, slope_films: SlopeFilms | None = None, machine=None, q_threshold=None,
-                 progress: ProgressFn = silent) -> tuple[ResponseDefect, OrbitBalance]:
+                 flow_factor=None, progress: ProgressFn = silent) -> tuple[ResponseDefect, OrbitBalance]:
     """The balance at `flows` (m^3/s) on the chain's machine, speed and rotor, with the machine's unbalance
     times `scale`, and its defect per unit of that scale, with (`slope`) its slope in each flow and its change
     with the scale (`ResponseDefect.dscale`). A flow whose +-`step` Q_T lies on one side of its Q_T takes the
@@ -185,7 +190,8 @@ def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = Non
     `slope_films` (default: SLOPE_MESH films, continued from a balance at `flows` there) below Q_T, on the
     model's films from this balance at or above it, or when those films are the chain's own. `machine`: the
     films of the balance (default the chain's machine; then `slope_films` must be on it too) and `q_threshold`
-    their Q_T (default the chain's)."""
+    their Q_T (default the chain's); `flow_factor`: every balance at the flows x this (per bearing), e.g. the
+    ratio of `machine`'s Q_T to the chain's, so that a coarser mesh's kink lies where the model's does."""
     q = np.asarray(flows, dtype=float)
     qt = chain.q_threshold if q_threshold is None else np.asarray(q_threshold, float)
     # a flow whose +-step lies on one side of its Q_T takes the balance's own derivative (implicit, exact, local);
@@ -203,7 +209,7 @@ def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = Non
         films.last = base
         start = base if start is None else start  # a first balance starts from the coarse orbit's harmonics
     ob = _balance(chain, q, start, harmonics, points, tol, lambda i, n, t: progress(i / n, n_bal, t), scale,
-                  slopes=slope, machine=machine, q_threshold=qt)
+                  slopes=slope, machine=machine, q_threshold=qt, flow_factor=flow_factor)
     x, y, static = _parts(chain, ob, scale)
     dx, dy, dst = np.zeros((2, 2), complex), np.zeros((2, 2), complex), np.zeros((2, 2, 2))
     dscale = None
@@ -224,7 +230,8 @@ def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = Non
         qk = q.copy()
         qk[k] += hs
         obk = _balance(chain, qk, centre, harmonics, points, tol,
-                       lambda i, n, t, k=k: progress(1 + k + i / n, n_bal, t), scale, machine=on)
+                       lambda i, n, t, k=k: progress(1 + k + i / n, n_bal, t), scale, machine=on,
+                       flow_factor=None if k in coarse else flow_factor)
         xk, yk, sk = _parts(chain, obk, scale)
         dx[:, k], dy[:, k], dst[:, :, k] = (xk - bx) / hs, (yk - by) / hs, (sk - bst) / hs
     return ResponseDefect(x=x, y=y, static=static, q0=q, dx=dx, dy=dy, dstatic=dst, dscale=dscale), ob
@@ -291,10 +298,12 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     """Fit the flows (and the chain's free probe parameters) with the film force along the orbit.
 
     Starts from the linear fit (global search), then (with `slope_mesh` coarser than the model's films) up to
-    COARSE_ROUNDS rounds with every balance on the slope's films and their own Q_T, until the flows move by less
-    than COARSE_TOL of Q_T; then the rounds on the model's films from there. Measured (BENCHMARKS "Large orbits",
-    session 16): 0.6 x records 22.1 / 18.3 -> 18.1 / 13.0 s, 1 x 61 -> 50 s and 58.8 -> 41.6 s, one 1 x record
-    50.0 -> 53.4 s (its coarse rounds stopped at their own kink, 17 % short), answers unchanged within 0.05 %.
+    COARSE_ROUNDS rounds with every balance on the slope's films, at the flows scaled by the two meshes' Q_T
+    ratio so that the coarse kink lies where the model's does, until the flows move by less than COARSE_TOL of
+    Q_T; then the rounds on the model's films from there. Measured on the bench's 1 x records and the test's
+    (session 16; balances' Newton steps on 100 x 100 films): 34 / 41 / 39 -> 15 / 14 / 12, flows within -0.4 /
+    -0.6 %, -1.6 / -2.2 %, -0.6 / -0.6 % (before: -0.4 / -0.6, -2.2 / -3.2, -2.7 / -2.8 %). Unscaled, a record's
+    coarse rounds stopped at their own kink, 17 % short, and saved nothing.
     Each round solves the balance at the last flows with its slope
     (taken again every round while both flows lie more than 5 % Q_T from their Q_T, where it is exact and free;
     nearer, when the flows have moved more than SLOPE_REUSE of Q_T since, crossed Q_T or the scale moved), the
@@ -320,7 +329,7 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     scales = [scale]
     state = dict(q=q, theta=theta, scale=scale, ob=None, defect=None, rounds=0)
 
-    def rounds(machine, films, qt, limit, stop_tol, label):
+    def rounds(machine, films, qt, limit, stop_tol, label, factor=None):
         """Rounds of balances on `machine`'s films (Q_T `qt`) with slopes from `films`, from the state's flows;
         True when they settled (the flows moved by less than `stop_tol` of Q_T or SIGMA_TOL of their std)."""
         q, theta, scale, ob = state["q"], state["theta"], state["scale"], state["ob"]
@@ -343,7 +352,8 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
             fresh = (smooth or slope_at is None or np.max(np.abs(q - slope_at) / qt) > SLOPE_REUSE
                      or np.any((q >= qt) != (slope_at >= qt)) or abs(scale / scale_at - 1.0) > SCALE_TOL)
             new, ob = orbit_defect(chain, q, start=ob, slope=fresh, harmonics=harmonics, points=points,
-                                   scale=scale, slope_films=films, machine=machine, q_threshold=qt, progress=sub)
+                                   scale=scale, slope_films=films, machine=machine, q_threshold=qt,
+                                   flow_factor=factor, progress=sub)
             if fresh:
                 new = with_scale_coupling(chain, measured, theta, new)
                 if last_fresh is not None and last_fresh[0] == how:
@@ -372,11 +382,13 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
         # First the whole iteration on the slope's coarser films (their balances ~4 x cheaper): the correction
         # there differs from the model's films' by 2-13 % of itself (BENCHMARKS "Large orbits"), so the rounds
         # on the model's films start near their answer instead of at the linear fit's, 20-27 % off. Their Q_T
-        # is the coarse films' own (about 1.7 % higher on 50 x 50), so the kink is where those films have it.
+        # lies about 1.7 % higher on 50 x 50: the flows are scaled by the Q_T ratio, so that near Q_T both
+        # meshes' films are at the same side of their kink and the same distance from it.
         progress(0, total, "large orbits: rounds on coarser films")
         coarse_films = SlopeFilms(chain, None, machine=slope_films.machine)
-        coarse_qt = flooded_thresholds(coarse_films.machine, chain.omega)
-        rounds(coarse_films.machine, coarse_films, coarse_qt, COARSE_ROUNDS, COARSE_TOL, "coarse round")
+        factor = flooded_thresholds(coarse_films.machine, chain.omega) / chain.q_threshold
+        rounds(coarse_films.machine, coarse_films, chain.q_threshold, COARSE_ROUNDS, COARSE_TOL, "coarse round",
+               factor)
         slope_films.last = state["ob"]  # the fine rounds' coarse balances continue from here
         state["defect"] = None
     converged = rounds(None, slope_films, chain.q_threshold, max_rounds, tol, "round")
