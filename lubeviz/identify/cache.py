@@ -411,6 +411,42 @@ def bearing_view(bearing: Bearing, load, omega: float, *, index: int = 0, span=D
     return _view(table, bearing, load, omega, index, _digest(_view_inputs(bearing, load, omega, span, points)))
 
 
+def scaled_view(table: DimensionlessTable, bearing: Bearing, load, omega: float, factor: float, clearance: float,
+                *, index: int = 0) -> CoefficientTable | None:
+    """The view of `bearing` with its viscosity x `factor` and radial clearance `clearance` (m) from the slices
+    `table` holds in memory (the arithmetic of `bearing_view`, without copying the bearing, reading the slices'
+    files or the view's key: an effect fit asks for thousands), or None when a slice it needs is not loaded
+    or S is outside the grid (then `bearing_view` loads or builds it, or says why not). Its `key` is empty."""
+    w = float(np.hypot(*np.asarray(load, dtype=float)))
+    c = float(clearance)
+    mu = bearing.viscosity * float(factor)
+    if not (w > 0 and c > 0 and mu > 0 and math.isfinite(w * c * mu)):
+        return None
+    s = mu * omega / (2.0 * math.pi) * bearing.length * bearing.diameter / w * (bearing.radius / c) ** 2
+    lo, hi = table.s_range
+    if not (lo <= s <= hi):
+        return None
+    try:
+        if any(int(i) not in table.slices for i in _dimensionless.stencil(table.nodes, s)):
+            return None
+        combo = table.combination(s)
+    except InputError:
+        return None
+    q_t = combo.q_threshold * omega * bearing.radius * c * bearing.length  # dimensionless.flow_scale
+    v = combo.values
+    return CoefficientTable(bearing=index, omega=float(omega), q_threshold=q_t, q=combo.ratio * q_t,
+                            K=v[:, 0:4].reshape(-1, 2, 2) * (w / c), C=v[:, 4:8].reshape(-1, 2, 2) * (w / (c * omega)),
+                            position=v[:, 8:10] * c)
+
+
+def loaded_table(bearing: Bearing, load, omega: float, *, span=DEFAULT_SPAN, points: int = DEFAULT_POINTS,
+                 directory=None) -> DimensionlessTable:
+    """`bearing`'s geometry table with the slices around its Sommerfeld number loaded from the cache (after a
+    `bearing_view` of it, which built any that were missing); for `scaled_view`."""
+    s = sommerfeld_number(bearing, _dimensionless._check_load(load), _check_omega(omega))
+    return geometry_table(bearing, [s], span=span, points=points, directory=directory)
+
+
 def cached_table(machine, bearing: int, omega: float | None = None, *, span=DEFAULT_SPAN,
                  points: int = DEFAULT_POINTS, progress: ProgressFn = silent, directory=None) -> CoefficientTable:
     """The table of `machine.bearings[bearing]`: a view of the cached slices (missing ones built in this process)."""

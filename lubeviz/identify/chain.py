@@ -65,6 +65,7 @@ class BearingSource:
         self.load = bearing_static_loads(machine)[index] if load is None else np.asarray(load, dtype=float)
         self.progress = progress
         self._views: dict = {}
+        self._table = None  # the geometry's dimensionless table with the slices loaded so far (changed views)
         if table is not None:
             self._views[self._key(1.0, self.bearing.clearance)] = table
 
@@ -80,12 +81,37 @@ class BearingSource:
         key = self._key(factor, clearance)
         if key not in self._views:
             bearing = self.bearing
-            if key != self._key(1.0, self.bearing.clearance):
-                bearing = self.bearing.copy(viscosity=self.bearing.viscosity * float(factor), clearance=clearance)
-            view = bearing_table_view(bearing, self.load, self.omega, index=self.index,
-                                      progress=self.progress if progress is None else progress)
+            changed = key != self._key(1.0, self.bearing.clearance)
+            view = None
+            if changed and self._table is not None:  # from the slices in memory: ~0.6 ms, not ~2 ms
+                from .cache import scaled_view
+
+                view = scaled_view(self._table, self.bearing, self.load, self.omega, float(factor), clearance,
+                                   index=self.index)
+            if view is None:
+                if changed:
+                    bearing = self.bearing.copy(viscosity=self.bearing.viscosity * float(factor), clearance=clearance)
+                view = bearing_table_view(bearing, self.load, self.omega, index=self.index,
+                                          progress=self.progress if progress is None else progress)
+                if changed:
+                    self._remember_slices(bearing)
             self._views.setdefault(key, view)
         return self._views[key]
+
+    def _remember_slices(self, bearing) -> None:
+        """Keep the slices the view of `bearing` (this one, changed) was made from, for `cache.scaled_view`."""
+        from . import cache
+
+        if not hasattr(cache, "loaded_table"):
+            return
+        try:
+            table = cache.loaded_table(bearing, self.load, self.omega)
+        except InputError:
+            return
+        if self._table is None or self._table.geometry != table.geometry:
+            self._table = table
+        else:
+            self._table.slices.update(table.slices)
 
     def has_view(self, factor: float = 1.0, clearance: float | None = None) -> bool:
         return self._key(factor, self.bearing.clearance if clearance is None else clearance) in self._views

@@ -330,3 +330,27 @@ def test_table_key_is_stored_on_the_returned_table(tmp_path):
     t = cached_table(coarse_machine(), 1, points=POINTS, directory=tmp_path)
     assert dataclasses.replace(t).key == t.key == table_key(coarse_machine(), 1, points=POINTS)
     assert t.bearing == 1
+
+
+def test_a_changed_view_from_the_slices_in_memory_equals_the_cached_view():
+    """An effect fit asks a bearing for thousands of views at changed viscosity or clearance. After the first,
+    each comes from the slices already in memory (`cache.scaled_view`, no bearing copy, no file read): the same
+    numbers as `bearing_view` of the changed bearing, and a view whose slices are not loaded takes the slow path."""
+    from lubeviz.identify.cache import bearing_view
+    from lubeviz.identify.chain import BearingSource
+
+    m = load_machine()
+    omega = 2 * math.pi * 75.0
+    src = BearingSource(m, 0, omega)
+    b = src.bearing
+    first = src.view(0.9)  # slow path: loads (or builds) the slices around its S and keeps them
+    assert src._table is not None and first.key
+    for factor, clearance in ((0.905, b.clearance), (0.9, 1.01 * b.clearance), (0.91, 0.995 * b.clearance)):
+        fast = src.view(factor, clearance)
+        assert fast.key == ""  # made from memory
+        slow = bearing_view(b.copy(viscosity=b.viscosity * factor, clearance=clearance), src.load, omega)
+        assert fast.q_threshold == pytest.approx(slow.q_threshold, rel=1e-12)
+        for name in ("q", "K", "C", "position"):
+            np.testing.assert_allclose(getattr(fast, name), getattr(slow, name), rtol=1e-12, atol=0)
+    far = src.view(0.55)  # S outside the slices loaded so far: the slow path, which loads them
+    assert far.key
