@@ -300,7 +300,9 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     Starts from the linear fit (global search), then (with `slope_mesh` coarser than the model's films) up to
     COARSE_ROUNDS rounds with every balance on the slope's films, at the flows scaled by the two meshes' Q_T
     ratio so that the coarse kink lies where the model's does, until the flows move by less than COARSE_TOL of
-    Q_T; then the rounds on the model's films from there. Measured on the bench's 1 x records and the test's
+    Q_T; then the rounds on the model's films from there (the first of their balances starts from the coarse
+    orbit's harmonics and its films' patterns, `orbit_balance._mapped_film`: 7 -> 3 Newton steps). Measured on
+    the bench's 1 x records and the test's
     (session 16; balances' Newton steps on 100 x 100 films): 34 / 41 / 39 -> 15 / 14 / 12, flows within -0.4 /
     -0.6 %, -1.6 / -2.2 %, -0.6 / -0.6 % (before: -0.4 / -0.6, -2.2 / -3.2, -2.7 / -2.8 %). Unscaled, a record's
     coarse rounds stopped at their own kink, 17 % short, and saved nothing.

@@ -132,6 +132,19 @@ def _pool(threads: int) -> ThreadPoolExecutor:
     return ThreadPoolExecutor(threads, thread_name_prefix="lubeviz-film")
 
 
+def _mapped_film(src, like):
+    """`like` (a film on this mesh) carrying `src`'s fields (a film on another mesh of the same bearing), each
+    cell the value of the source cell holding its centre: a warm start, whose cavitation pattern is all the film
+    solve takes from it (the answer is the film's own)."""
+    ms, mt = src.problem.mesh, like.problem.mesh
+    edges = np.cumsum(ms.d_alpha)
+    col = np.minimum(np.searchsorted(edges, np.mod(mt.alpha - ms.alpha_offset, 2 * math.pi), side="right"),
+                     ms.n_circ - 1)
+    row = np.minimum((mt.z / ms.dz).astype(int), ms.nz - 1)
+    pick = np.ix_(row, col)
+    return dataclasses.replace(like, P=src.P[pick], theta=src.theta[pick], linear=None)
+
+
 def _dynamic_stiffness(rotor: Rotor, omega: float, frequency: float, K, C) -> np.ndarray:
     """At `frequency` with the shaft spinning at `omega`; K, C: shaft + bearings (`bearing_matrices`)."""
     return K - frequency**2 * rotor.M + 1j * frequency * (C + omega * rotor.G)
@@ -198,7 +211,8 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
             raise InputError("orbit_balance: the start orbit has another speed, harmonic count or point count")
         if all(f[0].P.shape == e.film.P.shape for f, e in zip(start.films, eqs)):
             films = [list(f) for f in start.films]
-        # else: an orbit on another film mesh: its harmonics are the start, the films start from equilibrium
+        else:  # an orbit on another film mesh: its harmonics are the start, its films' patterns the films' starts
+            films = [[_mapped_film(f, e.film) for f in sf] for sf, e in zip(start.films, eqs)]
     solves = 0
 
     want_q = flow_slopes is not None

@@ -154,3 +154,30 @@ def test_the_flow_slope_is_the_balance_s_derivative_in_the_supply(coarse, flows_
     an_0x = np.concatenate([ob.scale_slope_x[0].real, ob.scale_slope_y[0].real])
     assert np.linalg.norm(an_1x - fd_1x) < 0.02 * np.linalg.norm(fd_1x)
     assert np.linalg.norm(an_0x - fd_0x) < 0.02 * np.linalg.norm(fd_0x)
+
+
+def test_an_orbit_on_another_mesh_starts_the_films_from_its_patterns(coarse, monkeypatch):
+    """Started from an orbit on coarser films, the balance takes that orbit's harmonics and, mapped cell by cell,
+    its films' cavitation patterns (`orbit_balance._mapped_film`): the same orbit as from the linear one, in
+    fewer Newton steps than with every film started at the equilibrium's pattern (the large-orbit fit's first
+    balance on the model's films, from its coarse rounds: 7 -> 3 steps, 7.5 -> 3.5 s on 100 x 100)."""
+    import lubeviz.rotor.orbit_balance as ob_module
+
+    machine, rotor, bearings = coarse
+    ub = _unbalance(machine, 0.5)
+    from lubeviz.model.machine import load_machine
+
+    small = load_machine()
+    small.bearings = [b.copy(n_circumferential=40, n_axial=30) for b in small.bearings]
+    rough = orbit_balance(rotor_from_machine(small), film_bearings(small, bearings.flows, coefficients="fixed-pattern"),
+                          ub, nodes=NODES)
+    assert rough.films[0][0].P.shape != bearings.equilibria[0].film.P.shape
+    mapped = orbit_balance(rotor, bearings, ub, nodes=NODES, start=rough, tol=1e-8)
+    monkeypatch.setattr(ob_module, "_mapped_film", lambda src, like: like)  # every film from the equilibrium
+    plain = orbit_balance(rotor, bearings, ub, nodes=NODES, start=rough, tol=1e-8)
+    linear = orbit_balance(rotor, bearings, ub, nodes=NODES, tol=1e-8)
+    size = np.abs(linear.x[1]).max()
+    for h in range(linear.harmonics + 1):
+        np.testing.assert_allclose(mapped.x[h], linear.x[h], rtol=0, atol=1e-6 * size)
+        np.testing.assert_allclose(mapped.y[h], linear.y[h], rtol=0, atol=1e-6 * size)
+    assert mapped.film_solves < plain.film_solves
