@@ -56,6 +56,20 @@ def _summary(rows) -> dict:
 BANDS = ((50.0, 62.5), (62.5, 80.0), (80.0, 100.0 + 1e-9))
 
 
+def _flow_row(speed_hz: float, q, r) -> dict:
+    """One record's row of a rate bench: true flows `q` (ml/min) against the identification `r`."""
+    qi = r.q * 6e7
+    holds = []
+    for k in range(2):
+        low, high = r.intervals[k]
+        holds.append(bool(low * 6e7 <= q[k] <= (math.inf if high is None else high * 6e7)))
+    return {"speed_hz": speed_hz, "q_mlmin": q.tolist(), "q_id_mlmin": qi.tolist(),
+            "max_abs_error_pct": float(np.max(np.abs(qi / q - 1)) * 100), "holds": holds,
+            "above_qt": [bool(q[k] > r.q_threshold[k] * 6e7) for k in range(2)],
+            "explained": bool(r.model_explains_data), "chi2": r.chi2, "seconds": r.seconds,
+            "truth_in_alt": any(np.all(np.abs(a * 6e7 / q - 1) < 0.05) for a in r.alternatives)}
+
+
 def bench_coverage(machine_path=None, *, n: int = 120, seed: int = 2026, calibrations=(), budgets=(),
                    progress: ProgressFn = silent) -> dict:
     """Clean independent records (seeds x speeds 50-100 Hz x flows 30-180 % Q_T x centre/outside planes x
@@ -81,17 +95,8 @@ def bench_coverage(machine_path=None, *, n: int = 120, seed: int = 2026, calibra
         q = np.array([spec.q1_mlmin, spec.q2_mlmin])
         for key, budget in budgets:
             r = identify_record(rec, machine, budget=budget).result
-            qi = r.q * 6e7
-            holds = []
-            for k in range(2):
-                low, high = r.intervals[k]
-                holds.append(bool(low * 6e7 <= q[k] <= (math.inf if high is None else high * 6e7)))
-            rows[key].append({"speed_hz": spec.speed_hz, "q_mlmin": q.tolist(), "q_id_mlmin": qi.tolist(),
-                              "nodes": list(spec.nodes), "probe_angles_deg": [list(a) for a in spec.probe_angles_deg],
-                              "max_abs_error_pct": float(np.max(np.abs(qi / q - 1)) * 100), "holds": holds,
-                              "above_qt": [bool(q[k] > r.q_threshold[k] * 6e7) for k in range(2)],
-                              "explained": bool(r.model_explains_data), "chi2": r.chi2, "seconds": r.seconds,
-                              "truth_in_alt": any(np.all(np.abs(a * 6e7 / q - 1) < 0.05) for a in r.alternatives)})
+            rows[key].append({**_flow_row(spec.speed_hz, q, r), "nodes": list(spec.nodes),
+                              "probe_angles_deg": [list(a) for a in spec.probe_angles_deg]})
         progress(i, len(specs), f"{spec.speed_hz:g} Hz")
     out = {"records": len(specs), "seed": seed, "calibration": ModelBudget().calibration,
            "seconds": time.perf_counter() - t0}
@@ -136,20 +141,10 @@ def bench_static(machine_path=None, *, n: int = 100, seed: int = 2026, progress:
         rec = make_record(spec).record
         q = np.array([spec.q1_mlmin, spec.q2_mlmin])
         r = identify_record(rec, machine, effects=oil).result
-        qi = r.q * 6e7
-        holds = []
-        for k in range(2):
-            low, high = r.intervals[k]
-            holds.append(bool(low * 6e7 <= q[k] <= (math.inf if high is None else high * 6e7)))
         f, f_std = r.effects["viscosity"]["factor"], r.effects["viscosity"]["factor_std"]
-        rows.append({"speed_hz": spec.speed_hz, "q_mlmin": q.tolist(), "q_id_mlmin": qi.tolist(),
-                     "factor": factor, "factor_id": f, "factor_std": f_std,
-                     "max_abs_error_pct": float(np.max(np.abs(qi / q - 1)) * 100),
-                     "factor_error_pct": float((f / factor - 1) * 100), "holds": holds,
-                     "factor_holds": bool(abs(f - factor) <= 1.959964 * f_std),
-                     "above_qt": [bool(q[k] > r.q_threshold[k] * 6e7) for k in range(2)],
-                     "explained": bool(r.model_explains_data), "chi2": r.chi2, "seconds": r.seconds,
-                     "truth_in_alt": any(np.all(np.abs(a * 6e7 / q - 1) < 0.05) for a in r.alternatives)})
+        rows.append({**_flow_row(spec.speed_hz, q, r), "factor": factor, "factor_id": f, "factor_std": f_std,
+                     "factor_error_pct": float((f / factor - 1) * 100),
+                     "factor_holds": bool(abs(f - factor) <= 1.959964 * f_std)})
         progress(i, len(specs), f"{spec.speed_hz:g} Hz, oil x{factor:.2f}")
     ferr = np.abs([r["factor_error_pct"] for r in rows])
     out = {"records": len(rows), "seed": seed, "oil_range": list(STATIC_OIL_RANGE), "all": _summary(rows),
