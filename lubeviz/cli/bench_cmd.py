@@ -99,6 +99,9 @@ def run_bench(args) -> dict:
             if any(not (0.0 < c <= 10.0) for c in cal):
                 raise ValueError(f"--calibrations {args.calibrations!r}: expected factors in (0, 10]")
             if args.static:
+                if cal or args.budgets.strip():
+                    raise ValueError("--static: its records are identified with the oil free under the model budget; "
+                                     "--calibrations and --budgets apply to the clean coverage corpus only")
                 return vb.bench_static(args.machine, n=args.records, seed=args.seed, progress=StderrBar())
             return vb.bench_coverage(args.machine, n=args.records, seed=args.seed, calibrations=cal,
                                      budgets=_budgets(args.budgets), progress=StderrBar())

@@ -337,8 +337,8 @@ def geometry_table(bearing: Bearing, sommerfeld=None, *, span=DEFAULT_SPAN, poin
     `sommerfeld` need (None: every slice, the full range) loaded from the cache or built and stored.
 
     `workers` defaults to min(2 x number missing, CPU count) (with fewer slices than workers each slice is
-    solved in two parts, r <= 1 and r > 1, one job each); `workers=1` builds in this process. Progress counts solved ratios over the
-    slices being built. `nodes`: the S grid (default `sommerfeld_nodes()`)."""
+    solved in two parts, r <= 1 and r > 1, one job each); `workers=1` builds in this process. Progress counts
+    solved ratios over the slices being built. `nodes`: the S grid (default `sommerfeld_nodes()`)."""
     geometry = geometry_values(bearing)
     nodes = sommerfeld_nodes() if nodes is None else np.asarray(nodes, dtype=float)
     table = DimensionlessTable(geometry=geometry, nodes=nodes, span=tuple(float(v) for v in span), points=int(points))
@@ -414,29 +414,20 @@ def bearing_view(bearing: Bearing, load, omega: float, *, index: int = 0, span=D
 def scaled_view(table: DimensionlessTable, bearing: Bearing, load, omega: float, factor: float, clearance: float,
                 *, index: int = 0) -> CoefficientTable | None:
     """The view of `bearing` with its viscosity x `factor` and radial clearance `clearance` (m) from the slices
-    `table` holds in memory (the arithmetic of `bearing_view`, without copying the bearing, reading the slices'
-    files or the view's key: an effect fit asks for thousands), or None when a slice it needs is not loaded
-    or S is outside the grid (then `bearing_view` loads or builds it, or says why not). Its `key` is empty."""
-    w = float(np.hypot(*np.asarray(load, dtype=float)))
-    c = float(clearance)
-    mu = bearing.viscosity * float(factor)
-    if not (w > 0 and c > 0 and mu > 0 and math.isfinite(w * c * mu)):
-        return None
-    s = mu * omega / (2.0 * math.pi) * bearing.length * bearing.diameter / w * (bearing.radius / c) ** 2
-    lo, hi = table.s_range
-    if not (lo <= s <= hi):
+    `table` holds in memory (`bearing_view`'s arithmetic, without copying the bearing, reading the slices'
+    files or computing the view's key: an effect fit asks for thousands), or None when a slice it needs is not
+    loaded or S is off the grid (then `bearing_view` loads or builds it, or says why not). Its `key` is empty."""
+    if not (float(clearance) > 0 and float(factor) > 0):
         return None
     try:
-        if any(int(i) not in table.slices for i in _dimensionless.stencil(table.nodes, s)):
+        s = sommerfeld_number(bearing, load, omega, viscosity=bearing.viscosity * float(factor), clearance=clearance)
+        lo, hi = table.s_range
+        if not (lo <= s <= hi) or any(int(i) not in table.slices for i in _dimensionless.stencil(table.nodes, s)):
             return None
-        combo = table.combination(s)
+        return _dimensionless.dimensional_table(table.combination(s), bearing, load, omega, index=index,
+                                                clearance=clearance)
     except InputError:
         return None
-    q_t = combo.q_threshold * omega * bearing.radius * c * bearing.length  # dimensionless.flow_scale
-    v = combo.values
-    return CoefficientTable(bearing=index, omega=float(omega), q_threshold=q_t, q=combo.ratio * q_t,
-                            K=v[:, 0:4].reshape(-1, 2, 2) * (w / c), C=v[:, 4:8].reshape(-1, 2, 2) * (w / (c * omega)),
-                            position=v[:, 8:10] * c)
 
 
 def loaded_table(bearing: Bearing, load, omega: float, *, span=DEFAULT_SPAN, points: int = DEFAULT_POINTS,

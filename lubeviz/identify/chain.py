@@ -102,8 +102,6 @@ class BearingSource:
         """Keep the slices the view of `bearing` (this one, changed) was made from, for `cache.scaled_view`."""
         from . import cache
 
-        if not hasattr(cache, "loaded_table"):
-            return
         try:
             table = cache.loaded_table(bearing, self.load, self.omega)
         except InputError:

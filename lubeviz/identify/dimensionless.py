@@ -101,18 +101,22 @@ def sommerfeld_nodes(s_range=S_RANGE, coarse: float = COARSE_STEP, fine: float =
     return anchor * np.exp(ln_s)
 
 
-def sommerfeld_number(bearing: Bearing, load, omega: float) -> float:
-    """S = mu * N * L * D / W * (R / c)^2, N = Omega / 2 pi (rev/s), W = |load| (SPEC §7)."""
+def sommerfeld_number(bearing: Bearing, load, omega: float, *, viscosity: float | None = None,
+                      clearance: float | None = None) -> float:
+    """S = mu * N * L * D / W * (R / c)^2, N = Omega / 2 pi (rev/s), W = |load| (SPEC §7); `viscosity` and
+    `clearance` (Pa s, m) instead of the bearing's."""
     w = float(np.hypot(*np.asarray(load, dtype=float)))
     if not (math.isfinite(w) and w > 0.0):
         raise InputError(f"bearing load {load!r}: expected a non-zero finite load (N)")
     n = omega / (2.0 * math.pi)
-    return bearing.viscosity * n * bearing.length * bearing.diameter / w * (bearing.radius / bearing.clearance) ** 2
+    mu = bearing.viscosity if viscosity is None else viscosity
+    c = bearing.clearance if clearance is None else clearance
+    return mu * n * bearing.length * bearing.diameter / w * (bearing.radius / c) ** 2
 
 
-def flow_scale(bearing: Bearing, omega: float) -> float:
-    """Omega * R * c * L (m^3/s): qbar = Q / flow_scale."""
-    return omega * bearing.radius * bearing.clearance * bearing.length
+def flow_scale(bearing: Bearing, omega: float, clearance: float | None = None) -> float:
+    """Omega * R * c * L (m^3/s): qbar = Q / flow_scale; `clearance` (m) instead of the bearing's."""
+    return omega * bearing.radius * (bearing.clearance if clearance is None else clearance) * bearing.length
 
 
 def geometry_values(bearing: Bearing) -> dict:
@@ -301,12 +305,13 @@ def combine(nodes: np.ndarray, slices: dict, sommerfeld: float) -> Combination:
 
 
 def dimensional_table(combo: Combination, bearing: Bearing, load, omega: float, *, index: int = 0,
-                      key: str = "", seconds: float = 0.0) -> CoefficientTable:
-    """The `CoefficientTable` (SI) of `bearing` under `load` at `omega` from the dimensionless values."""
+                      key: str = "", seconds: float = 0.0, clearance: float | None = None) -> CoefficientTable:
+    """The `CoefficientTable` (SI) of `bearing` under `load` at `omega` from the dimensionless values;
+    `clearance` (m) instead of the bearing's."""
     load = _check_load(load)
     w = float(np.hypot(*load))
-    c = bearing.clearance
-    q_t = combo.q_threshold * flow_scale(bearing, omega)
+    c = bearing.clearance if clearance is None else float(clearance)
+    q_t = combo.q_threshold * flow_scale(bearing, omega, c)
     v = combo.values
     return CoefficientTable(bearing=index, omega=float(omega), q_threshold=q_t, q=combo.ratio * q_t,
                             K=v[:, 0:4].reshape(-1, 2, 2) * (w / c), C=v[:, 4:8].reshape(-1, 2, 2) * (w / (c * omega)),

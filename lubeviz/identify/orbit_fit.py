@@ -82,8 +82,9 @@ SLOPE_MESH = 50  # film volumes each way for the slope of a flow below its Q_T (
 # difference straddles it on one mesh and not the other. With coarse slopes for every flow, a record with Q1 at
 # 1.23 Q_T settled on Q1 = 575 ml/min (1.06 Q_T), 14.5 % off, intervals missing the truth; with the rule here it
 # ends 1.25 / 1.48 % off, held (every slope on the model's films: 1.39 / 1.69 %; one record, BENCHMARKS "Large
-# orbits" and the diagnosis rows of sessions 12-13). Scaling the coarse flows
-# by the two meshes' Q_T ratio instead halved the error at 1.06 Q_T and tripled it at 1.24 Q_T: not used.
+# orbits" and the diagnosis rows of sessions 12-13). Scaling these slopes' coarse flows by the two meshes' Q_T
+# ratio instead halved the error at 1.06 Q_T and tripled it at 1.24 Q_T: not used for them (the coarse rounds
+# before the model's, `fit_large_orbit`, do scale their flows: there every balance is on the coarse films).
 COARSE_ROUNDS = 6  # rounds on the SLOPE_MESH films before those on the model's (see fit_large_orbit) ...
 COARSE_TOL = 0.01  # ... until the flows move by less than this fraction of Q_T (or SIGMA_TOL of their std)
 SLOPE_UNCERTAINTY = 0.2  # of the correction's slope: the model's 100 x 100 slope is not the 200 x 200 source's, and
@@ -143,15 +144,14 @@ def check_orbit_chain(chain: ForwardChain) -> None:
 
 
 def _balance(chain: ForwardChain, flows, start, harmonics, points, tol, progress, scale=1.0,
-             machine=None, slopes: bool = False, q_threshold=None, flow_factor=None) -> OrbitBalance:
+             machine=None, slopes: bool = False, flow_factor=None) -> OrbitBalance:
     """The balance at `flows` on `machine` (default the chain's); with `flow_factor`, at flows x that factor
-    (per bearing; Q_T `q_threshold` is in the unscaled flows), and its flow slopes per unit unscaled flow."""
+    (per bearing), its flow slopes per unit of the unscaled flows."""
     machine = chain.machine if machine is None else machine
     factor = np.ones(2) if flow_factor is None else np.asarray(flow_factor, float)
     fb = film_bearings(machine, [float(q) for q in np.asarray(flows, float) * factor], chain.omega)
     unbalances = [dataclasses.replace(u, moment=u.moment * scale) for u in machine_unbalance(machine)]
-    qt = (chain.q_threshold if q_threshold is None else np.asarray(q_threshold, float)) * factor
-    fs = equilibrium_flow_slopes(machine, fb, qt) if slopes else None
+    fs = equilibrium_flow_slopes(machine, fb, chain.q_threshold * factor) if slopes else None
     if fs is not None and flow_factor is not None:  # d/dq = factor d/d(scaled q)
         fs = [tuple(np.asarray(v) * f for v in parts) for parts, f in zip(fs, factor)]
     return orbit_balance(chain.rotor, fb, unbalances, nodes=chain.nodes, harmonics=harmonics,
@@ -180,7 +180,7 @@ def measured_scale(chain: ForwardChain, measured, theta, defect: ResponseDefect 
 
 def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = None, slope: bool = True,
                  step: float = 0.05, harmonics: int = HARMONICS, points: int = POINTS, tol: float = 1e-6,
-                 scale: float = 1.0, slope_films: SlopeFilms | None = None, machine=None, q_threshold=None,
+                 scale: float = 1.0, slope_films: SlopeFilms | None = None, machine=None,
                  flow_factor=None, progress: ProgressFn = silent) -> tuple[ResponseDefect, OrbitBalance]:
     """The balance at `flows` (m^3/s) on the chain's machine, speed and rotor, with the machine's unbalance
     times `scale`, and its defect per unit of that scale, with (`slope`) its slope in each flow and its change
@@ -189,14 +189,14 @@ def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = Non
     the film's response has its kink, a one-sided difference of balances over `step` Q_T on its own side: on
     `slope_films` (default: SLOPE_MESH films, continued from a balance at `flows` there) below Q_T, on the
     model's films from this balance at or above it, or when those films are the chain's own. `machine`: the
-    films of the balance (default the chain's machine; then `slope_films` must be on it too) and `q_threshold`
-    their Q_T (default the chain's); `flow_factor`: every balance at the flows x this (per bearing), e.g. the
-    ratio of `machine`'s Q_T to the chain's, so that a coarser mesh's kink lies where the model's does."""
+    films of the balance (default the chain's machine; another one comes with `slope_films` on it too);
+    `flow_factor`: every balance on them at the flows x this (per bearing), e.g. the ratio of `machine`'s Q_T
+    to the chain's, so that a coarser mesh's kink lies where the model's does (Q_T below is the chain's)."""
     q = np.asarray(flows, dtype=float)
-    qt = chain.q_threshold if q_threshold is None else np.asarray(q_threshold, float)
+    qt = chain.q_threshold
     # a flow whose +-step lies on one side of its Q_T takes the balance's own derivative (implicit, exact, local);
     # one within a step of the kink a one-sided difference of balances over the step (below)
-    smooth = smooth_flows(chain, q, step, qt) if slope else []
+    smooth = smooth_flows(chain, q, step) if slope else []
     n_bal = 3 if slope else 1  # progress: the balance, then the slope in each flow
     films = (SlopeFilms(chain) if slope_films is None else slope_films) if slope else None
     # a flow at or above its Q_T takes its slope on the model's own films (see SLOPE_MESH); the others on `films`
@@ -209,7 +209,7 @@ def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = Non
         films.last = base
         start = base if start is None else start  # a first balance starts from the coarse orbit's harmonics
     ob = _balance(chain, q, start, harmonics, points, tol, lambda i, n, t: progress(i / n, n_bal, t), scale,
-                  slopes=slope, machine=machine, q_threshold=qt, flow_factor=flow_factor)
+                  slopes=slope, machine=machine, flow_factor=flow_factor)
     x, y, static = _parts(chain, ob, scale)
     dx, dy, dst = np.zeros((2, 2), complex), np.zeros((2, 2), complex), np.zeros((2, 2, 2))
     dscale = None
@@ -260,10 +260,9 @@ def with_scale_coupling(chain: ForwardChain, measured, theta, defect: ResponseDe
                                dstatic=defect.dstatic + ss[:, :, None] * ds[None, None, :])
 
 
-def smooth_flows(chain: ForwardChain, q, step: float = 0.05, q_threshold=None) -> list[int]:
-    """The flows whose +-`step` Q_T lies on one side of their Q_T (away from the film's kink); `q_threshold`:
-    the films' Q_T (default the chain's)."""
-    qt = chain.q_threshold if q_threshold is None else q_threshold
+def smooth_flows(chain: ForwardChain, q, step: float = 0.05) -> list[int]:
+    """The flows whose +-`step` Q_T lies on one side of their Q_T (away from the film's kink)."""
+    qt = chain.q_threshold
     return [k for k in range(2) if q[k] - step * qt[k] >= qt[k] or q[k] + step * qt[k] < qt[k]]
 
 
@@ -331,9 +330,12 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     scales = [scale]
     state = dict(q=q, theta=theta, scale=scale, ob=None, defect=None, rounds=0)
 
-    def rounds(machine, films, qt, limit, stop_tol, label, factor=None):
-        """Rounds of balances on `machine`'s films (Q_T `qt`) with slopes from `films`, from the state's flows;
-        True when they settled (the flows moved by less than `stop_tol` of Q_T or SIGMA_TOL of their std)."""
+    qt = chain.q_threshold
+
+    def rounds(machine, films, limit, stop_tol, label, factor=None):
+        """Rounds of balances on `machine`'s films (at the flows x `factor`) with slopes from `films`, from the
+        state's flows; True when they settled (the flows moved by less than `stop_tol` of Q_T or SIGMA_TOL of
+        their std)."""
         q, theta, scale, ob = state["q"], state["theta"], state["scale"], state["ob"]
         defect = state["defect"]
         slope_at = scale_at = None
@@ -346,7 +348,7 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
             def sub(i, n, text, rnd=rnd):
                 progress(rnd - 1 + min(i / max(n, 1), 1.0), total, f"large orbits, {label} {rnd}: {text}")
 
-            exact = smooth_flows(chain, q, q_threshold=qt)
+            exact = smooth_flows(chain, q)
             smooth = len(exact) == 2
             # how each flow's slope is taken (exact, or a difference over the step on its side of Q_T): the secant
             # curvature is consistent between rounds that take every slope the same way
@@ -354,8 +356,8 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
             fresh = (smooth or slope_at is None or np.max(np.abs(q - slope_at) / qt) > SLOPE_REUSE
                      or np.any((q >= qt) != (slope_at >= qt)) or abs(scale / scale_at - 1.0) > SCALE_TOL)
             new, ob = orbit_defect(chain, q, start=ob, slope=fresh, harmonics=harmonics, points=points,
-                                   scale=scale, slope_films=films, machine=machine, q_threshold=qt,
-                                   flow_factor=factor, progress=sub)
+                                   scale=scale, slope_films=films, machine=machine, flow_factor=factor,
+                                   progress=sub)
             if fresh:
                 new = with_scale_coupling(chain, measured, theta, new)
                 if last_fresh is not None and last_fresh[0] == how:
@@ -389,11 +391,10 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
         progress(0, total, "large orbits: rounds on coarser films")
         coarse_films = SlopeFilms(chain, None, machine=slope_films.machine)
         factor = flooded_thresholds(coarse_films.machine, chain.omega) / chain.q_threshold
-        rounds(coarse_films.machine, coarse_films, chain.q_threshold, COARSE_ROUNDS, COARSE_TOL, "coarse round",
-               factor)
+        rounds(coarse_films.machine, coarse_films, COARSE_ROUNDS, COARSE_TOL, "coarse round", factor)
         slope_films.last = state["ob"]  # the fine rounds' coarse balances continue from here
         state["defect"] = None
-    converged = rounds(None, slope_films, chain.q_threshold, max_rounds, tol, "round")
+    converged = rounds(None, slope_films, max_rounds, tol, "round")
     q, theta, ob, defect = state["q"], state["theta"], state["ob"], state["defect"]
     scale_used = scales[-2]  # the size the last balance ran at
     progress(total - 1, total, "large orbits: intervals")

@@ -34,3 +34,9 @@ def test_an_unknown_diagnose_case_names_the_known_ones(capsys):
     err = capsys.readouterr().err
     assert "--cases" in err and "unknown foo" in err
     assert "large_orbit" in err and "viscosity" in err  # the cases it knows
+
+
+@pytest.mark.parametrize("extra", [["--calibrations", "0.8"], ["--budgets", "coefficient_k=0.002"]])
+def test_static_coverage_refuses_the_clean_corpus_options(capsys, extra):
+    assert main(["bench", "coverage", "--static", "--records", "1", *extra]) == 2
+    assert "--static" in capsys.readouterr().err

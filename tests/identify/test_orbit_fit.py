@@ -50,9 +50,10 @@ def _inside(interval, q):
 
 def test_the_linear_fit_is_biased_and_flagged_the_large_orbit_fit_recovers_the_flows(machine, independent):
     """The plain linear fit: biased (-3.7 / -24.7 % measured) and flagged (chi2 ~1e4). With `large_orbit`
-    declared the record is explained (chi2 0.24) and the answer is within 5 % (measured -2.7 / -2.8 % with the
-    balance's exact slopes, session 15; -0.6 / -0.6 % with the first rounds on coarser films at Q_T-scaled flows, session 16; -1.0 / -1.5 % with differenced slopes, session 14; -2.7 / -4.4 % while
-    Q2's slope came from coarse films), not asserted at the 1 % of issue 11: Q2 lies above Q_T, in a flat chi2
+    declared the record is explained and the answer is within 5 % (measured -0.6 / -0.6 % with the first rounds
+    on coarser films at Q_T-scaled flows, session 16; -2.7 / -2.8 % with the balance's exact slopes, session 15;
+    -1.0 / -1.5 % with differenced slopes, session 14; -2.7 / -4.4 % while Q2's slope came from coarse films),
+    not asserted at the 1 % of issue 11: Q2 lies above Q_T, in a flat chi2
     valley along which it trades against Q1, and the record itself supports no more: the 95 % intervals are
     [415, 471] for 460, [561, 646] for 600 (session 14: [379, 477], [564, 644]). They hold the truth
     since they carry the uncertainty of the correction's slope (`orbit_fit.SLOPE_UNCERTAINTY`); without it

@@ -162,11 +162,10 @@ def test_an_orbit_on_another_mesh_starts_the_films_from_its_patterns(coarse, mon
     fewer Newton steps than with every film started at the equilibrium's pattern (the large-orbit fit's first
     balance on the model's films, from its coarse rounds: 7 -> 3 steps, 7.5 -> 3.5 s on 100 x 100)."""
     import lubeviz.rotor.orbit_balance as ob_module
+    from lubeviz.model.machine import load_machine
 
     machine, rotor, bearings = coarse
     ub = _unbalance(machine, 0.5)
-    from lubeviz.model.machine import load_machine
-
     small = load_machine()
     small.bearings = [b.copy(n_circumferential=40, n_axial=30) for b in small.bearings]
     rough = orbit_balance(rotor_from_machine(small), film_bearings(small, bearings.flows, coefficients="fixed-pattern"),
