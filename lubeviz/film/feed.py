@@ -12,6 +12,7 @@ Three feeds (SPEC §3, §7):
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -66,17 +67,29 @@ def check_operating(bearing: Bearing, omega: float, position, velocity=(0.0, 0.0
 def make_mesh(bearing: Bearing, *, half: bool = True, alpha_offset: float | None = None) -> FilmMesh:
     """The bearing's mesh, placed so the groove is centred on it (see groove_aligned_offset), with the
     groove's columns and their neighbours split into `bearing.groove_refinement` sub-columns
-    (mesh.refined_split). A bearing without a groove gets a uniform mesh."""
-    n = bearing.n_circumferential
-    if not bearing.has_groove:
-        return FilmMesh(n, bearing.n_axial, bearing.radius, bearing.length,
-                        0.0 if alpha_offset is None else alpha_offset, half=half)
+    (mesh.refined_split). A bearing without a groove gets a uniform mesh. (One mesh object per geometry: the
+    films of a bearing share it and its arrays.)"""
+    return _mesh(bearing.n_circumferential, bearing.n_axial, bearing.radius, bearing.length, bool(bearing.has_groove),
+                 bearing.groove_angle, bearing.groove_length, bearing.groove_refinement, bool(half),
+                 None if alpha_offset is None else float(alpha_offset))
+
+
+@functools.lru_cache(maxsize=64)
+def _mesh(n, n_axial, radius, length, has_groove, groove_angle, groove_length, refinement, half, alpha_offset):
+    if not has_groove:
+        return FilmMesh(n, n_axial, radius, length, 0.0 if alpha_offset is None else alpha_offset, half=half)
     if alpha_offset is None:
-        alpha_offset = groove_aligned_offset(n, bearing.radius, bearing.groove_angle, bearing.groove_length)
-    split = refined_split(n, bearing.radius, alpha_offset, bearing.groove_angle, bearing.groove_length,
-                          bearing.groove_refinement)
-    return FilmMesh(n if split is None else sum(split), bearing.n_axial, bearing.radius, bearing.length,
-                    alpha_offset, half=half, split=split)
+        alpha_offset = groove_aligned_offset(n, radius, groove_angle, groove_length)
+    split = refined_split(n, radius, alpha_offset, groove_angle, groove_length, refinement)
+    return FilmMesh(n if split is None else sum(split), n_axial, radius, length, alpha_offset, half=half, split=split)
+
+
+@functools.lru_cache(maxsize=64)
+def _groove(mesh: FilmMesh, angle: float, length: float, width: float) -> np.ndarray:
+    """`mesh.groove_cells`, kept read-only for the films that share the mesh."""
+    g = groove_cells(mesh, angle, length, width)
+    g.flags.writeable = False
+    return g
 
 
 def setup_problem(bearing: Bearing, omega: float, position, feed: Feed, *, velocity=(0.0, 0.0),
@@ -97,7 +110,7 @@ def setup_problem(bearing: Bearing, omega: float, position, feed: Feed, *, veloc
     if not bearing.has_groove:
         raise InputError(f"{feed.describe()} needs a groove, but the bearing has none; use the plain feed")
     mesh = make_mesh(bearing) if mesh is None else mesh
-    groove = groove_cells(mesh, bearing.groove_angle, bearing.groove_length, bearing.groove_width)
+    groove = _groove(mesh, bearing.groove_angle, bearing.groove_length, bearing.groove_width)
     if feed.kind == "flooded":
         return build_problem(mesh, clearance=bearing.clearance, viscosity=bearing.viscosity, omega=omega,
                              position=position, velocity=velocity, groove=groove, fixed=groove)

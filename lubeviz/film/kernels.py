@@ -85,3 +85,47 @@ def mass_residual(C1, C2, aE, aW, aN, aS, S, P, theta):
                 r -= aS[j, i] * P[j - 1, i]
             R[j, i] = r - S[j, i]
     return R
+
+
+@numba.njit(cache=True, nogil=True)
+def pattern_csc(full, p_rows, p_vals, t_rows, t_vals):
+    """CSC arrays of a pattern system: column c is cell c's pressure column (p_rows/p_vals, (n, 5), rows sorted,
+    -1 = none) when full[c], its oil-fraction column (t_rows/t_vals, (n, 2)) otherwise. Also each row's sum of
+    |entries| (for the infinity norm). Returns (indptr, indices, data, row_abs)."""
+    n = full.size
+    indptr = np.empty(n + 1, np.int32)
+    indptr[0] = 0
+    for c in range(n):
+        k = 0
+        if full[c]:
+            for s in range(p_rows.shape[1]):
+                if p_rows[c, s] >= 0:
+                    k += 1
+        else:
+            for s in range(t_rows.shape[1]):
+                if t_rows[c, s] >= 0:
+                    k += 1
+        indptr[c + 1] = indptr[c] + k
+    nnz = indptr[n]
+    indices = np.empty(nnz, np.int32)
+    data = np.empty(nnz)
+    row_abs = np.zeros(n)
+    for c in range(n):
+        k = indptr[c]
+        if full[c]:
+            for s in range(p_rows.shape[1]):
+                r = p_rows[c, s]
+                if r >= 0:
+                    indices[k] = r
+                    data[k] = p_vals[c, s]
+                    row_abs[r] += abs(p_vals[c, s])
+                    k += 1
+        else:
+            for s in range(t_rows.shape[1]):
+                r = t_rows[c, s]
+                if r >= 0:
+                    indices[k] = r
+                    data[k] = t_vals[c, s]
+                    row_abs[r] += abs(t_vals[c, s])
+                    k += 1
+    return indptr, indices, data, row_abs

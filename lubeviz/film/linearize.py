@@ -38,22 +38,17 @@ def balance_derivatives(sol: FilmSolution) -> np.ndarray:
     pr = sol.problem
     m = pr.mesh
     c, om = pr.clearance, pr.omega
-    zeros = np.zeros(m.shape)
-    sin_c = np.broadcast_to(np.sin(m.alpha), m.shape)
-    cos_c = np.broadcast_to(np.cos(m.alpha), m.shape)
-    sin_e = np.broadcast_to(np.sin(m.alpha_east), m.shape)
-    cos_e = np.broadcast_to(np.cos(m.alpha_east), m.shape)
-    sq_unit = 2.0 * m.d_alpha / (om * c)  # d(sq)/d(hdot)
-    cases = [
-        (sin_c / c, sin_e / c, zeros),  # eX: dh/deX = sin(alpha)   (Eq. 1)
-        (-cos_c / c, -cos_e / c, zeros),  # eY: dh/deY = -cos(alpha)
-        (zeros, zeros, sq_unit * sin_c),  # vX: d(dh/dt)/dvX = sin(alpha)
-        (zeros, zeros, -sq_unit * cos_c),  # vY
-    ]
     out = np.empty((4,) + m.shape)
-    for k, (dH, dH_e, dsq) in enumerate(cases):
-        dcoef = coefficient_derivatives(m, pr.H, pr.H_e, dH, dH_e, dsq)
-        out[k] = residual(dcoef, sol.P, sol.theta)
+    no_squeeze = np.zeros(m.shape)
+    for k, (centre, east) in enumerate(((np.sin(m.alpha), np.sin(m.alpha_east)),  # eX: dh/deX = sin(alpha) (Eq. 1)
+                                        (-np.cos(m.alpha), -np.cos(m.alpha_east)))):  # eY: dh/deY = -cos(alpha)
+        dH = np.broadcast_to(centre / c, m.shape)
+        dH_e = np.broadcast_to(east / c, m.shape)
+        out[k] = residual(coefficient_derivatives(m, pr.H, pr.H_e, dH, dH_e, no_squeeze), sol.P, sol.theta)
+    # a velocity changes only the squeeze term of C1 (d(sq)/d(hdot) = 2 d_alpha / (Omega c)), so dR = d(sq) theta
+    sq_unit = 2.0 * m.d_alpha / (om * c)
+    out[2] = sq_unit * np.sin(m.alpha) * sol.theta  # vX: d(dh/dt)/dvX = sin(alpha)
+    out[3] = -sq_unit * np.cos(m.alpha) * sol.theta  # vY
     return out
 
 

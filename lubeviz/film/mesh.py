@@ -21,6 +21,7 @@ discrete solution is identical to the full-domain one (tested); the linear solve
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -29,6 +30,18 @@ import numpy as np
 from ..errors import InputError
 
 MIN_GROOVE_CELLS = 2  # cells the groove must span in each direction to be resolved
+
+
+def _frozen_array(method):
+    """A mesh's array property computed once and kept read-only (a mesh is immutable and shared between the
+    films of a bearing: every film solve of a harmonic balance asks for these)."""
+    def compute(self):
+        a = np.asarray(method(self))
+        a.flags.writeable = False
+        return a
+
+    compute.__name__, compute.__doc__ = method.__name__, method.__doc__
+    return functools.cached_property(compute)
 
 
 @dataclass(frozen=True)
@@ -69,7 +82,7 @@ class FilmMesh:
         """Columns of the mesh before refinement."""
         return self.n_circ if self.split is None else len(self.split)
 
-    @property
+    @_frozen_array
     def d_alpha(self) -> np.ndarray:
         """Angular width of each column (rad), shape (n_circ,)."""
         if self.split is None:
@@ -77,13 +90,13 @@ class FilmMesh:
         split = np.asarray(self.split)
         return np.repeat(2.0 * math.pi / self.n_nominal / split, split)
 
-    @property
+    @_frozen_array
     def d_alpha_east(self) -> np.ndarray:
         """Angle from each cell centre to the next one downstream (rad), shape (n_circ,)."""
         w = self.d_alpha
         return 0.5 * (w + np.roll(w, -1))
 
-    @property
+    @_frozen_array
     def nominal_column(self) -> np.ndarray:
         """Index of the nominal column each column belongs to, shape (n_circ,)."""
         if self.split is None:
@@ -103,23 +116,23 @@ class FilmMesh:
     def shape(self) -> tuple[int, int]:
         return (self.nz, self.n_circ)
 
-    @property
+    @_frozen_array
     def alpha(self) -> np.ndarray:
         """Cell-centre angles (rad), shape (n_circ,)."""
         w = self.d_alpha
         return self.alpha_offset + np.cumsum(w) - 0.5 * w
 
-    @property
+    @_frozen_array
     def alpha_east(self) -> np.ndarray:
         """Angles of the east (downstream) faces, shape (n_circ,)."""
         return self.alpha_offset + np.cumsum(self.d_alpha)
 
-    @property
+    @_frozen_array
     def z(self) -> np.ndarray:
         """Cell-centre axial positions (m), shape (nz,)."""
         return (np.arange(self.nz) + 0.5) * self.dz
 
-    @property
+    @_frozen_array
     def cell_area(self) -> np.ndarray:
         """Area of the cells of each column (m^2), shape (n_circ,)."""
         return self.radius * self.d_alpha * self.dz

@@ -44,7 +44,7 @@ import scipy.sparse.linalg as spla
 from ..errors import ConvergenceError
 from .linearize import DynamicCoefficients, balance_derivatives
 from .operator import FilmProblem, film_force, force_weights, residual, side_leakage
-from .solver import FilmSolution, _triplets
+from .solver import Columns, FilmSolution
 
 DEFAULT_SMOOTHING = 1e-7  # mu: P (1 - theta) = mu in every free cell (P in units of p_ref); chosen on the
 # uniform 100 x 100 mesh: it acts per cell, so on the refined groove columns (mesh.refined_split) it smooths more
@@ -62,13 +62,8 @@ class _ReducedSystem:
     """
 
     def __init__(self, problem: FilmProblem):
-        t = _triplets(problem)
-        kp = t.p_rowfree & t.p_colfree
-        kt = t.th_rowfree & t.th_colfree
-        self.rows = np.concatenate([t.cmap[t.p_rows[kp]], t.cmap[t.th_rows[kt]]])
-        self.cols = np.concatenate([t.cmap[t.p_cols[kp]], t.cmap[t.th_cols[kt]]])
-        self.vals = np.concatenate([t.p_vals[kp], t.th_vals[kt]])
-        self.is_p = np.concatenate([np.ones(kp.sum(), bool), np.zeros(kt.sum(), bool)])
+        t = Columns(problem)
+        self.rows, self.cols, self.vals, self.is_p = t.coo()
         n = t.n_free
         key = self.cols * n + self.rows  # CSC order: by column, then row
         uniq, self.slot = np.unique(key, return_inverse=True)

@@ -96,12 +96,11 @@ REFINE_RESIDUAL = 2e-17
 
 
 class _Root:
-    """A factorized pattern matrix that later systems may reuse: its LU, matrix and pattern (free cells)."""
+    """A factorized pattern matrix that later systems may reuse: its LU, pattern (free cells) and columns."""
 
-    def __init__(self, matrix: sp.csc_matrix, full_free: np.ndarray, free_idx: np.ndarray):
-        self.matrix = matrix
+    def __init__(self, matrix: sp.csc_matrix, full_free: np.ndarray, columns: "Columns"):
         self.full_free = full_free
-        self.free_idx = free_idx
+        self.columns = columns
         self.lu = spla.splu(matrix, permc_spec="MMD_AT_PLUS_A")
 
 
@@ -113,41 +112,37 @@ class PatternSystem:
     last one of a neighbouring film) offers its factorization for reuse (see the comment above the class).
     """
 
-    def __init__(self, problem: FilmProblem, full: np.ndarray, triplets: "_Triplets",
+    def __init__(self, problem: FilmProblem, full: np.ndarray, columns: "Columns",
                  base: "PatternSystem | None" = None):
         self.problem = problem
         self.full = full.copy()
-        t = triplets
+        t = columns
         fullf = full.ravel()
-        p_keep = t.p_rowfree & fullf[t.p_cols] & t.p_colfree
-        th_keep = t.th_rowfree & ~fullf[t.th_cols] & t.th_colfree
-        rows = np.concatenate([t.cmap[t.p_rows[p_keep]], t.cmap[t.th_rows[th_keep]]])
-        cols = np.concatenate([t.cmap[t.p_cols[p_keep]], t.cmap[t.th_cols[th_keep]]])
-        vals = np.concatenate([t.p_vals[p_keep], t.th_vals[th_keep]])
-        n = t.n_free
-        self.matrix = sp.csc_matrix((vals, (rows, cols)), shape=(n, n))
-        # theta = 1 of full and held cells is known: move it to the right-hand side.
-        th_known = t.th_rowfree & (fullf[t.th_cols] | ~t.th_colfree)
-        rhs = problem.coef.S.ravel()[t.free_idx].copy()
-        np.subtract.at(rhs, t.cmap[t.th_rows[th_known]], t.th_vals[th_known])
-        self.rhs = rhs
-        self.triplets = t
         self.full_free = fullf[t.free_idx]
+        indptr, indices, data, row_abs = kernels.pattern_csc(self.full_free, t.p_rows, t.p_vals, t.t_rows, t.t_vals)
+        n = t.n_free
+        self.matrix = sp.csc_matrix((data, indices, indptr), shape=(n, n))
+        # theta = 1 of full and held cells is known: move it to the right-hand side (C1 of a full cell's own
+        # balance, -C2 of the balance east of a full or held cell)
+        c = problem.coef
+        known = fullf | t.fixed_flat
+        self.rhs = (c.S.ravel() - c.C1.ravel() * fullf + c.C2.ravel() * known[t.west])[t.free_idx]
+        self.columns = t
         self._update = None  # (J, W, inverse capacitance) of the switched columns
         self.reused = False
         root = None if base is None else base._root
-        if (root is not None and root.free_idx.size == t.free_idx.size
-                and (root.free_idx is t.free_idx or np.array_equal(root.free_idx, t.free_idx))):
+        if (root is not None and root.columns.free_idx.size == t.free_idx.size
+                and (root.columns.free_idx is t.free_idx or np.array_equal(root.columns.free_idx, t.free_idx))):
             J = np.flatnonzero(self.full_free != root.full_free)
             if J.size <= MAX_SWITCHED:
                 self._root = root
                 self.reused = True
                 if J.size:
-                    U = (self.matrix[:, J] - root.matrix[:, J]).toarray()
+                    U = t.dense_columns(J, self.full_free[J]) - root.columns.dense_columns(J, root.full_free[J])
                     W = root.lu.solve(U)
                     cap = np.eye(J.size) + W[J]
                     self._update = (J, W, np.linalg.inv(cap))
-                self._anorm = float(abs(self.matrix).sum(axis=1).max())
+                self._anorm = float(row_abs.max())
                 return
         self._factorize()
 
@@ -156,7 +151,7 @@ class PatternSystem:
         return self._root.lu
 
     def _factorize(self) -> None:
-        self._root = _Root(self.matrix, self.full_free, self.triplets.free_idx)
+        self._root = _Root(self.matrix, self.full_free, self.columns)
         self._update = None
         self.reused = False
 
@@ -193,11 +188,11 @@ class PatternSystem:
 
     def fields(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(P, theta) on the mesh from the vector of unknowns."""
-        t = self.triplets
+        t = self.columns
         shape = self.problem.mesh.shape
         P = np.zeros(shape).ravel()
         theta = np.ones(shape).ravel()
-        fullf = self.full.ravel()[t.free_idx]
+        fullf = self.full_free
         P[t.free_idx[fullf]] = x[fullf]
         theta[t.free_idx[~fullf]] = x[~fullf]
         return P.reshape(shape), theta.reshape(shape)
@@ -207,53 +202,105 @@ class PatternSystem:
 
         `dR` has shape (k, nz, n_circ) for k parameters; returns dP of the same shape.
         """
-        t = self.triplets
+        t = self.columns
         k = dR.shape[0]
         b = -dR.reshape(k, -1)[:, t.free_idx].T
         dx = self._solve(np.ascontiguousarray(b))
-        fullf = self.full.ravel()[t.free_idx]
+        fullf = self.full_free
         dP = np.zeros((k, dR[0].size))
         dP[:, t.free_idx[fullf]] = dx[fullf].T
         return dP.reshape(dR.shape)
 
 
 @dataclass(frozen=True)
-class _Triplets:
-    """COO entries of the pressure and theta parts of the balance operator, plus free-cell maps."""
+class _Structure:
+    """Where each free cell's two candidate columns have their entries, for one mesh shape and set of held cells:
+    rows in free-cell numbering (sorted, -1 = none) and the index of each entry's coefficient in the stacked
+    arrays (aP, -aE, -aW, -aN, -aS) for the pressure column and (C1, -C2) for the oil-fraction column."""
 
-    p_rows: np.ndarray
-    p_cols: np.ndarray
-    p_vals: np.ndarray
-    th_rows: np.ndarray
-    th_cols: np.ndarray
-    th_vals: np.ndarray
-    p_rowfree: np.ndarray
-    p_colfree: np.ndarray
-    th_rowfree: np.ndarray
-    th_colfree: np.ndarray
     free_idx: np.ndarray
-    cmap: np.ndarray
-    n_free: int
+    fixed_flat: np.ndarray
+    west: np.ndarray  # each cell's upstream neighbour (flat index)
+    p_rows: np.ndarray  # (n_free, 5)
+    p_src: np.ndarray
+    t_rows: np.ndarray  # (n_free, 2)
+    t_src: np.ndarray
 
 
-def _triplets(problem: FilmProblem) -> _Triplets:
-    nz, nc = problem.mesh.shape
-    c = problem.coef
-    k = np.arange(nz * nc).reshape(nz, nc)
+_STRUCTURES: dict = {}
+
+
+def _structure(shape: tuple[int, int], fixed: np.ndarray) -> _Structure:
+    key = (shape, fixed.tobytes())
+    s = _STRUCTURES.get(key)
+    if s is not None:
+        return s
+    nz, nc = shape
+    N = nz * nc
+    k = np.arange(N).reshape(nz, nc)
     east, west = np.roll(k, -1, axis=1), np.roll(k, 1, axis=1)
-    p_rows = [k, k, k, k[:-1], k[1:]]
-    p_cols = [k, east, west, k[1:], k[:-1]]
-    p_vals = [c.aP, -c.aE, -c.aW, -c.aN[:-1], -c.aS[1:]]
-    th_rows, th_cols, th_vals = [k, k], [k, west], [c.C1, -c.C2]
-    cat = lambda parts: np.concatenate([np.ravel(a) for a in parts])  # noqa: E731
-    pr, pc, pv = cat(p_rows), cat(p_cols), cat(p_vals)
-    tr, tc, tv = cat(th_rows), cat(th_cols), cat(th_vals)
-    free = ~problem.fixed.ravel()
+    none = np.full((1, nc), -1)
+    south = np.vstack([none, k[:-1]])  # the cell j - 1 (its balance holds -aN_{j-1} P_j)
+    north = np.vstack([k[1:], none])  # the cell j + 1 (its balance holds -aS_{j+1} P_j)
+    free = ~fixed.ravel()
     free_idx = np.flatnonzero(free)
-    cmap = np.full(nz * nc, -1)
+    cmap = np.full(N + 1, -1)  # cmap[-1] = -1: "no neighbour" stays none
     cmap[free_idx] = np.arange(free_idx.size)
-    return _Triplets(pr, pc, pv, tr, tc, tv, free[pr], free[pc], free[tr], free[tc],
-                     free_idx, cmap, int(free_idx.size))
+
+    def column(cells, planes):
+        cells = np.stack([c.ravel()[free_idx] for c in cells], axis=1)
+        rows = cmap[cells]  # a held or missing row is no entry
+        src = np.where(cells >= 0, np.asarray(planes)[None, :] * N + cells, 0)
+        order = np.argsort(np.where(rows < 0, N + 1, rows), axis=1, kind="stable")
+        return (np.ascontiguousarray(np.take_along_axis(rows, order, 1)),
+                np.ascontiguousarray(np.take_along_axis(src, order, 1)))
+
+    p_rows, p_src = column([k, west, east, south, north], [0, 1, 2, 3, 4])
+    t_rows, t_src = column([k, east], [0, 1])
+    s = _Structure(free_idx, ~free, west.ravel(), p_rows, p_src, t_rows, t_src)
+    if len(_STRUCTURES) > 32:
+        _STRUCTURES.clear()
+    _STRUCTURES[key] = s
+    return s
+
+
+class Columns:
+    """The balance operator of one problem as two candidate columns per free cell (numbered among the free
+    cells): a full cell's column holds the coefficients of its pressure, a cavitated cell's those of its oil
+    fraction. A pattern's matrix takes one of each cell's two (`kernels.pattern_csc`)."""
+
+    def __init__(self, problem: FilmProblem):
+        nz, nc = problem.mesh.shape
+        if nc < 3:
+            raise ValueError("the balance operator needs at least 3 columns around the circumference")
+        s = _structure(problem.mesh.shape, problem.fixed)
+        c = problem.coef
+        vp = np.concatenate([c.aP.ravel(), -c.aE.ravel(), -c.aW.ravel(), -c.aN.ravel(), -c.aS.ravel()])
+        vt = np.concatenate([c.C1.ravel(), -c.C2.ravel()])
+        self.p_rows, self.t_rows = s.p_rows, s.t_rows
+        self.p_vals, self.t_vals = vp[s.p_src], vt[s.t_src]
+        self.free_idx, self.fixed_flat, self.west = s.free_idx, s.fixed_flat, s.west
+        self.n_free = int(s.free_idx.size)
+
+    def dense_columns(self, J: np.ndarray, full: np.ndarray) -> np.ndarray:
+        """(n_free, len(J)): column J[i] of the pattern with cell J[i] full when full[i], dense."""
+        out = np.zeros((self.n_free, J.size))
+        for i, (j, f) in enumerate(zip(J, full)):
+            rows, vals = (self.p_rows[j], self.p_vals[j]) if f else (self.t_rows[j], self.t_vals[j])
+            ok = rows >= 0
+            out[rows[ok], i] = vals[ok]
+        return out
+
+    def coo(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Every entry of both candidate columns: (rows, cols, values, is_pressure) among the free cells."""
+        n = self.n_free
+        pr, tr = self.p_rows.ravel(), self.t_rows.ravel()
+        pc = np.repeat(np.arange(n), self.p_rows.shape[1])
+        tc = np.repeat(np.arange(n), self.t_rows.shape[1])
+        kp, kt = pr >= 0, tr >= 0
+        return (np.concatenate([pr[kp], tr[kt]]), np.concatenate([pc[kp], tc[kt]]),
+                np.concatenate([self.p_vals.ravel()[kp], self.t_vals.ravel()[kt]]),
+                np.concatenate([np.ones(kp.sum(), bool), np.zeros(kt.sum(), bool)]))
 
 
 def initial_pattern(problem: FilmProblem) -> np.ndarray:
@@ -292,7 +339,7 @@ def solve_active_set(problem: FilmProblem, full0: np.ndarray | None = None, max_
     each later system may reuse the one before's. Only the work depends on it (see PatternSystem).
     """
     t0 = time.perf_counter()
-    trip = _triplets(problem)
+    trip = Columns(problem)
     full = (initial_pattern(problem) if full0 is None else full0.copy()) & ~problem.fixed
     seen = set()
     tol = 1e-12

@@ -17,7 +17,7 @@ import numpy as np
 
 from .feed import Feed, setup_problem
 from .operator import FilmProblem, film_force
-from .solver import PatternSystem, _triplets, _whole
+from .solver import Columns, PatternSystem, _whole
 
 
 @dataclass(frozen=True)
@@ -39,7 +39,7 @@ def sommerfeld_film(bearing, omega: float, position) -> SommerfeldFilm:
 
 def sommerfeld_solution(problem: FilmProblem) -> SommerfeldFilm:
     """Full and half Sommerfeld solutions of `problem` with every free cell full (its feed as given)."""
-    system = PatternSystem(problem, ~problem.fixed, _triplets(problem))
+    system = PatternSystem(problem, ~problem.fixed, Columns(problem))
     P, _ = system.fields(system.solve())
     half = np.maximum(P, 0.0)
     return SommerfeldFilm(full=_whole(problem, P) * problem.p_ref, half=_whole(problem, half) * problem.p_ref,

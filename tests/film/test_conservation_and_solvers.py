@@ -99,11 +99,11 @@ def test_a_reused_factorization_changes_the_work_not_the_answer(paper_bearing):
     factorization to round-off: within one active-set solve (same position), after an equilibrium-sized Newton
     step (4e-5 c, refined), and from a root too far away to refine (factorized afresh)."""
     from lubeviz.film.linearize import fixed_pattern_coefficients
-    from lubeviz.film.solver import PatternSystem, _triplets, solve_active_set
+    from lubeviz.film.solver import Columns, PatternSystem, solve_active_set
 
     feed = Feed.flow(400 / 6e7)
     first = solve(setup_problem(paper_bearing, OMEGA_75HZ, POSITION, feed), base=None)
-    root = PatternSystem(first.problem, first.full, _triplets(first.problem))  # factorized, first's pattern
+    root = PatternSystem(first.problem, first.full, Columns(first.problem))  # factorized, first's pattern
     c = paper_bearing.clearance
     for shift, expect_reuse in ((4e-5, True), (3e-2, False)):
         pos = (POSITION[0] + shift * c, POSITION[1] - shift * c)
@@ -119,7 +119,7 @@ def test_a_reused_factorization_changes_the_work_not_the_answer(paper_bearing):
         np.testing.assert_allclose(ka.C, kb.C, rtol=0, atol=1e-10 * np.abs(kb.C).max())
         # the same pattern at the moved journal: refined from the root's LU after a Newton-sized step; from a
         # root 3 % of the clearance away the refinement does not contract and the system is factorized afresh
-        trip = _triplets(problem)
+        trip = Columns(problem)
         system = PatternSystem(problem, first.full, trip, base=root)
         assert system.reused  # offered and taken (no switched cells) ...
         x = system.solve()
@@ -131,7 +131,7 @@ def test_a_reused_factorization_changes_the_work_not_the_answer(paper_bearing):
     full = first.full.copy()
     cells = np.argwhere(full & ~problem.fixed)[:5]
     full[tuple(cells.T)] = False
-    trip = _triplets(problem)
+    trip = Columns(problem)
     fresh = PatternSystem(problem, full, trip)
     update = PatternSystem(problem, full, trip, base=root)
     assert update.reused and update._update[0].size == 5
