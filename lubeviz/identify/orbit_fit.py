@@ -149,7 +149,9 @@ def _balance(chain: ForwardChain, flows, start, harmonics, points, tol, progress
     (per bearing), its flow slopes per unit of the unscaled flows."""
     machine = chain.machine if machine is None else machine
     factor = np.ones(2) if flow_factor is None else np.asarray(flow_factor, float)
-    fb = film_bearings(machine, [float(q) for q in np.asarray(flows, float) * factor], chain.omega)
+    # the equilibria start from those of the orbit the balance starts from (a nearby operating point)
+    fb = film_bearings(machine, [float(q) for q in np.asarray(flows, float) * factor], chain.omega,
+                       previous=None if start is None else start.bearings)
     unbalances = [dataclasses.replace(u, moment=u.moment * scale) for u in machine_unbalance(machine)]
     fs = equilibrium_flow_slopes(machine, fb, chain.q_threshold * factor) if slopes else None
     if fs is not None and flow_factor is not None:  # d/dq = factor d/d(scaled q)
@@ -404,7 +406,8 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     if not converged:
         warnings.append(f"large orbits: the flows still moved by more than {100 * tol:g} % of Q_T after "
                         f"{max_rounds} balances")
-    stability = equilibrium_stability(chain.rotor, film_bearings(chain.machine, [float(v) for v in q], chain.omega))
+    stability = equilibrium_stability(chain.rotor, film_bearings(chain.machine, [float(v) for v in q], chain.omega,
+                                                                 previous=ob.bearings))
     if stability.unstable:
         warnings.append(f"large orbits: at the flows found the model is {stability.describe()}; the periodic orbit "
                         "fitted is then not what the machine would show (a sub-synchronous line would grow)")

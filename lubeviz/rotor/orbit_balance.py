@@ -93,6 +93,7 @@ class OrbitBalance:
     scale_slope_x: np.ndarray | None = None
     scale_slope_y: np.ndarray | None = None
     films: tuple | None = field(default=None, repr=False, compare=False)  # the last film at each bearing, phase
+    bearings: FilmBearings | None = field(default=None, repr=False, compare=False)  # the equilibria it ran on
 
     @property
     def journal_harmonics(self) -> np.ndarray:
@@ -389,7 +390,7 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
                         bearing_x=qb[:, 0::2], bearing_y=qb[:, 1::2], linear_x=np.asarray(Ao[1][0::2]),
                         linear_y=np.asarray(Ao[1][1::2]), iterations=it, film_solves=solves, residual=change,
                         max_eccentricity=max_eps, seconds=time.perf_counter() - t0, dofs=dofs,
-                        films=tuple(tuple(f) for f in films),
+                        films=tuple(tuple(f) for f in films), bearings=bearings,
                         flow_slope_x=None if slopes is None else slopes[..., 0::2],
                         flow_slope_y=None if slopes is None else slopes[..., 1::2],
                         scale_slope_x=None if slopes is None else scale_slopes[:, 0::2],
