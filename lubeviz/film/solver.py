@@ -87,8 +87,8 @@ def _whole(problem: FilmProblem, a: np.ndarray) -> np.ndarray:
 # (0.18 against 3.3 ms at 6500 unknowns), a k-column one ~0.1 + 0.09 k ms: up to MAX_SWITCHED columns.
 # Measured on dimensionless slices (S = 0.05 / 1.91 / 8.0, 141 equilibria each): 1157 -> ~540 factorizations,
 # 7.3 / 7.7 / 8.3 -> 6.7 / 6.9 / 7.4 s, values equal to 1e-12 of each column's max. The harmonic balance
-# (rotor.orbit_balance) reuses within a film solve only: its 2 threads are then bound by the interpreter's
-# lock (the Python-side work per film), and reusing across its Newton steps made it 8 % slower there.
+# (rotor.orbit_balance) reuses within a film solve only: reusing across its Newton steps saved 8 % on one thread
+# and nothing on its two (a back-substitution holds the interpreter's lock, a factorization mostly does not).
 MAX_SWITCHED = 12
 REFINE_STEPS = 4
 REFINE_RATE = 0.05
