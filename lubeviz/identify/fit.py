@@ -366,6 +366,26 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
                q_threshold=ref.q_threshold.copy(), features_sigma=np.sqrt(np.sum(prob.L ** 2, axis=1)))
 
 
+def sandwich_cov(chain, measured, theta, *, names: Sequence[str] | None = None, weights: ModelBudget,
+                 budget: ModelBudget) -> np.ndarray:
+    """Covariance of the free parameters of a fit weighted with the model budget `weights` when the model's
+    error is the larger `budget` (a term left out of the weights, e.g. one whose size is uncertain itself):
+    A V A^T, A = (J^T W^-1 J)^-1 J^T W^-1 with W and V the noise + each budget's covariance at `theta` and J
+    the features' Jacobian there (the sandwich estimator). Linear in the model's error, so it holds near theta."""
+    parts, noise = _parts([chain], [measured], names)
+    free = np.arange(chain.n_params)
+    probe = _Problem(parts, np.eye(noise.shape[0]), free)
+    W = probe.model_cov(theta, weights, noise)
+    V = probe.model_cov(theta, budget, noise)
+    (ch, ns, _), = parts
+    _, J = ch.jacobian(np.asarray(theta, dtype=float), ns, free=free)
+    scale = _scales(chain)
+    Js = J * scale  # scaled columns, as in `fit`
+    WiJ = np.linalg.solve(W, Js)
+    A = np.linalg.pinv(Js.T @ WiJ) @ WiJ.T
+    return scale[:, None] * (A @ V @ A.T) * scale[None, :]
+
+
 def std_within(names, values, std, cov, intervals: dict) -> tuple[np.ndarray, np.ndarray]:
     """(std, cov) with each flow's std at least its 95 % interval's larger half-width / 1.96, that row and
     column of the covariance scaled alike (the correlations stay). The covariance is the fit's linearization
