@@ -96,36 +96,22 @@ def pattern_csc(full, p_rows, p_vals, t_rows, t_vals):
     indptr = np.empty(n + 1, np.int32)
     indptr[0] = 0
     for c in range(n):
-        k = 0
-        if full[c]:
-            for s in range(p_rows.shape[1]):
-                if p_rows[c, s] >= 0:
-                    k += 1
-        else:
-            for s in range(t_rows.shape[1]):
-                if t_rows[c, s] >= 0:
-                    k += 1
-        indptr[c + 1] = indptr[c] + k
-    nnz = indptr[n]
-    indices = np.empty(nnz, np.int32)
-    data = np.empty(nnz)
+        rows = p_rows[c] if full[c] else t_rows[c]
+        m = 0
+        for s in range(rows.size):
+            m += rows[s] >= 0
+        indptr[c + 1] = indptr[c] + m
+    indices = np.empty(indptr[n], np.int32)
+    data = np.empty(indptr[n])
     row_abs = np.zeros(n)
     for c in range(n):
+        rows, vals = (p_rows[c], p_vals[c]) if full[c] else (t_rows[c], t_vals[c])
         k = indptr[c]
-        if full[c]:
-            for s in range(p_rows.shape[1]):
-                r = p_rows[c, s]
-                if r >= 0:
-                    indices[k] = r
-                    data[k] = p_vals[c, s]
-                    row_abs[r] += abs(p_vals[c, s])
-                    k += 1
-        else:
-            for s in range(t_rows.shape[1]):
-                r = t_rows[c, s]
-                if r >= 0:
-                    indices[k] = r
-                    data[k] = t_vals[c, s]
-                    row_abs[r] += abs(t_vals[c, s])
-                    k += 1
+        for s in range(rows.size):
+            r = rows[s]
+            if r >= 0:
+                indices[k] = r
+                data[k] = vals[s]
+                row_abs[r] += abs(vals[s])
+                k += 1
     return indptr, indices, data, row_abs
