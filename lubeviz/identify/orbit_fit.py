@@ -68,7 +68,7 @@ from ..rotor.response import machine_unbalance
 from ..rotor.whirl import Stability, equilibrium_stability
 from .budget import ModelBudget
 from .chain import ForwardChain, ResponseDefect
-from .fit import Fit, fit, sandwich_cov, std_within
+from .fit import Z95, Fit, fit, sandwich_cov, std_within
 
 
 SIGMA_TOL = 0.2  # the rounds also stop when the flows move by less than this fraction of their standard deviation
@@ -455,8 +455,8 @@ def _truncation_union(chain: ForwardChain, measured, final: Fit, intervals: dict
     """`intervals` widened to hold each flow +- 1.96 sigma of the fit's answer when the model's error is the whole
     `budget` (its harmonic-truncation term included) and the weights are the fit's (`fit.sandwich_cov`). Against the
     time integration the balance's correction is 12 % off at the paper's unbalance near Q_T (0.45 share^2 per
-    component, `ModelBudget.orbit_truncation`); the bench's 1 x records' sigma grows from 1-5 % of the flows to
-    11-20 % with the answers unchanged (0.6 x: unchanged, the per-entry 3 % is the larger term there)."""
+    component, `ModelBudget.orbit_truncation`); the bench's 1 x records' sigma grows from 4-7 % of the flows to
+    11-20 % with the answers unchanged (0.6 x: nearly unchanged, the per-entry 3 % is the larger term there)."""
     if budget.orbit_truncation <= 0:
         return intervals
     theta = np.asarray(final.values, dtype=float)
@@ -464,7 +464,7 @@ def _truncation_union(chain: ForwardChain, measured, final: Fit, intervals: dict
     out = dict(intervals)
     floor = chain.bounds(lower, 2.0)[0]
     for k, n in enumerate(chain.names[:2]):
-        half = 1.959964 * math.sqrt(max(cov[k, k], 0.0))
+        half = Z95 * math.sqrt(max(cov[k, k], 0.0))
         lo, hi = out.get(n, (theta[k], theta[k]))
         out[n] = (max(min(lo, theta[k] - half), floor[k]), None if hi is None else max(hi, theta[k] + half))
     return out
