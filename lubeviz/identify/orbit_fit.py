@@ -321,7 +321,7 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     """
     t0 = time.perf_counter()
     check_orbit_chain(chain)
-    # the rounds and the fits weigh the features with the budget less its harmonic-truncation term, whose size is
+    # the rounds and the fits weigh the features with the budget less its `orbit_truncation` term, whose size is
     # itself uncertain (measured against the time integration at two points); the flows' uncertainty carries it
     # (`_truncation_union`: the sandwich covariance of these weights under the whole budget)
     full_budget = budget or ModelBudget()
@@ -453,7 +453,7 @@ def _slope_union(chain: ForwardChain, measured, defect: ResponseDefect, theta, f
 def _truncation_union(chain: ForwardChain, measured, final: Fit, intervals: dict, kw, budget: ModelBudget,
                       lower: float) -> dict:
     """`intervals` widened to hold each flow +- 1.96 sigma of the fit's answer when the model's error is the whole
-    `budget` (its harmonic-truncation term included) and the weights are the fit's (`fit.sandwich_cov`). Against the
+    `budget` (its `orbit_truncation` term included) and the weights are the fit's (`fit.sandwich_cov`). Against the
     time integration the balance's correction is 12 % off at the paper's unbalance near Q_T (0.45 share^2 per
     component, `ModelBudget.orbit_truncation`); the bench's 1 x records' sigma grows from 4-7 % of the flows to
     11-20 % with the answers unchanged (0.6 x: nearly unchanged, the per-entry 3 % is the larger term there)."""
