@@ -67,9 +67,9 @@ STATIC_POSITION = 0.001
 # norm at the paper's unbalance on 60 x 40 films (its share of the 1X 0.354), 12.3 % on the model's 100 x 100 films
 # (share 0.354), 4.3 % at 0.6 x of it (share 0.216); not a common factor (one complex factor leaves 9.6 % at 1 x).
 # Not the pattern of a plain truncation: 5 harmonics on 48-192 points 13.3 %, 8 / 48 14.1 %, 10 / 64 13.6 %, 12 / 96
-# 12.0 %, 14 / 96 9.9 % (20 / 128: the 1X 2.5 % off instead of 4.6 %); the time integration may settle on another
-# periodic solution than the balance's branch (one was seen before, `rotor.orbit_balance`). Either way the model's
-# orbit is uncertain by this much.
+# 12.0 %, 14 / 96 9.9 % (20 / 128: the 1X 2.5 % off instead of 4.6 %). Not another branch: Newton from the time
+# integration's orbit returns to the balance's; that orbit's 2X-5X differ by 1.5-3.7 % of the 1X and it holds
+# harmonics above 5X, which feed back into the 1X. Either way the model's orbit is uncertain by this much.
 # Per real component (8: each entry's real and imaginary part) the RMS error is the norm / sqrt(8), relative to the
 # correction's norm 0.048 / 0.043 / 0.015, which grows as the share squared (0.38 / 0.35 / 0.33 share^2): the term is
 # 0.45 share^2 of the correction's norm per component, at least `orbit_defect`. (tests/rotor/test_orbit_balance.py)
@@ -105,8 +105,8 @@ class ModelBudget(param.Parameterized):
                                 "against the 200^2 one: 2.0 % at the paper's unbalance, 3.4 % at 0.6 x of it; 5 "
                                 "harmonics and 24 points against 6 and 36: 1.3 %); only when large orbits are declared")
     orbit_truncation = Quantity(ORBIT_TRUNCATION, bounds=(0.0, 10.0), unit="",
-                                doc="The balance's orbit against the time integration's on the same films (truncation, "
-                                    "or another periodic solution: not yet known): each component of the correction's error, relative to its size, "
+                                doc="The balance's orbit against the time integration's on the same films (the harmonics "
+                                    "it leaves out): each component of the correction's error, relative to its size, "
                                     "is this times the square of the correction's share of the 1X, when larger than "
                                     "`orbit_defect` (RMS measured 0.043-0.048 at the paper's unbalance near Q_T, a "
                                     "share of 0.354; 0.015 at 0.6 x, share 0.216)")
