@@ -12,6 +12,7 @@ reused for the dynamic coefficients (the linearization with the pattern held fix
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 
@@ -258,6 +259,8 @@ def _structure(shape: tuple[int, int], fixed: np.ndarray) -> _Structure:
     p_rows, p_src = column([k, west, east, south, north], [0, 1, 2, 3, 4])
     t_rows, t_src = column([k, east], [0, 1])
     s = _Structure(free_idx, ~free, west.ravel(), p_rows, p_src, t_rows, t_src)
+    for a in dataclasses.astuple(s):  # shared by every problem on this mesh
+        a.flags.writeable = False
     if len(_STRUCTURES) > 32:
         _STRUCTURES.clear()
     _STRUCTURES[key] = s
@@ -270,10 +273,7 @@ class Columns:
     fraction. A pattern's matrix takes one of each cell's two (`kernels.pattern_csc`)."""
 
     def __init__(self, problem: FilmProblem):
-        nz, nc = problem.mesh.shape
-        if nc < 3:
-            raise ValueError("the balance operator needs at least 3 columns around the circumference")
-        s = _structure(problem.mesh.shape, problem.fixed)
+        s = _structure(problem.mesh.shape, problem.fixed)  # (a mesh has >= 8 columns: east and west differ)
         c = problem.coef
         vp = np.concatenate([c.aP.ravel(), -c.aE.ravel(), -c.aW.ravel(), -c.aN.ravel(), -c.aS.ravel()])
         vt = np.concatenate([c.C1.ravel(), -c.C2.ravel()])

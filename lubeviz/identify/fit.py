@@ -368,7 +368,7 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
 
 def sandwich_cov(chain, measured, theta, *, names: Sequence[str] | None = None, weights: ModelBudget,
                  budget: ModelBudget) -> np.ndarray:
-    """Covariance of the free parameters of a fit weighted with the model budget `weights` when the model's
+    """Covariance of the parameters (all free) of a fit weighted with the model budget `weights` when the model's
     error is the larger `budget` (a term left out of the weights, e.g. one whose size is uncertain itself):
     A V A^T, A = (J^T W^-1 J)^-1 J^T W^-1 with W and V the noise + each budget's covariance at `theta` and J
     the features' Jacobian there (the sandwich estimator). Linear in the model's error, so it holds near theta."""

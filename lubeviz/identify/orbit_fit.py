@@ -409,7 +409,7 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     final = fit(chain.with_defect(defect), measured, start=theta, **kw)
     intervals = _slope_union(chain, measured, defect, theta, final, kw)
     final = _with_std_of(final, _truncation_union(chain.with_defect(defect), measured, final, intervals, kw,
-                                                  full_budget, lower))
+                                                  full_budget))
     warnings = list(final.warnings)
     if not converged:
         warnings.append(f"large orbits: the flows still moved by more than {100 * tol:g} % of Q_T after "
@@ -450,8 +450,7 @@ def _slope_union(chain: ForwardChain, measured, defect: ResponseDefect, theta, f
     return out
 
 
-def _truncation_union(chain: ForwardChain, measured, final: Fit, intervals: dict, kw, budget: ModelBudget,
-                      lower: float) -> dict:
+def _truncation_union(chain: ForwardChain, measured, final: Fit, intervals: dict, kw, budget: ModelBudget) -> dict:
     """`intervals` widened to hold each flow +- 1.96 sigma of the fit's answer when the model's error is the whole
     `budget` (its `orbit_truncation` term included) and the weights are the fit's (`fit.sandwich_cov`). Against the
     time integration the balance's correction is 12 % off at the paper's unbalance near Q_T (0.45 share^2 per
@@ -462,7 +461,7 @@ def _truncation_union(chain: ForwardChain, measured, final: Fit, intervals: dict
     theta = np.asarray(final.values, dtype=float)
     cov = sandwich_cov(chain, measured, theta, names=kw["names"], weights=kw["budget"], budget=budget)
     out = dict(intervals)
-    floor = chain.bounds(lower, 2.0)[0]
+    floor = chain.bounds(kw["lower"], kw["upper"])[0]
     for k, n in enumerate(chain.names[:2]):
         half = Z95 * math.sqrt(max(cov[k, k], 0.0))
         lo, hi = out.get(n, (theta[k], theta[k]))
