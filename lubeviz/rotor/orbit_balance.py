@@ -160,7 +160,8 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
     `harmonics` H (>= 1) and `points` N per revolution (>= 2H + 2, so no harmonic aliases onto another).
     Raises ConvergenceError when the iteration does not settle (an orbit too large for a periodic
     solution near the linear one) or the journal approaches the bearing wall.
-    `start`: the orbit at a nearby operating point (same speed, harmonics and points), from which Newton
+    `start`: the orbit at a nearby operating point (same speed; its harmonics padded or cut to H, each point
+    warm-started from its nearest phase point: so a coarser balance starts a finer one), from which Newton
     starts (its films warm-start the film solves when they have this mesh): a continuation along the branch
     that grows from the linear orbit. Without it Newton starts at the linear orbit. (Far from it, e.g. from the orbit at flows
     10-20 % away, a fixed-point iteration was seen to land on another periodic solution with the same 1X
@@ -207,13 +208,14 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
     C0 = [e.coefficients.C for e in eqs]
     films = [[e.film] * N for e in eqs]  # warm starts: each phase point from its own last solve
     if start is not None:
-        if start.harmonics != H or start.films is None or len(start.films[0]) != N \
-                or abs(start.omega - omega) > 1e-9 * omega:
-            raise InputError("orbit_balance: the start orbit has another speed, harmonic count or point count")
+        if start.films is None or abs(start.omega - omega) > 1e-9 * omega:
+            raise InputError("orbit_balance: the start orbit has another speed or carries no films")
+        n_s = len(start.films[0])  # another point count: each point warm-starts from the start's nearest phase
+        near = [int(round(k * n_s / N)) % n_s for k in range(N)]
         if all(f[0].P.shape == e.film.P.shape for f, e in zip(start.films, eqs)):
-            films = [list(f) for f in start.films]
+            films = [[f[i] for i in near] for f in start.films]
         else:  # an orbit on another film mesh: its harmonics are the start, its films' patterns the films' starts
-            films = [[_mapped_film(f, e.film) for f in sf] for sf, e in zip(start.films, eqs)]
+            films = [[_mapped_film(sf[i], e.film) for i in near] for sf, e in zip(start.films, eqs)]
     solves = 0
 
     want_q = flow_slopes is not None
@@ -311,14 +313,21 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
 
     pool = _pool(threads) if threads > 1 else None  # the films of one revolution, side by side
     scale = max(np.abs(A[1]).max(), 1e-12)
-    z = pack(A if start is None else start.journal_harmonics)
+    if start is None:
+        z = pack(A)
+    else:  # another harmonic count: the start's harmonics, those it lacks zero (a refinement of a coarser balance)
+        qs = np.zeros((H + 1, 2 * nb), complex)
+        m = min(H, start.harmonics) + 1
+        qs[:m] = start.journal_harmonics[:m]
+        z = pack(qs)
     exact = False  # the first steps move the orbit far: their films inexact (also from a nearby orbit's start)
     g, (R, dq, dv, max_eps, dfq) = G(z, exact)
     f = g - z
     change = float(np.abs(f).max() / scale)
-    it = 0
+    it, stalled = 0, False
     while True:  # Newton on F(z) = G(z) - z with the films' tangents, halving a step that fails
-        if not exact and change < INEXACT_ABOVE:  # close enough: every film exact from here on, this point too
+        if not exact and (change < INEXACT_ABOVE or stalled):  # close enough, or the inexact films' tangent
+            # misleads (a step had to be shortened): every film exact from here on, this point too
             exact = True
             g, (R, dq, dv, max_eps, dfq) = G(z)
             f = g - z
@@ -351,6 +360,7 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
         if taken is None:
             raise failure
         z, f, g, (R, dq, dv, max_eps, dfq) = taken
+        stalled = lam < 1.0
         change = float(np.abs(f).max() / scale)
         progress(it, max_iter, f"harmonic balance: change {change:.1e}" + ("" if lam == 1.0 else " (step shortened)"))
     slopes = None
