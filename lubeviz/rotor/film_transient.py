@@ -39,7 +39,6 @@ from ..progress import ProgressFn, silent
 from .assembly import Rotor
 from .elements import X, Y, node_dofs
 from .film_bearings import FilmBearings
-from .orbit_balance import FILM_THREADS, _pool
 from .response import Unbalance, unbalance_force, unbalance_response
 from .transient import _hold_weights, linear_system, node_output_dofs
 
@@ -70,8 +69,7 @@ class FilmTimeResponse:
 
 def film_time_response(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unbalance], *,
                        duration: float, dt: float = 1e-4, nodes: Sequence[int] = (6, 20),
-                       start="steady", implicit: bool = False, threads: int | None = None,
-                       progress: ProgressFn = silent) -> FilmTimeResponse:
+                       start="steady", implicit: bool = False, progress: ProgressFn = silent) -> FilmTimeResponse:
     """Integrate the rotor on its p-theta films for `duration` s from the linear steady state (or rest).
 
     `bearings`: the equilibria (position, film, K0, C0) of each bearing at this speed and supply.
@@ -81,7 +79,6 @@ def film_time_response(rotor: Rotor, bearings: FilmBearings, unbalances: Sequenc
     own tangents, `film.linearize.force_jacobian`, on the 2 x n_bearings residual unknowns; the explicit
     prediction starts it) instead of extrapolated: the coupling stays stable where the film is far from its
     linearization (large orbits, oil whirl), at 2-3 film solves per bearing and step instead of one.
-    `threads`: the bearings' film solves of a step run side by side (default: the balance's FILM_THREADS).
     """
     t_start = time.perf_counter()
     omega = bearings.omega
@@ -133,8 +130,6 @@ def film_time_response(rotor: Rotor, bearings: FilmBearings, unbalances: Sequenc
     lin_size = np.zeros((n_b, n_t))  # |K0 q + C0 q'| at each step: the scale of the film's dynamic force
     window = max(1, int(math.ceil(2 * math.pi / (omega * dt))))  # one revolution of steps
     solves = fallbacks = 0
-    threads = FILM_THREADS if threads is None else max(1, int(threads))
-    pool = _pool(min(threads, n_b)) if min(threads, n_b) > 1 else None  # the bearings' films side by side
 
     def residual(eta, k_step, tangents=None):
         """r at the state eta (modal); with `tangents` (an (2 n_b, 4 n_b) array) also dr/d(q_b, v_b) there."""
@@ -147,21 +142,12 @@ def film_time_response(rotor: Rotor, bearings: FilmBearings, unbalances: Sequenc
             if np.hypot(*pos) >= 0.995 * e.bearing.clearance:
                 raise ConvergenceError(f"journal {j + 1} reached {np.hypot(*pos) / e.bearing.clearance:.3f} of the "
                                        f"clearance at t = {k_step * dt:.4g} s: the orbit hits the bearing")
-
-        def one_film(j):
-            e = eqs[j]
-            problem = setup_problem(e.bearing, omega, e.position + qb[j], Feed.flow(bearings.flows[j]), velocity=vb[j])
+            problem = setup_problem(e.bearing, omega, pos, Feed.flow(bearings.flows[j]), velocity=vb[j])
             sol = solve(problem, warm=films[j])
-            fell_back = not sol.converged
-            if fell_back:  # the active set can cycle under strong squeeze: projected SOR does not
-                sol = solve(problem, method="sor", warm=films[j], relax=1.9, tol=1e-10)
-            return sol, fell_back
-
-        results = list(pool.map(one_film, range(n_b))) if pool is not None else [one_film(j) for j in range(n_b)]
-        for j, e in enumerate(eqs):
-            sol, fell_back = results[j]
             solves += 1
-            fallbacks += int(fell_back)
+            if not sol.converged:  # the active set can cycle under strong squeeze: projected SOR does not
+                sol = solve(problem, method="sor", warm=films[j], relax=1.9, tol=1e-10)
+                fallbacks += 1
             if not sol.converged:
                 raise ConvergenceError(f"film {j + 1} at t = {k_step * dt:.4g} s: {sol.message}")
             films[j] = sol
