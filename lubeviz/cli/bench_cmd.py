@@ -39,6 +39,10 @@ def register(sub) -> None:
     p.add_argument("--cases", default="",
                    help="diagnose: only these effects' records, comma-separated (e.g. 'large_orbit'); the others' "
                         "flows are still drawn, so each record is the one of the full run")
+    p.add_argument("--orbit-source", choices=("balance", "time"), default="balance",
+                   help="diagnose: how the large-orbit records are made: harmonic balance on the source's 200 x 200 "
+                        "films (default), or the time integration on the declared films (every harmonic; ~4 min "
+                        "per record, cached)")
     p.add_argument("--no-ross", action="store_true", help="rotor: skip the side-by-side ROSS timings")
     p.add_argument("--reproduce", action="store_true",
                    help="identify: also time the paper's whole protocol, both locations, both modes (cold tables)")
@@ -115,7 +119,8 @@ def run_bench(args) -> dict:
         if unknown:
             raise ValueError(f"--cases {args.cases!r}: unknown {', '.join(unknown)}; expected some of "
                              f"{', '.join(dict.fromkeys(known))}")
-        return vb.bench_diagnose(args.machine, seeds=args.seeds, cases=cases or None, progress=StderrBar())
+        return vb.bench_diagnose(args.machine, seeds=args.seeds, cases=cases or None, orbit_source=args.orbit_source,
+                                 progress=StderrBar())
     return bench_film(args.machine, repeat=args.repeat, progress=StderrBar())
 
 

@@ -173,11 +173,12 @@ DIAGNOSE_CASES = (
 
 
 def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0, candidates=None, cases=None,
-                   progress: ProgressFn = silent) -> dict:
+                   orbit_source: str = "balance", progress: ProgressFn = silent) -> dict:
     """For each effect and two strengths, independent records (12 dB, flows 75-125 % Q_T, seeded): plain
     identification, then diagnosis; the named effect, the residual and the flow errors before and after.
     `cases`: only the records of these effects (the first word of a DIAGNOSE_CASES name); the flows of the
-    others are drawn all the same, so each record is the one of the full run."""
+    others are drawn all the same, so each record is the one of the full run. `orbit_source`: the large-orbit
+    records' method (`orbit_record.make_orbit_record`: "balance", or "time" for the time integration)."""
     from ..diagnose import diagnose
     from ..diagnose.loop import OTHER_FORCE
     from ..identify.batch import beyond_1x
@@ -185,7 +186,7 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
     from ..identify.measured import measure
     from ..model.machine import load_machine
     from .independent import IndependentSpec, make_record, thresholds_mlmin
-    from .orbit_record import make_orbit_record
+    from .orbit_record import make_orbit_record, make_orbit_records
 
     t0 = time.perf_counter()
     machine = load_machine(machine_path)
@@ -194,41 +195,51 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
     chain = ForwardChain(machine, speed_hz, (6, 20))
     rows = []
     total = len(DIAGNOSE_CASES) * 2 * seeds
-    i = 0
+    plan, i = [], 0  # (index, name, level, text, flows): the records to make; the index counts every draw, also
+    # those of the cases left out, so each record is the one of the full run
     for name, strengths in DIAGNOSE_CASES:
         for level, text in enumerate(strengths, start=1):
             for s in range(seeds):
                 i += 1
                 q = qt * rng.uniform(0.75, 1.25, 2)
-                if cases is not None and name.split(" ")[0] not in cases:
-                    continue
-                if name == "large_orbit":
-                    spec = IndependentSpec(speed_hz=speed_hz, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]), seed=100 + i)
-                    rec = make_orbit_record(spec, unbalance_scale=float(text.rpartition("=")[2])).record
-                else:
-                    spec = IndependentSpec(speed_hz=speed_hz, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]),
-                                           effects=(text,), seed=100 + i)
-                    rec = make_record(spec).record
-                d = diagnose(chain, measure(rec), candidates=candidates, lines=beyond_1x(rec)[0])
-                truth = name.split(" ")[0]
-                named = d.added.effect.effect_name if (d.added is not None and not d.ambiguous) else None
-                in_set = truth in ([] if d.added is None else [d.added.effect.effect_name]) + [
-                    lab.split("[")[0] for lab in d.ambiguous]
-                err_b = np.abs(d.before.values[:2] * 6e7 / q - 1) * 100
-                err_a = np.abs(d.final.values[:2] * 6e7 / q - 1) * 100
-                held = _held(d, q / 6e7)
-                rows.append({"effect": name, "strength": level, "spec": text, "q_mlmin": q.tolist(),
-                             "plain_chi2": d.before.chi2, "plain_explained": bool(d.before.explained),
-                             "named": named, "added": None if d.added is None else d.added.label,
-                             "ambiguous": list(d.ambiguous), "right_first": named == truth,
-                             "right_in_set": bool(in_set), "explained_after": d.explained,
-                             "chi2_after": None if d.after is None else d.after.chi2,
-                             "dof_after": None if d.after is None else d.after.dof,
-                             "flow_error_pct_before": err_b.tolist(), "flow_error_pct_after": err_a.tolist(),
-                             "truth_held": held,
-                             "not_forced": bool((d.added is None and not d.explained) or OTHER_FORCE in d.ambiguous),
-                             "verdict": d.verdict, "seconds": d.seconds})
-                progress(i, total, f"{name} {level}")
+                if cases is None or name.split(" ")[0] in cases:
+                    plan.append((i, name, level, text, q))
+
+    def orbit_job(i, text, q):
+        spec = IndependentSpec(speed_hz=speed_hz, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]), seed=100 + i)
+        return spec, float(text.rpartition("=")[2])
+
+    # the large-orbit orbits not yet cached, two at once (each is serial)
+    make_orbit_records([orbit_job(i, text, q) for i, name, _, text, q in plan if name == "large_orbit"],
+                       method=orbit_source)
+    for i, name, level, text, q in plan:
+        if name == "large_orbit":
+            spec, scale = orbit_job(i, text, q)
+            rec = make_orbit_record(spec, unbalance_scale=scale, method=orbit_source).record
+        else:
+            spec = IndependentSpec(speed_hz=speed_hz, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]),
+                                   effects=(text,), seed=100 + i)
+            rec = make_record(spec).record
+        d = diagnose(chain, measure(rec), candidates=candidates, lines=beyond_1x(rec)[0])
+        truth = name.split(" ")[0]
+        named = d.added.effect.effect_name if (d.added is not None and not d.ambiguous) else None
+        in_set = truth in ([] if d.added is None else [d.added.effect.effect_name]) + [
+            lab.split("[")[0] for lab in d.ambiguous]
+        err_b = np.abs(d.before.values[:2] * 6e7 / q - 1) * 100
+        err_a = np.abs(d.final.values[:2] * 6e7 / q - 1) * 100
+        held = _held(d, q / 6e7)
+        rows.append({"effect": name, "strength": level, "spec": text, "q_mlmin": q.tolist(),
+                     "plain_chi2": d.before.chi2, "plain_explained": bool(d.before.explained),
+                     "named": named, "added": None if d.added is None else d.added.label,
+                     "ambiguous": list(d.ambiguous), "right_first": named == truth,
+                     "right_in_set": bool(in_set), "explained_after": d.explained,
+                     "chi2_after": None if d.after is None else d.after.chi2,
+                     "dof_after": None if d.after is None else d.after.dof,
+                     "flow_error_pct_before": err_b.tolist(), "flow_error_pct_after": err_a.tolist(),
+                     "truth_held": held,
+                     "not_forced": bool((d.added is None and not d.explained) or OTHER_FORCE in d.ambiguous),
+                     "verdict": d.verdict, "seconds": d.seconds})
+        progress(i, total, f"{name} {level}")
     summary = {}
     for name, _ in DIAGNOSE_CASES:
         for level in (1, 2):
@@ -248,7 +259,7 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
                 "chi2_after_median": (float(np.median([r["chi2_after"] for r in rr]))
                                       if all(r["chi2_after"] is not None for r in rr) else None),
             }
-    return {"speed_hz": speed_hz, "seeds": seeds, "summary": summary, "rows": rows,
+    return {"speed_hz": speed_hz, "seeds": seeds, "orbit_source": orbit_source, "summary": summary, "rows": rows,
             "diagnose_seconds_median": float(np.median([r["seconds"] for r in rows])),
             "seconds": time.perf_counter() - t0}
 

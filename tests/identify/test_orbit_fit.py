@@ -179,3 +179,38 @@ def test_the_secant_curvature_is_exact_along_the_step_and_the_correction_carries
     # across the step nothing is known from a first update: no curvature is invented there
     n = np.array([-s[1], s[0]])
     assert np.abs(np.einsum("pkl,k,l->p", new.hx, n, n)).max() < 1e-12
+
+
+@pytest.fixture(scope="module")
+def time_records():
+    """The module's two records again, from the time integration (`make_orbit_records(method="time")`: every
+    harmonic, the 40-element rotor; ~4 min each, side by side, then cached): the path that does not share the
+    balance's truncation."""
+    return make_orbit_records([
+        (IndependentSpec(speed_hz=75.0, q1_mlmin=Q[0], q2_mlmin=Q[1], seed=5), 1.0),
+        (IndependentSpec(speed_hz=75.0, q1_mlmin=WEAKER_Q[0], q2_mlmin=WEAKER_Q[1], seed=5), 0.6)], method="time")
+
+
+@pytest.mark.parametrize("which", [0, 1], ids=["paper's unbalance", "0.6 x"])
+def test_on_the_time_integration_s_records_the_intervals_hold_the_flows(machine, time_records, which):
+    """Records along another path than the model's balance: the time integration holds every harmonic (its 2X is
+    10-16 % larger than the model's 5-harmonic balance's). With `large_orbit` declared the record is explained
+    and the 95 % intervals hold the flows. At 0.6 x the unbalance the flows come back within about 1 % (measured
+    +0.9 / +1.0 %, bound 1.5 %); at the paper's unbalance +4.0 / +0.3 % (bound 5 %), where the balance's
+    truncation (`ModelBudget.orbit_truncation`) makes sigma 19-23 % of the flows: the model cannot say more there."""
+    rec, truth = time_records[which].record, time_records[which].truth
+    q = np.array(Q if which == 0 else WEAKER_Q)
+    # the start's transient has died out (the 1X of the last two revolutions against that of the two before: 1.0 / 0.4 %
+    # measured) and the 0.5X line the periodic record leaves out is small (2.7 / 0.5 % of 1X measured)
+    assert truth["method"] == "time" and truth["periodicity"] < 0.02
+    assert truth["half_order"] < 0.05
+    assert min(truth["ratio_2x"]) > 0.1
+    r = identify_record(rec, machine, effects=(parse_effect("large_orbit"),)).result
+    err = np.abs(r.q * 6e7 / q - 1)
+    assert r.model_explains_data
+    assert all(_inside(r.intervals[k], q[k]) for k in range(2))
+    assert err.max() < (0.05 if which == 0 else 0.015)
+    info = r.effects["large_orbit"]
+    assert info["unbalance_scale"] == pytest.approx(1.0 if which == 0 else 0.6, rel=0.06)
+    model, source = np.asarray(info["ratio_2x_model"]), np.asarray(truth["ratio_2x"])
+    assert np.all(np.abs(model / source - 1) < 0.2)
