@@ -36,6 +36,7 @@ again. The noise, the probes and the record are made from the harmonics each tim
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import math
@@ -64,7 +65,8 @@ from .independent import IndependentRecord, IndependentSpec, _machine, fine_node
 HARMONICS, POINTS = 6, 28
 METHODS = ("balance", "time")
 TIME_REVOLUTIONS, TIME_STEPS = 6, 512  # the time integration: revolutions from the start orbit, steps in each
-TIME_HARMONICS = 40  # the harmonics kept of its last revolutions (its orbit's lines above 30X are below 1e-4 of 1X)
+TIME_HARMONICS = 40  # the harmonics kept of its last revolutions (at the paper's point on 60 x 40 films its lines
+# at 20-30X are 0.01-0.1 % of 1X); those at or above the record's Nyquist frequency are left out of the record
 TIME_WINDOW = 2  # revolutions the harmonics are taken over (the last ones): an even number, so that a line at
 # 0.5X cancels from them (at the paper's unbalance near Q_T the 100 x 100 films' orbit holds one, 2-4 % of 1X,
 # decaying over tens of revolutions: the onset of period doubling, which a periodic record leaves out)
@@ -213,6 +215,9 @@ def make_orbit_record(spec: IndependentSpec, *, unbalance_scale: float = 1.0, me
     ob, extra = _cached_balance(spec, unbalance_scale, solve, method) if use_cache else solve()
     n = int(round(spec.duration_s * spec.sample_rate_hz))
     t = (spec.total_s - spec.duration_s) + np.arange(n) / spec.sample_rate_hz
+    above = np.arange(ob.harmonics + 1) * spec.speed_hz >= 0.5 * spec.sample_rate_hz
+    if above.any():  # lines at or above the record's Nyquist frequency: the probes' anti-alias filter takes them out
+        ob = dataclasses.replace(ob, x=np.where(above[:, None], 0, ob.x), y=np.where(above[:, None], 0, ob.y))
     x, y = ob.signals(t)
     d = np.stack([x - ob.x[0].real[:, None], y - ob.y[0].real[:, None]], axis=1)  # (plane, xy, n), DC removed
     angles = np.radians(np.asarray(spec.probe_angles_deg))
