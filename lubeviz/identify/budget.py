@@ -66,10 +66,12 @@ STATIC_POSITION = 0.001
 # settled after 2 revolutions: the 1X correction (the four complex entries at the bearings) differs by 13.5 % of its
 # norm at the paper's unbalance on 60 x 40 films (its share of the 1X 0.354), 12.3 % on the model's 100 x 100 films
 # (share 0.354), 4.3 % at 0.6 x of it (share 0.216); not a common factor (one complex factor leaves 9.6 % at 1 x).
-# Not the pattern of a plain truncation: 5 harmonics on 48-192 points 13.3 %, 8 / 48 14.1 %, 10 / 64 13.6 %, 12 / 96
-# 12.0 %, 14 / 96 9.9 % (20 / 128: the 1X 2.5 % off instead of 4.6 %). Not another branch: Newton from the time
-# integration's orbit returns to the balance's; that orbit's 2X-5X differ by 1.5-3.7 % of the 1X and it holds
-# harmonics above 5X, which feed back into the 1X. Either way the model's orbit is uncertain by this much.
+# It is the harmonics left out (session 18): the time integration's orbit solves the balance's equations with 24
+# harmonics to 0.4-1.5 % of the 1X; where the film is thinnest the journal's velocity turns sharply and the orbit's
+# lines fall off as 1/h up to ~15X. 8-12 harmonics hardly help (5 on 48-192 points 13.3 %, 8 / 48 14.1 %, 12 / 96
+# 12.0 %), 16 halve the 1X error, 32 leave a third of it. Not another branch: Newton from the time integration's
+# orbit returns to the balance's. This term is for the model's 5 harmonics; with more (`orbit_harmonics`) it is
+# kept as it is, an overstatement (on the time integration's records 16 harmonics gave the flows within 0.3 %).
 # Per real component (8: each entry's real and imaginary part) the RMS error is the norm / sqrt(8), relative to the
 # correction's norm 0.048 / 0.043 / 0.015, which grows as the share squared (0.38 / 0.35 / 0.33 share^2): the term is
 # 0.45 share^2 of the correction's norm per component, at least `orbit_defect`. (tests/rotor/test_orbit_balance.py)

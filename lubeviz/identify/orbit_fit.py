@@ -144,6 +144,12 @@ def check_orbit_chain(chain: ForwardChain) -> None:
                          f"machine); also declared: {', '.join(other)}")
 
 
+def orbit_points(harmonics: int) -> int:
+    """Points per revolution of a balance with `harmonics`: the model's POINTS at its HARMONICS, else 4 per
+    harmonic (no harmonic aliases onto another, and the sharp turn of the orbit is sampled)."""
+    return POINTS if int(harmonics) == HARMONICS else 4 * int(harmonics)
+
+
 def _balance(chain: ForwardChain, flows, start, harmonics, points, tol, progress, scale=1.0,
              machine=None, slopes: bool = False, flow_factor=None) -> OrbitBalance:
     """The balance at `flows` on `machine` (default the chain's); with `flow_factor`, at flows x that factor
@@ -478,7 +484,7 @@ def _with_std_of(final: Fit, intervals: dict) -> Fit:
 def orbit_summary(of: OrbitFit) -> dict:
     """What the identification reports of the large-orbit model at its answer (JSON-ready)."""
     ob = of.orbit
-    return {"rounds": of.balances, "converged": of.converged,
+    return {"rounds": of.balances, "converged": of.converged, "harmonics": ob.harmonics,
             "unbalance_scale": of.unbalance_scale,  # the balance's unbalance over the declared one
             "ratio_2x_model": [ob.harmonic_ratio(2, k) for k in range(len(ob.nodes))],
             "one_x_over_linear": [float(abs(ob.x[1, k]) / abs(ob.linear_x[k])) for k in range(len(ob.nodes))],

@@ -214,3 +214,22 @@ def test_on_the_time_integration_s_records_the_intervals_hold_the_flows(machine,
     assert info["unbalance_scale"] == pytest.approx(1.0 if which == 0 else 0.6, rel=0.06)
     model, source = np.asarray(info["ratio_2x_model"]), np.asarray(truth["ratio_2x"])
     assert np.all(np.abs(model / source - 1) < 0.2)
+
+
+def test_with_16_harmonics_the_flows_come_within_1_percent_on_the_time_integration_s_record(machine, time_records):
+    """Issue 11's 1 % on records along another path: the model's balance with 16 harmonics and 64 points
+    (`IdentificationSettings.orbit_harmonics`, `identify --orbit-harmonics 16`) follows the film's sharp turn where it
+    is thinnest. At 0.6 x the unbalance measured -0.23 / +0.30 % (5 harmonics: +0.87 / +1.02 %), chi2 0.30, the 2X
+    within 2-3 % of the record's (5 harmonics: 10-14 % short); at the paper's unbalance -0.02 / +0.20 % (5
+    harmonics: +4.0 / +0.3 %; not run here: the cost, BENCHMARKS)."""
+    from lubeviz.identify.settings import IdentificationSettings
+
+    rec, truth = time_records[1].record, time_records[1].truth
+    q = np.array(WEAKER_Q)
+    r = identify_record(rec, machine, IdentificationSettings(orbit_harmonics=16),
+                        effects=(parse_effect("large_orbit"),)).result
+    err = np.abs(r.q * 6e7 / q - 1)
+    assert err.max() < 0.01
+    assert r.model_explains_data and all(_inside(r.intervals[k], q[k]) for k in range(2))
+    model, source = np.asarray(r.effects["large_orbit"]["ratio_2x_model"]), np.asarray(truth["ratio_2x"])
+    assert np.all(np.abs(model / source - 1) < 0.06)

@@ -251,15 +251,28 @@ def test_orbit_balance_cache_round_trips_is_keyed_and_rebuilt(tmp_path, monkeypa
                           bearing_y=c(h, 2), linear_x=c(2), linear_y=c(2), iterations=7, film_solves=400,
                           residual=1e-8, max_eccentricity=0.28, seconds=200.0)
         solved.append(ob)
-        return ob
+        return ob, {}
 
     spec = IndependentSpec(speed_hz=75.0, q1_mlmin=460.0, q2_mlmin=600.0, seed=5)
-    cold = orbit_record._cached_balance(spec, 1.0, solve)
-    warm = orbit_record._cached_balance(spec, 1.0, solve)
-    assert len(solved) == 1
+    cold, _ = orbit_record._cached_balance(spec, 1.0, solve)
+    warm, extra = orbit_record._cached_balance(spec, 1.0, solve)
+    assert len(solved) == 1 and extra == {}
     for name in ("x", "y", "bearing_x", "bearing_y", "linear_x", "linear_y"):
         np.testing.assert_array_equal(getattr(warm, name), getattr(cold, name))
     assert warm.iterations == 7 and warm.max_eccentricity == 0.28 and warm.nodes == cold.nodes
+    assert warm.residual == 1e-8
+    # the time integration's orbit is keyed apart and keeps its extra figure
+    h_time = orbit_record.TIME_HARMONICS + 1
+    timed = OrbitBalance(omega=2 * math.pi * 75.0, nodes=(11, 39), x=c(h_time, 2), y=c(h_time, 2),
+                         bearing_x=c(h_time, 2), bearing_y=c(h_time, 2), linear_x=c(2), linear_y=c(2), iterations=0,
+                         film_solves=9000, residual=0.004, max_eccentricity=0.28, seconds=240.0)
+    orbit_record._cached_balance(spec, 1.0, lambda: (timed, {"half_order": 0.027}), "time")
+    again, extra = orbit_record._cached_balance(spec, 1.0, solve, "time")
+    assert extra == {"half_order": 0.027} and again.x.shape == (h_time, 2) and len(solved) == 1
+    np.testing.assert_array_equal(again.x, timed.x)
+    for f in (tmp_path / "independent").glob("orbit-*.npz"):
+        if np.load(f)["x"].shape[0] == h_time:
+            f.unlink()
     orbit_record._cached_balance(IndependentSpec(speed_hz=75.0, q1_mlmin=460.0, q2_mlmin=601.0, seed=5), 1.0, solve)
     orbit_record._cached_balance(spec, 0.6, solve)
     orbit_record._cached_balance(IndependentSpec(speed_hz=75.0, q1_mlmin=460.0, q2_mlmin=600.0, seed=9), 1.0, solve)
