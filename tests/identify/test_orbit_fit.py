@@ -200,8 +200,8 @@ def test_on_the_time_integration_s_records_the_intervals_hold_the_flows(machine,
     truncation (`ModelBudget.orbit_truncation`) makes sigma 19-23 % of the flows: the model cannot say more there."""
     rec, truth = time_records[which].record, time_records[which].truth
     q = np.array(Q if which == 0 else WEAKER_Q)
-    # the start's transient has died out (the 1X of the last two revolutions against that of the two before: 1.0 / 0.4 %
-    # measured) and the 0.5X line the periodic record leaves out is small (2.7 / 0.5 % of 1X measured)
+    # the start's transient has died out (the 1X of the last two revolutions against the two one revolution
+    # earlier: 1.0 / 0.4 % measured) and the 0.5X line the periodic record leaves out is small (2.7 / 0.5 % of 1X)
     assert truth["method"] == "time" and truth["periodicity"] < 0.02
     assert truth["half_order"] < 0.05
     assert min(truth["ratio_2x"]) > 0.1
