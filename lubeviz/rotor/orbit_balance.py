@@ -324,10 +324,9 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
     g, (R, dq, dv, max_eps, dfq) = G(z, exact)
     f = g - z
     change = float(np.abs(f).max() / scale)
-    it, stalled = 0, False
+    it = 0
     while True:  # Newton on F(z) = G(z) - z with the films' tangents, halving a step that fails
-        if not exact and (change < INEXACT_ABOVE or stalled):  # close enough, or the inexact films' tangent
-            # misleads (a step had to be shortened): every film exact from here on, this point too
+        if not exact and change < INEXACT_ABOVE:  # close enough: every film exact from here on, this point too
             exact = True
             g, (R, dq, dv, max_eps, dfq) = G(z)
             f = g - z
@@ -360,7 +359,6 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
         if taken is None:
             raise failure
         z, f, g, (R, dq, dv, max_eps, dfq) = taken
-        stalled = lam < 1.0
         change = float(np.abs(f).max() / scale)
         progress(it, max_iter, f"harmonic balance: change {change:.1e}" + ("" if lam == 1.0 else " (step shortened)"))
     slopes = None

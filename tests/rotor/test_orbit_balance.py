@@ -115,7 +115,7 @@ def test_inexact_early_films_reach_the_same_orbit_for_less_work(coarse, monkeypa
 def test_a_balance_with_more_harmonics_starts_from_one_with_fewer(coarse):
     """`start` with fewer harmonics and points: its harmonics padded with zeros, each phase point's film warm-started
     from its nearest one. The same orbit as from the linear one, for fewer film solves (a chain 5 -> 8 -> 12 -> 16
-    -> 24 harmonics at the paper's point on these films: 28 s, against 65 s for 24 from 5 directly)."""
+    -> 24 harmonics at the paper's point on these films: 28-35 s, against 65 s for 24 from 5 directly)."""
     machine, rotor, bearings = coarse
     ub = _unbalance(machine, 0.5)
     five = orbit_balance(rotor, bearings, ub, nodes=NODES, tol=1e-8)
