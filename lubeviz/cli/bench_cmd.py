@@ -27,6 +27,12 @@ def register(sub) -> None:
     p.add_argument("--static", action="store_true",
                    help="coverage: records with the static shaft position and the oil's viscosity x0.7-1.3 of the "
                         "declared, identified with the oil free: flows' and oil's error and coverage")
+    p.add_argument("--large-orbit", action="store_true",
+                   help="coverage: large-orbit records at 75 Hz (flows 75-125 %% Q_T, the unbalance x0.5-1, made by "
+                        "--orbit-source), identified with large_orbit declared at each --orbit-harmonics: error, "
+                        "coverage, chi2 flag rate, time (give --records; ~4 min per time-integration record, cached)")
+    p.add_argument("--orbit-harmonics", default="5,16",
+                   help="coverage --large-orbit: the balance's harmonics to identify with, comma-separated (default 5,16)")
     p.add_argument("--seed", type=int, default=2026,
                    help="coverage, budget: the corpus seed (2026: the budget's calibration corpus; another seed "
                         "is a held-out check)")
@@ -39,9 +45,10 @@ def register(sub) -> None:
     p.add_argument("--cases", default="",
                    help="diagnose: only these effects' records, comma-separated (e.g. 'large_orbit'); the others' "
                         "flows are still drawn, so each record is the one of the full run")
-    p.add_argument("--orbit-source", choices=("balance", "time"), default="balance",
-                   help="diagnose: how the large-orbit records are made: harmonic balance on the source's 200 x 200 "
-                        "films (default), or the time integration on the declared films (every harmonic; ~4 min "
+    p.add_argument("--orbit-source", choices=("balance", "time"), default=None,
+                   help="diagnose, coverage --large-orbit: how the large-orbit records are made: harmonic balance on "
+                        "the source's 200 x 200 films (diagnose's default), or the time integration on the declared "
+                        "films (coverage's default; every harmonic; ~4 min "
                         "per record, cached)")
     p.add_argument("--no-ross", action="store_true", help="rotor: skip the side-by-side ROSS timings")
     p.add_argument("--reproduce", action="store_true",
@@ -102,6 +109,19 @@ def run_bench(args) -> dict:
                 raise ValueError(f"--calibrations {args.calibrations!r}: expected numbers separated by commas") from None
             if any(not (0.0 < c <= 10.0) for c in cal):
                 raise ValueError(f"--calibrations {args.calibrations!r}: expected factors in (0, 10]")
+            if args.large_orbit:
+                if cal or args.budgets.strip() or args.static:
+                    raise ValueError("--large-orbit: its records are identified with large_orbit declared under the "
+                                     "model budget; --static, --calibrations and --budgets do not apply")
+                try:
+                    hs = tuple(int(h) for h in args.orbit_harmonics.split(",") if h.strip())
+                except ValueError:
+                    raise ValueError(f"--orbit-harmonics {args.orbit_harmonics!r}: expected integers separated by "
+                                     "commas") from None
+                if not hs or any(not 3 <= h <= 32 for h in hs):
+                    raise ValueError(f"--orbit-harmonics {args.orbit_harmonics!r}: expected harmonics in 3-32")
+                return vb.bench_orbit(args.machine, n=args.records, seed=args.seed, source=args.orbit_source or "time",
+                                      harmonics=hs, progress=StderrBar())
             if args.static:
                 if cal or args.budgets.strip():
                     raise ValueError("--static: its records are identified with the oil free under the model budget; "
@@ -119,7 +139,8 @@ def run_bench(args) -> dict:
         if unknown:
             raise ValueError(f"--cases {args.cases!r}: unknown {', '.join(unknown)}; expected some of "
                              f"{', '.join(dict.fromkeys(known))}")
-        return vb.bench_diagnose(args.machine, seeds=args.seeds, cases=cases or None, orbit_source=args.orbit_source,
+        return vb.bench_diagnose(args.machine, seeds=args.seeds, cases=cases or None,
+                                 orbit_source=args.orbit_source or "balance",
                                  progress=StderrBar())
     return bench_film(args.machine, repeat=args.repeat, progress=StderrBar())
 

@@ -24,9 +24,9 @@ def register(sub) -> None:
                    help="for a record at one speed without the static position, give the flows' intervals with the "
                         "oil viscosity free within x0.75-1.33 (tables +-30 %% viscosity once if needed, ~1 min)")
     p.add_argument("--orbit-harmonics", type=int, default=None, metavar="N",
-                   help="with --effect large_orbit: harmonics of the periodic orbit (default 5, 15-40 s a record; "
-                        "16 is a few times slower and follows the film's sharp turn where it is thinnest: flows "
-                        "within 0.3 %% on the time integration's records where 5 gave 1-4 %%)")
+                   help="with --effect large_orbit: harmonics of the periodic orbit (default 16, 1-2 min a record: "
+                        "it follows the film's sharp turn where it is thinnest, flows within 0.3 %% on the time "
+                        "integration's records; 5, what diagnose tries, 20-40 s and 1-4 %% off)")
     p.set_defaults(run=run_identify)
 
     p = sub.add_parser("reproduce", help="the paper's 64-case protocol, Tables 4-8")

@@ -349,7 +349,8 @@ def result_text(d: dict) -> list[str]:
     lo = (d.get("effects") or {}).get("large_orbit")
     if lo:
         ratio = ", ".join(f"{v:.2f}" for v in lo["ratio_2x_model"])
-        out.append(f"  large orbits: the film force along the orbit ({lo['rounds']} harmonic balances; the linear "
+        out.append(f"  large orbits: the film force along the orbit ({lo['rounds']} harmonic balances with "
+                   f"{lo.get('harmonics', 5)} harmonics; the linear "
                    f"model alone gives Q1, Q2 = {lo['plain_q_mlmin'][0]:.0f}, {lo['plain_q_mlmin'][1]:.0f} ml/min, "
                    f"chi2 {lo['plain_chi2']:.0f}); its 2X/1X at the planes: {ratio}; the orbit's size implies "
                    f"{lo.get('unbalance_scale', 1.0):.2f} x the declared unbalance")

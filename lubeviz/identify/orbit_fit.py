@@ -66,7 +66,7 @@ from ..rotor.film_bearings import equilibrium_flow_slopes, film_bearings, floode
 from ..rotor.orbit_balance import HARMONICS, POINTS, OrbitBalance, orbit_balance
 from ..rotor.response import machine_unbalance
 from ..rotor.whirl import Stability, equilibrium_stability
-from .budget import ModelBudget
+from .budget import ModelBudget, truncation_factor
 from .chain import ForwardChain, ResponseDefect
 from .fit import Z95, Fit, fit, sandwich_cov, std_within
 
@@ -331,6 +331,8 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     # itself uncertain (measured against the time integration at two points); the flows' uncertainty carries it
     # (`_truncation_union`: the sandwich covariance of these weights under the whole budget)
     full_budget = budget or ModelBudget()
+    full_budget = ModelBudget(**{**full_budget.param.values(), "name": None,
+                                 "orbit_truncation": full_budget.orbit_truncation * truncation_factor(harmonics)})
     working = ModelBudget(**{**full_budget.param.values(), "name": None, "orbit_truncation": 0.0})
     kw = dict(names=names, budget=working, lower=lower, upper=upper, level=level)
     slope_films = SlopeFilms(chain, slope_mesh)
@@ -426,8 +428,8 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
         warnings.append(f"large orbits: at the flows found the model is {stability.describe()}; the periodic orbit "
                         "fitted is then not what the machine would show (a sub-synchronous line would grow)")
     if ob.max_eccentricity > 0.8:
-        warnings.append(f"large orbits: the journal reaches {ob.max_eccentricity:.2f} of the clearance; three "
-                        "harmonics may not hold such an orbit")
+        warnings.append(f"large orbits: the journal reaches {ob.max_eccentricity:.2f} of the clearance; "
+                        f"{ob.harmonics} harmonics may not hold such an orbit")
     final = dataclasses.replace(final, warnings=tuple(warnings), seconds=time.perf_counter() - t0)
     progress(total, total, "large orbits: done")
     return OrbitFit(fit=final, plain=plain, orbit=ob, defect=defect, history=tuple(history),

@@ -46,12 +46,12 @@ class IdentificationSettings(param.Parameterized):
                                    "than declared mimics a supply change; this says how much). 'if-tabled': when "
                                    "the coefficient tables already cover that viscosity range (else a warning says "
                                    "the flows assume the declared oil); 'always': build them if needed (~1 min once)")
-    orbit_harmonics = param.Integer(5, bounds=(3, 32),
+    orbit_harmonics = param.Integer(16, bounds=(3, 32),
                                     doc="With large orbits declared: harmonics of the balance's periodic orbit (points "
-                                        "per revolution: 24 at 5, else 4 per harmonic). 5: 15-40 s a record; at the "
-                                        "paper's unbalance its 1X is 4-5 % off the time integration's and the flows' "
-                                        "sigma carries that. 16: a few times slower, and on the time integration's own "
-                                        "records the flows within 0.3 % where 5 gave 1-4 %")
+                                        "per revolution: 24 at 5, else 4 per harmonic). 16: 1-2 min a record, and on "
+                                        "the time integration's records the flows within 0.3 %. 5 (what a diagnosis "
+                                        "tries): 20-40 s, its 1X 4-5 % off the time integration's at the paper's "
+                                        "unbalance, the flows 1-4 % off with a sigma that carries it")
     speed_tolerance = Quantity(0.02, bounds=(0.0, 1.0), unit="",
                                doc="Refuse a record whose speed differs from the model's by more than this fraction")
 

@@ -40,3 +40,16 @@ def test_an_unknown_diagnose_case_names_the_known_ones(capsys):
 def test_static_coverage_refuses_the_clean_corpus_options(capsys, extra):
     assert main(["bench", "coverage", "--static", "--records", "1", *extra]) == 2
     assert "--static" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("extra, words", [
+    (["--orbit-harmonics", "2"], ["--orbit-harmonics", "3-32"]),
+    (["--orbit-harmonics", "5,x"], ["--orbit-harmonics", "'5,x'", "integers"]),
+    (["--static"], ["--large-orbit", "--static"]),
+    (["--calibrations", "0.8"], ["--large-orbit", "--calibrations"]),
+])
+def test_large_orbit_coverage_checks_its_options_before_making_records(capsys, extra, words):
+    assert main(["bench", "coverage", "--large-orbit", "--records", "1", *extra]) == 2
+    err = capsys.readouterr().err
+    for w in words:
+        assert w in err

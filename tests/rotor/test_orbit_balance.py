@@ -260,3 +260,8 @@ def test_at_the_paper_s_point_the_time_integration_bounds_the_balance_s_truncati
     rms_16 = np.sqrt(np.mean(np.concatenate([(mine - td).real, (mine - td).imag]) ** 2))
     print(f"scale {scale}: 1X error RMS / correction: 5 harmonics {rms / size:.3f}, 16 harmonics {rms_16 / size:.3f}")
     assert rms_16 < 0.7 * rms
+    # the budget's term for a 16-harmonic balance (`budget.truncation_factor`) covers it, and does not overstate it
+    from lubeviz.identify.budget import truncation_factor
+
+    term_16 = max(budget.orbit_defect, truncation_factor(16) * budget.orbit_truncation * share**2) * size
+    assert rms_16 <= term_16 < 1.3 * rms_16
