@@ -118,8 +118,8 @@ def run_bench(args) -> dict:
                 except ValueError:
                     raise ValueError(f"--orbit-harmonics {args.orbit_harmonics!r}: expected integers separated by "
                                      "commas") from None
-                if not hs or any(not 3 <= h <= 32 for h in hs):
-                    raise ValueError(f"--orbit-harmonics {args.orbit_harmonics!r}: expected harmonics in 3-32")
+                if not hs or any(not 5 <= h <= 32 for h in hs):
+                    raise ValueError(f"--orbit-harmonics {args.orbit_harmonics!r}: expected harmonics in 5-32")
                 return vb.bench_orbit(args.machine, n=args.records, seed=args.seed, source=args.orbit_source or "time",
                                       harmonics=hs, progress=StderrBar())
             if args.static:

@@ -43,7 +43,7 @@ def test_static_coverage_refuses_the_clean_corpus_options(capsys, extra):
 
 
 @pytest.mark.parametrize("extra, words", [
-    (["--orbit-harmonics", "2"], ["--orbit-harmonics", "3-32"]),
+    (["--orbit-harmonics", "4"], ["--orbit-harmonics", "5-32"]),
     (["--orbit-harmonics", "5,x"], ["--orbit-harmonics", "'5,x'", "integers"]),
     (["--static"], ["--large-orbit", "--static"]),
     (["--calibrations", "0.8"], ["--large-orbit", "--calibrations"]),
