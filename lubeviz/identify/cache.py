@@ -26,6 +26,12 @@ identical. Progress: every worker reports each solved ratio through a
 `progress(done, total, label)` with the sum over the slices being built. If that callback raises
 `Cancelled`, the workers are told to stop at their next ratio, pending work is cancelled, the pool is
 shut down and `Cancelled` is re-raised; slices finished before that are kept (a build is resumable).
+
+Builders of one geometry take turns (`_build_lock`: an exclusive `flock` on `<slices>/.build-<digest>.lock`,
+POSIX only): a second process (another app session, a parallel test worker, a second `lubeviz` command)
+that misses the same slices waits, reporting "waiting for another build", then loads what the first one
+stored and builds only what is still missing, instead of solving the same films twice on the same cores.
+A crashed builder's lock goes with its process.
 """
 
 from __future__ import annotations
@@ -41,6 +47,7 @@ import tempfile
 import threading
 import time
 import warnings
+import contextlib
 import zipfile
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
@@ -354,6 +361,48 @@ def geometry_table(bearing: Bearing, sommerfeld=None, *, span=DEFAULT_SPAN, poin
     if not missing:
         progress(1, 1, "tables from cache")
         return table
+    lock_name = _digest({"geometry": geometry, "span": [float(v) for v in span], "points": int(points)})
+    with _build_lock(directory / f".build-{lock_name[:24]}.lock", progress):
+        for i in missing:  # what another builder stored while this one waited
+            s = _load_or_discard(paths[i], keys[i], float(nodes[i]), span, points)
+            if s is not None:
+                table.slices[i] = s
+        missing = [i for i in wanted if i not in table.slices]
+        if not missing:
+            progress(1, 1, "tables from cache (built by another process)")
+            return table
+        _build_missing(table, geometry, nodes, missing, paths, keys, span, points, progress, workers)
+    return table
+
+
+@contextlib.contextmanager
+def _build_lock(path: Path, progress: ProgressFn, poll_s: float = 0.2):
+    """Hold an exclusive lock on `path` (created if absent) for the block: polls every `poll_s`, calling
+    `progress` while it waits (so a `Cancelled` raised there ends the wait). Without `fcntl` (not POSIX)
+    the block runs unlocked: concurrent builders then only duplicate work, never corrupt it (atomic writes)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        yield
+        return
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "a+b") as handle:
+        waited = 0.0
+        while True:
+            try:
+                fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                progress(0, 1, f"waiting for another build of these table slices ({waited:.0f} s)")
+                time.sleep(poll_s)
+                waited += poll_s
+        try:
+            yield
+        finally:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
+
+
+def _build_missing(table, geometry, nodes, missing, paths, keys, span, points, progress, workers) -> None:
     # up to two jobs per slice (its parts r <= 1 and r > 1), so even one slice uses two processes
     workers = min(2 * len(missing), os.cpu_count() or 1) if workers is None else int(workers)
     if workers < 1:
@@ -369,9 +418,8 @@ def geometry_table(bearing: Bearing, sommerfeld=None, *, span=DEFAULT_SPAN, poin
             def offset(done, _total, label="", j=j, i=i):
                 progress(j * points + done, total, f"S = {nodes[i]:.3g}: {label}")
             store(i, _build_one(geometry, float(nodes[i]), span, points, offset))
-        return table
+        return
     _build_parallel(geometry, nodes, missing, span, points, progress, workers, total, store)
-    return table
 
 
 def slices_cached(bearing: Bearing, sommerfeld, *, span=DEFAULT_SPAN, points: int = DEFAULT_POINTS,

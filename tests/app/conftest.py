@@ -30,7 +30,9 @@ from .harness import (
 expect.set_options(timeout=30_000)
 
 _BROWSER_FIXTURES = {"page", "context", "browser", "app_page", "app_server", "screenshot"}
-SERVER_LOG = ARTIFACTS / "panel-serve.log"
+# one server per test worker (pytest-xdist), each with its own log
+_WORKER = os.environ.get("PYTEST_XDIST_WORKER", "")
+SERVER_LOG = ARTIFACTS / (f"panel-serve-{_WORKER}.log" if _WORKER else "panel-serve.log")
 _log_offset = pytest.StashKey[int]()
 
 
@@ -82,7 +84,7 @@ def browser_context_args(browser_context_args):
 def app_server():
     """Base URL ("http://127.0.0.1:PORT") of app.py served by `panel serve` for the session.
 
-    The server's output is kept in test-artifacts/app/panel-serve.log (look there for a callback's traceback).
+    The server's output is kept in test-artifacts/app/panel-serve[-gwN].log (look there for a callback's traceback).
     The paper machine's coefficient tables are put in the user cache first, so page timeouts measure the app,
     not a cold table build (about a minute on 2 cores).
     """

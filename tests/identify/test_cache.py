@@ -354,3 +354,52 @@ def test_a_changed_view_from_the_slices_in_memory_equals_the_cached_view():
             np.testing.assert_allclose(getattr(fast, name), getattr(slow, name), rtol=1e-12, atol=0)
     far = src.view(0.55)  # S outside the slices loaded so far: the slow path, which loads them
     assert far.key
+
+
+
+def test_two_builders_of_one_geometry_take_turns_and_solve_each_slice_once(tmp_path, builds):
+    """A second builder (here a thread; another app session or test worker is a process, the same `flock`)
+    that misses the slices a first one is building waits, says so, then loads what the first stored: no
+    film is solved twice. A Cancel while waiting ends the wait."""
+    import threading
+
+    m = coarse_machine()
+    building, waiting = threading.Event(), threading.Event()
+    tables_, messages = {}, []
+
+    def first_progress(done, total, label=""):  # the first builder, inside its build, lets the second arrive
+        building.set()
+        assert waiting.wait(timeout=60)
+
+    def second_progress(done, total, label=""):
+        messages.append(label)
+        if "waiting for another build" in label:
+            waiting.set()
+
+    def build(name, progress):
+        tables_[name] = cached_table(m, 0, points=POINTS, directory=tmp_path, progress=progress)
+
+    first = threading.Thread(target=build, args=("first", first_progress))
+    first.start()
+    assert building.wait(timeout=60)
+    second = threading.Thread(target=build, args=("second", second_progress))
+    second.start()
+    first.join(timeout=120)
+    second.join(timeout=120)
+    assert not first.is_alive() and not second.is_alive()
+    assert len(builds) == SLICES  # each slice solved once, by the first builder
+    assert any("built by another process" in label for label in messages)
+    assert_same_table(tables_["first"], tables_["second"])
+
+    # a builder held up by another one's lock can be cancelled while it waits
+    g = geometry_values(m.bearings[0])
+    name = cache._digest({"geometry": g, "span": [float(v) for v in tables.DEFAULT_SPAN], "points": POINTS})[:24]
+    lock = tmp_path / "elsewhere" / "slices" / f".build-{name}.lock"
+
+    def cancel(done, total, label=""):
+        raise Cancelled("user pressed stop")
+
+    with cache._build_lock(lock, cancel):
+        with pytest.raises(Cancelled):
+            cached_table(m, 0, points=POINTS, directory=tmp_path / "elsewhere", progress=cancel)
+    assert len(builds) == SLICES

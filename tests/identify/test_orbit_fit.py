@@ -188,26 +188,26 @@ def test_the_secant_curvature_is_exact_along_the_step_and_the_correction_carries
 
 
 @pytest.fixture(scope="module")
-def time_records():
-    """The module's two records again, from the time integration (`make_orbit_records(method="time")`: every
-    harmonic, the 40-element rotor; ~4 min each, side by side, then cached): the path that does not share the
-    balance's truncation."""
+def time_record():
+    """The module's weaker record again, from the time integration (`make_orbit_records(method="time")`: every
+    harmonic, the 40-element rotor; ~4-5 min, then cached): the path that does not share the balance's
+    truncation. The paper's unbalance from this path is in `lubeviz bench coverage --large-orbit` (12 records
+    at 0.5-1 x the unbalance, BENCHMARKS), not here: one more record is 5 min of CI."""
     return make_orbit_records([
-        (IndependentSpec(speed_hz=75.0, q1_mlmin=Q[0], q2_mlmin=Q[1], seed=5), 1.0),
-        (IndependentSpec(speed_hz=75.0, q1_mlmin=WEAKER_Q[0], q2_mlmin=WEAKER_Q[1], seed=5), 0.6)], method="time")
+        (IndependentSpec(speed_hz=75.0, q1_mlmin=WEAKER_Q[0], q2_mlmin=WEAKER_Q[1], seed=5), 0.6)], method="time")[0]
 
 
-@pytest.mark.parametrize("which", [0, 1], ids=["paper's unbalance", "0.6 x"])
-def test_on_the_time_integration_s_records_the_intervals_hold_the_flows(machine, time_records, which):
-    """Records along another path than the model's balance: the time integration holds every harmonic (its 2X is
-    10-16 % larger than the model's 5-harmonic balance's). With `large_orbit` declared the record is explained
-    and the 95 % intervals hold the flows. At 0.6 x the unbalance the flows come back within about 1 % (measured
-    +0.9 / +1.0 %, bound 1.5 %); at the paper's unbalance +4.0 / +0.3 % (bound 5 %), where the balance's
-    truncation (`ModelBudget.orbit_truncation`) makes sigma 19-23 % of the flows: the model cannot say more there."""
-    rec, truth = time_records[which].record, time_records[which].truth
-    q = np.array(Q if which == 0 else WEAKER_Q)
+def test_on_the_time_integration_s_record_the_intervals_hold_the_flows(machine, time_record):
+    """A record along another path than the model's balance: the time integration holds every harmonic (its 2X is
+    10-16 % larger than the model's 5-harmonic balance's). With `large_orbit` declared and a 5-harmonic balance
+    (what a diagnosis tries) the record is explained, the 95 % intervals hold the flows and they come back within
+    about 1 % (measured +0.9 / +1.0 %, bound 1.5 %). At the paper's unbalance (bench, 12 records: 5 harmonics
+    median 2.4 %, max 10 %, intervals 23 / 24) the balance's truncation (`ModelBudget.orbit_truncation`) makes
+    sigma large: the model cannot say more there with 5 harmonics."""
+    rec, truth = time_record.record, time_record.truth
+    q = np.array(WEAKER_Q)
     # the start's transient has died out (the 1X of the last two revolutions against the two one revolution
-    # earlier: 1.0 / 0.4 % measured) and the 0.5X line the periodic record leaves out is small (2.7 / 0.5 % of 1X)
+    # earlier: 0.4 % measured) and the 0.5X line the periodic record leaves out is small (0.5 % of 1X)
     assert truth["method"] == "time" and truth["periodicity"] < 0.02
     assert truth["half_order"] < 0.05
     assert min(truth["ratio_2x"]) > 0.1
@@ -215,21 +215,21 @@ def test_on_the_time_integration_s_records_the_intervals_hold_the_flows(machine,
     err = np.abs(r.q * 6e7 / q - 1)
     assert r.model_explains_data
     assert all(_inside(r.intervals[k], q[k]) for k in range(2))
-    assert err.max() < (0.05 if which == 0 else 0.015)
+    assert err.max() < 0.015
     info = r.effects["large_orbit"]
-    assert info["unbalance_scale"] == pytest.approx(1.0 if which == 0 else 0.6, rel=0.06)
+    assert info["unbalance_scale"] == pytest.approx(0.6, rel=0.06)
     model, source = np.asarray(info["ratio_2x_model"]), np.asarray(truth["ratio_2x"])
     assert np.all(np.abs(model / source - 1) < 0.2)
 
 
-def test_with_16_harmonics_the_flows_come_within_1_percent_on_the_time_integration_s_record(machine, time_records):
+def test_with_16_harmonics_the_flows_come_within_1_percent_on_the_time_integration_s_record(machine, time_record):
     """Issue 11's 1 % on records along another path: identification's default balance, 16 harmonics and 64 points
     (`IdentificationSettings.orbit_harmonics`), follows the film's sharp turn where it is thinnest. At 0.6 x the
     unbalance measured -0.23 / +0.30 % (5 harmonics: +0.87 / +1.02 %), chi2 0.30, the 2X within 2-3 % of the record's
     (5 harmonics: 10-14 % short), 73 s; at the paper's unbalance -0.02 / +0.20 % (5 harmonics: +4.0 / +0.3 %), 107 s
     (not run here: CI time, BENCHMARKS)."""
     assert IdentificationSettings().orbit_harmonics == 16
-    rec, truth = time_records[1].record, time_records[1].truth
+    rec, truth = time_record.record, time_record.truth
     q = np.array(WEAKER_Q)
     r = identify_record(rec, machine, effects=(parse_effect("large_orbit"),)).result
     assert r.effects["large_orbit"]["harmonics"] == 16

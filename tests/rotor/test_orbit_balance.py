@@ -201,7 +201,9 @@ def test_an_orbit_on_another_mesh_starts_the_films_from_its_patterns(coarse, mon
     assert mapped.film_solves < plain.film_solves
 
 
-@pytest.mark.parametrize("scale", [1.0, 0.6])
+# 0.6 x the unbalance (85 s, taken out of CI for its time, session 20) measured 4 % of the correction, covered by
+# the term; the bench over 12 time-integration records at 0.5-1 x (BENCHMARKS) covers that range.
+@pytest.mark.parametrize("scale", [1.0])
 def test_at_the_paper_s_point_the_time_integration_bounds_the_balance_s_truncation(scale):
     """The paper's unbalance (and 0.6 x it) at 75 Hz with both bearings at their Q_T, where the film is most
     nonlinear (60 x 40 films: the difference does not need the 100 x 100 mesh). Started on the balance's orbit,
