@@ -353,21 +353,21 @@ def geometry_table(bearing: Bearing, sommerfeld=None, *, span=DEFAULT_SPAN, poin
     directory = _slices_dir(directory)
     keys = {i: slice_key(geometry, nodes[i], span=span, points=points) for i in wanted}
     paths = {i: directory / f"{k}.npz" for i, k in keys.items()}
-    for i in wanted:
-        s = _load_or_discard(paths[i], keys[i], float(nodes[i]), span, points)
-        if s is not None:
-            table.slices[i] = s
-    missing = [i for i in wanted if i not in table.slices]
+
+    def load(indices):  # the trusted slices on disk into the table; returns those still missing
+        for i in indices:
+            s = _load_or_discard(paths[i], keys[i], float(nodes[i]), span, points)
+            if s is not None:
+                table.slices[i] = s
+        return [i for i in indices if i not in table.slices]
+
+    missing = load(wanted)
     if not missing:
         progress(1, 1, "tables from cache")
         return table
     lock_name = _digest({"geometry": geometry, "span": [float(v) for v in span], "points": int(points)})
     with _build_lock(directory / f".build-{lock_name[:24]}.lock", progress):
-        for i in missing:  # what another builder stored while this one waited
-            s = _load_or_discard(paths[i], keys[i], float(nodes[i]), span, points)
-            if s is not None:
-                table.slices[i] = s
-        missing = [i for i in wanted if i not in table.slices]
+        missing = load(missing)  # what another builder stored while this one waited
         if not missing:
             progress(1, 1, "tables from cache (built by another process)")
             return table
