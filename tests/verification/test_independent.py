@@ -284,3 +284,55 @@ def test_orbit_balance_cache_round_trips_is_keyed_and_rebuilt(tmp_path, monkeypa
     with pytest.warns(equilibria.StaleIndependentCacheWarning):
         orbit_record._cached_balance(spec, 1.0, solve)
     assert len(solved) == 4
+
+
+def test_an_edit_to_the_benches_keeps_the_orbit_records_an_edit_to_their_code_does_not(monkeypatch):
+    """The orbit records' key hashes the film, rotor and verification sources but the benches
+    (`orbit_record.NOT_IN_KEY`): a bench edit kept nothing stored in them and must not throw away hours of
+    time-integration records; an edit to the code that makes them must."""
+    import pathlib
+
+    from lubeviz.verification import equilibria, orbit_record
+
+    spec = IndependentSpec(speed_hz=75.0, q1_mlmin=460.0, q2_mlmin=600.0, seed=5)
+    original = pathlib.Path.read_bytes
+
+    def key_with_edit(name):
+        def edited(path):
+            data = original(path)
+            return data + b"\n# an edit\n" if path.name == name else data
+
+        monkeypatch.setattr(pathlib.Path, "read_bytes", edited)
+        equilibria.code_version.cache_clear()
+        try:
+            return orbit_record._balance_key(spec, 1.0, "time")
+        finally:
+            monkeypatch.setattr(pathlib.Path, "read_bytes", original)
+            equilibria.code_version.cache_clear()
+
+    before = orbit_record._balance_key(spec, 1.0, "time")
+    assert key_with_edit("bench.py") == before
+    assert key_with_edit("orbit_record.py") != before
+    assert key_with_edit("orbit_balance.py") != before  # the rotor's balance
+
+
+def test_the_orbit_bench_counts_a_balance_that_does_not_settle_as_a_miss():
+    """`bench_orbit`'s figures at one harmonic count (`orbit_summary`): an identification whose balance did not
+    settle is a row with `failed`, counted in its own rate and as a miss of the 1 %, not the bench's end; the error
+    and coverage figures are over the rows that finished."""
+    from lubeviz.verification.bench import orbit_summary
+
+    def row(err, holds=(True, True)):
+        return {"max_abs_error_pct": err, "holds": list(holds), "above_qt": [False, True], "explained": True,
+                "truth_in_alt": False, "seconds": 100.0 + err, "sigma_pct": [2.0, 3.0 + err]}
+
+    rows = [row(0.5), row(2.0, (True, False)), {"failed": "harmonic balance did not settle", "q_mlmin": [1, 2],
+                                                 "unbalance_scale": 0.7}]
+    s = orbit_summary(rows)
+    assert s["records"] == 3 and (s["failed"]["k"], s["failed"]["n"]) == (1, 3)
+    assert (s["within_1pct"]["k"], s["within_1pct"]["n"]) == (1, 3)
+    assert s["error_pct_max"] == 2.0 and s["error_pct_median"] == 1.25
+    assert (s["coverage_q2"]["k"], s["coverage_q2"]["n"]) == (1, 2)
+    assert s["sigma_pct_median"] == 4.25 and s["fit_s_median"] == 101.25
+    nothing = orbit_summary([rows[2]])
+    assert nothing["failed"]["k"] == 1 and nothing["within_1pct"]["k"] == 0 and nothing["sigma_pct_median"] is None
