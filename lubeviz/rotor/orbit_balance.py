@@ -335,9 +335,11 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
             break
         it += 1
         if it > max_iter:
-            raise ConvergenceError(f"harmonic balance did not settle in {max_iter} Newton steps (last change "
-                                   f"{change:.1e} of the 1X orbit): the orbit is too large for a periodic "
-                                   "solution near the linear one")
+            why = (f"it came within {INEXACT_ABOVE:.0e} of an orbit and no closer, where the films' tangents no longer "
+                   "lead Newton's method (seen at 24 harmonics; fewer harmonics may settle)" if change < INEXACT_ABOVE else
+                   "the orbit is too large for a periodic solution near the linear one")
+            raise ConvergenceError(f"harmonic balance with {H} harmonics did not settle in {max_iter} Newton steps "
+                                   f"(last change {change:.1e} of the 1X orbit, tolerance {tol:.0e}): {why}")
         step = -np.linalg.solve(G_jacobian(dq, dv) - np.eye(z.size), f)
         reach = np.abs(unpack(step)).sum(axis=0).reshape(nb, 2).max(axis=1)  # bound on each journal's move
         cap = float(np.max(reach / (MAX_STEP * np.array([e.bearing.clearance for e in eqs]))))

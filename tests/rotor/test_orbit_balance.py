@@ -5,7 +5,7 @@ the scaling laws of a weak nonlinearity."""
 import numpy as np
 import pytest
 
-from lubeviz.errors import InputError
+from lubeviz.errors import ConvergenceError, InputError
 from lubeviz.rotor import rotor_from_machine
 from lubeviz.rotor.film_bearings import film_bearings
 from lubeviz.rotor.film_transient import amplitude_ratio, film_time_response
@@ -267,3 +267,16 @@ def test_at_the_paper_s_point_the_time_integration_bounds_the_balance_s_truncati
 
     term_16 = max(budget.orbit_defect, truncation_factor(16) * budget.orbit_truncation * share**2) * size
     assert rms_16 <= term_16 < 1.3 * rms_16
+
+
+def test_a_balance_that_does_not_settle_says_whether_it_came_close_to_an_orbit(coarse):
+    """Stopped short, the balance says which failure it is: still far from an orbit (a change above INEXACT_ABOVE
+    of the 1X: the orbit too large for one near the linear) or close to one and no closer (a stall, as the
+    24-harmonic balance does on some large-orbit records), with its harmonics, last change and tolerance."""
+    machine, rotor, bearings = coarse
+    ub = _unbalance(machine, 0.2)
+    with pytest.raises(ConvergenceError, match=r"5 harmonics did not settle in 0 Newton steps \(last change 7"
+                                               r".*too large for a periodic solution"):
+        orbit_balance(rotor, bearings, ub, nodes=NODES, max_iter=0)  # the linear orbit: 7 % off
+    with pytest.raises(ConvergenceError, match=r"tolerance 1e-14\): it came within 1e-02 of an orbit and no closer"):
+        orbit_balance(rotor, bearings, ub, nodes=NODES, max_iter=2, tol=1e-14)  # 0.4 % after two steps
