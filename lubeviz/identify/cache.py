@@ -36,6 +36,7 @@ A crashed builder's lock goes with its process.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import json
@@ -47,7 +48,6 @@ import tempfile
 import threading
 import time
 import warnings
-import contextlib
 import zipfile
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
@@ -365,14 +365,19 @@ def geometry_table(bearing: Bearing, sommerfeld=None, *, span=DEFAULT_SPAN, poin
     if not missing:
         progress(1, 1, "tables from cache")
         return table
-    lock_name = _digest({"geometry": geometry, "span": [float(v) for v in span], "points": int(points)})
-    with _build_lock(directory / f".build-{lock_name[:24]}.lock", progress):
+    with _build_lock(_lock_path(directory, geometry, span, points), progress):
         missing = load(missing)  # what another builder stored while this one waited
         if not missing:
             progress(1, 1, "tables from cache (built by another process)")
             return table
         _build_missing(table, geometry, nodes, missing, paths, keys, span, points, progress, workers)
     return table
+
+
+def _lock_path(directory: Path, geometry: dict, span, points: int) -> Path:
+    """The lock file that builders of this geometry's slices (on this ratio grid) take turns on."""
+    name = _digest({"geometry": geometry, "span": [float(v) for v in span], "points": int(points)})
+    return directory / f".build-{name[:24]}.lock"
 
 
 @contextlib.contextmanager

@@ -336,7 +336,7 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
         it += 1
         if it > max_iter:
             why = (f"it came within {INEXACT_ABOVE:.0e} of an orbit and no closer, where the films' tangents no longer "
-                   "lead Newton's method (seen at 24 harmonics; fewer harmonics may settle)" if change < INEXACT_ABOVE else
+                   "lead Newton's method (another harmonic count may settle)" if change < INEXACT_ABOVE else
                    "the orbit is too large for a periodic solution near the linear one")
             raise ConvergenceError(f"harmonic balance with {H} harmonics did not settle in {max_iter} Newton steps "
                                    f"(last change {change:.1e} of the 1X orbit, tolerance {tol:.0e}): {why}")

@@ -356,7 +356,6 @@ def test_a_changed_view_from_the_slices_in_memory_equals_the_cached_view():
     assert far.key
 
 
-
 def test_two_builders_of_one_geometry_take_turns_and_solve_each_slice_once(tmp_path, builds):
     """A second builder (here a thread; another app session or test worker is a process, the same `flock`)
     that misses the slices a first one is building waits, says so, then loads what the first stored: no
@@ -392,9 +391,8 @@ def test_two_builders_of_one_geometry_take_turns_and_solve_each_slice_once(tmp_p
     assert_same_table(tables_["first"], tables_["second"])
 
     # a builder held up by another one's lock can be cancelled while it waits
-    g = geometry_values(m.bearings[0])
-    name = cache._digest({"geometry": g, "span": [float(v) for v in tables.DEFAULT_SPAN], "points": POINTS})[:24]
-    lock = tmp_path / "elsewhere" / "slices" / f".build-{name}.lock"
+    lock = cache._lock_path(tmp_path / "elsewhere" / "slices", geometry_values(m.bearings[0]), tables.DEFAULT_SPAN,
+                            POINTS)
 
     def cancel(done, total, label=""):
         raise Cancelled("user pressed stop")

@@ -201,7 +201,7 @@ def test_on_the_time_integration_s_record_the_intervals_hold_the_flows(machine, 
     """A record along another path than the model's balance: the time integration holds every harmonic (its 2X is
     10-16 % larger than the model's 5-harmonic balance's). With `large_orbit` declared and a 5-harmonic balance
     (what a diagnosis tries) the record is explained, the 95 % intervals hold the flows and they come back within
-    about 1 % (measured +0.9 / +1.0 %, bound 1.5 %). At the paper's unbalance (bench, 12 records: 5 harmonics
+    about 1 % (measured +0.9 / +1.0 %, bound 1.5 %). At fuller unbalances (bench, 12 records at 0.5-1 x: 5 harmonics
     median 2.4 %, max 10 %, intervals 23 / 24) the balance's truncation (`ModelBudget.orbit_truncation`) makes
     sigma large: the model cannot say more there with 5 harmonics."""
     rec, truth = time_record.record, time_record.truth

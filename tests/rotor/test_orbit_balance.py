@@ -205,7 +205,7 @@ def test_an_orbit_on_another_mesh_starts_the_films_from_its_patterns(coarse, mon
 # the term; the bench over 12 time-integration records at 0.5-1 x (BENCHMARKS) covers that range.
 @pytest.mark.parametrize("scale", [1.0])
 def test_at_the_paper_s_point_the_time_integration_bounds_the_balance_s_truncation(scale):
-    """The paper's unbalance (and 0.6 x it) at 75 Hz with both bearings at their Q_T, where the film is most
+    """The paper's unbalance at 75 Hz with both bearings at their Q_T, where the film is most
     nonlinear (60 x 40 films: the difference does not need the 100 x 100 mesh). Started on the balance's orbit,
     the time integration of the same films (all harmonics; implicit coupling, its step converged: 2.5e-5 and
     1.25e-5 s agree to 0.1 %) settles within two revolutions on a periodic orbit whose 1X differs from the
