@@ -40,6 +40,7 @@ from ..rotor.modal import modal_analysis
 from ..rotor.directional import directional_components, forward_backward_ratio, orbit_angle
 from ..rotor.film_bearings import film_bearings
 from ..rotor.orbit_balance import HARMONICS, POINTS, orbit_balance
+from ..rotor.orbit_stability import orbit_stability
 from ..rotor.response import Unbalance, machine_unbalance
 from ..rotor.whirl import equilibrium_stability
 from ..signals.noise import add_noise
@@ -406,7 +407,8 @@ class RotorPage(pn.viewable.Viewer):
         rotor = resources.rotor(machine)
         orbit = orbit_balance(rotor, bearings, unbalances, nodes=(node,), harmonics=harmonics, points=points,
                               progress=progress)
-        return orbit, equilibrium_stability(rotor, bearings)
+        progress(0, 0, "the orbit's stability (Floquet multipliers)")
+        return orbit, equilibrium_stability(rotor, bearings), orbit_stability(rotor, bearings, orbit)
 
     async def _on_large_orbit(self, event=None):
         flows, speed = (self.op.q1, self.op.q2), self.op.speed
@@ -427,9 +429,9 @@ class RotorPage(pn.viewable.Viewer):
             self._large_orbit_error.object = f"**Large orbit not computed**: {exc}"
             self._large_orbit_error.visible = True
             return
-        result, stability = result
-        self._large_orbit_data = dict(result=result, stability=stability, flows=flows, speed=speed, node=node,
-                                      scale=scale)
+        result, stability, orbit_stab = result
+        self._large_orbit_data = dict(result=result, stability=stability, orbit_stability=orbit_stab, flows=flows,
+                                      speed=speed, node=node, scale=scale)
         self._large_orbit_whirl.object = (
             f"**Oil whirl**: at these flows and speed the machine is {stability.describe()}. The periodic orbit "
             "drawn here is a solution of the equations, not what the machine shows: the whirl grows on top of "
@@ -690,6 +692,8 @@ class RotorPage(pn.viewable.Viewer):
             *shifts,
             f"| largest eccentricity along the orbit | {res.max_eccentricity:.3f} |",
             *([f"| stability of the equilibrium | {data['stability'].describe()} |"] if data.get("stability") else []),
+            *([f"| stability of this orbit | {data['orbit_stability'].describe()} |"]
+              if data.get("orbit_stability") else []),
             f"| harmonic balance | {res.iterations} Newton steps, {res.seconds:.1f} s "
             f"(0X–{res.harmonics}X, {res.films and len(res.films[0])} points per revolution) |",
             "", "\\|1X\\|: the orbit's size √(\\|X₁\\|² + \\|Y₁\\|²). Static shift from the linear "

@@ -64,6 +64,7 @@ from ..errors import InputError, LubevizError
 from ..progress import ProgressFn, silent
 from ..rotor.film_bearings import equilibrium_flow_slopes, film_bearings, flooded_thresholds
 from ..rotor.orbit_balance import HARMONICS, POINTS, OrbitBalance, orbit_balance
+from ..rotor.orbit_stability import OrbitStability, orbit_stability
 from ..rotor.response import machine_unbalance
 from ..rotor.whirl import Stability, equilibrium_stability
 from .budget import ModelBudget, truncation_factor
@@ -129,6 +130,7 @@ class OrbitFit:
     seconds: float
     stability: Stability | None = None  # of the equilibrium at the answer (rotor.whirl)
     unbalance_scale: float = 1.0  # the unbalance's size the record's 1X implies, relative to the declared one
+    orbit_stability: OrbitStability | None = None  # of the periodic orbit at the answer (real Floquet multipliers)
 
     @property
     def balances(self) -> int:
@@ -427,6 +429,11 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     if stability.unstable:
         warnings.append(f"large orbits: at the flows found the model is {stability.describe()}; the periodic orbit "
                         "fitted is then not what the machine would show (a sub-synchronous line would grow)")
+    progress(total - 1, total, "large orbits: the orbit's stability")
+    orbit_stab = orbit_stability(chain.rotor, ob.bearings, ob)  # a few seconds: the films along it, Hill's method
+    if orbit_stab.unstable:
+        warnings.append(f"large orbits: the periodic orbit fitted is unstable, {orbit_stab.describe()}; the machine "
+                        "would not stay on it, and its record would hold lines the model has not")
     if ob.max_eccentricity > 0.8:
         warnings.append(f"large orbits: the journal reaches {ob.max_eccentricity:.2f} of the clearance; "
                         f"{ob.harmonics} harmonics may not hold such an orbit")
@@ -434,7 +441,7 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     progress(total, total, "large orbits: done")
     return OrbitFit(fit=final, plain=plain, orbit=ob, defect=defect, history=tuple(history),
                     converged=converged, seconds=time.perf_counter() - t0, stability=stability,
-                    unbalance_scale=scale_used)
+                    unbalance_scale=scale_used, orbit_stability=orbit_stab)
 
 
 def _slope_union(chain: ForwardChain, measured, defect: ResponseDefect, theta, final: Fit, kw) -> dict:
@@ -496,4 +503,5 @@ def orbit_summary(of: OrbitFit) -> dict:
             **({} if of.stability is None else {
                 "stability": of.stability.describe(), "unstable": of.stability.unstable,
                 "least_stable_mode_hz": of.stability.frequency_hz, "growth_per_s": of.stability.growth}),
+            **({} if of.orbit_stability is None else {"orbit_stability": of.orbit_stability.summary()}),
             "seconds": of.seconds}

@@ -29,7 +29,8 @@ as text in `Record.metadata` and adds a line to `Record.warnings`, naming the cl
 ("unknown key 'node_1' ignored; did you mean 'node1'?"), because a misspelled optional key would
 otherwise leave the default in force unnoticed. Without a warning are kept: the informational keys
 `lubeviz simulate` writes (`INFO_KEYS`: q1_mlmin, q2_mlmin, snr_db, synthetic, seed, effects,
-method, static_shift_um, ratio_2x, stability, whirl_hz, whirl_growth_per_s; any `truth_...`) and free
+method, static_shift_um, ratio_2x, stability, whirl_hz, whirl_growth_per_s, orbit_stability,
+orbit_stability_state; any `truth_...`) and free
 text under `note`, `notes`, `comment`, `description`, `operator`,
 `date` or any key starting with `x_` (`x_rig: B`). Columns (CSV) and arrays (.npz/.mat) with other
 names are ignored, with a warning unless they start with `x_`; a `# node1 5` comment line that
@@ -112,7 +113,7 @@ OIL_TEMPERATURE_RANGE_C = (-20.0, 150.0)
 RESERVED = frozenset(COLUMNS + META_KEYS)
 # Informational keys `lubeviz simulate` writes, and free-text keys: kept without a warning.
 INFO_KEYS = ("q1_mlmin", "q2_mlmin", "snr_db", "synthetic", "seed", "effects", "method", "static_shift_um", "ratio_2x",
-             "stability", "whirl_hz", "whirl_growth_per_s")
+             "stability", "whirl_hz", "whirl_growth_per_s", "orbit_stability", "orbit_stability_state")
 FREE_TEXT_KEYS = ("note", "notes", "comment", "description", "operator", "date")
 FREE_PREFIXES = ("x_", "truth_")  # `x_anything: ...` is the user's own; `truth_*` the simulator's
 STATIC_ABSOLUTE = "absolute"

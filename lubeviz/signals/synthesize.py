@@ -82,6 +82,11 @@ def synthesize_record(machine, flows: Sequence[float], *, nodes: Sequence[int] |
                                                                                           ob.y[0].real], 1))),
                  "ratio_2x": " ".join(f"{ob.harmonic_ratio(2, k):.4f}" for k in range(len(nodes))),
                  "stability": stab.describe()}
+        if not stab.unstable:  # the orbit's own multipliers (a whirl's onset is integrated below instead)
+            from ..rotor.orbit_stability import orbit_stability
+
+            ost = orbit_stability(rotor, fb, ob)
+            extra.update({"orbit_stability": ost.describe(), "orbit_stability_state": ost.state})
         if stab.unstable:  # the periodic orbit is not what the machine shows: the whirl grows on top of it
             try:
                 tr, _ = whirl_onset(rotor, fb, machine_unbalance(machine), duration=n_keep * dt, dt=dt, nodes=nodes,

@@ -66,9 +66,13 @@ def size_1x(x, y) -> float:
 
 @pytest.fixture(scope="module")
 def orbits():
-    """{scale: OrbitBalance} from one page at 900 ml/min, node 6, and that page."""
+    """That page, {scale: OrbitBalance} from one page at 900 ml/min, node 6, and {scale: its OrbitStability}."""
     page = make_page()
-    return page, {s: compute(page, s) for s in SCALES}
+    r, stab = {}, {}
+    for s in SCALES:
+        r[s] = compute(page, s)
+        stab[s] = page._large_orbit_data["orbit_stability"]
+    return page, r, stab
 
 
 @pytest.fixture(scope="module")
@@ -94,7 +98,7 @@ def test_the_page_default_is_the_modules_resolution():
 
 @pytest.mark.slow  # shares the module's three balances (about 20 s)
 def test_a_small_orbit_is_the_linear_models_orbit(orbits, linear_1x):
-    _, r = orbits
+    _, r, _ = orbits
     small = r[0.25]
     assert small.nodes == (NODE,)
     nonlinear = size_1x(small.x[1, 0], small.y[1, 0])
@@ -104,7 +108,7 @@ def test_a_small_orbit_is_the_linear_models_orbit(orbits, linear_1x):
 
 @pytest.mark.slow  # shares the module's three balances (about 20 s)
 def test_2x_grows_in_proportion_to_the_unbalance_and_the_shift_as_its_square(orbits):
-    _, r = orbits
+    _, r, _ = orbits
     ratio = {s: r[s].harmonic_ratio(2, 0) for s in SCALES}
     assert 1.4 < ratio[0.5] / ratio[0.25] < 2.8  # weak nonlinearity: 2X ~ orbit^2, so 2X/1X ~ orbit
     assert ratio[1.0] > 1.4 * ratio[0.25]
@@ -117,7 +121,7 @@ def test_2x_grows_in_proportion_to_the_unbalance_and_the_shift_as_its_square(orb
 
 @pytest.mark.slow  # shares the module's three balances (about 20 s)
 def test_the_page_shows_orbit_lines_and_numbers(orbits):
-    page, r = orbits
+    page, r, stab = orbits
     shown = r[SCALES[-1]]
     plot = page._large_orbit_pane.object
     labels = {el.label for el in plot}
@@ -131,8 +135,13 @@ def test_the_page_shows_orbit_lines_and_numbers(orbits):
     assert amp[1] == max(amp.values())  # the forward 1X dominates
     summary = page._large_orbit_summary.object
     for item in ("2X / 1X at node 6", "1X\\| nonlinear / linear", "static shift (0X), journal 1",
-                 "static shift (0X), journal 2", "largest eccentricity", "Newton steps"):
+                 "static shift (0X), journal 2", "largest eccentricity", "Newton steps", "stability of this orbit"):
         assert item in summary, (item, summary)
+    # the orbit's Floquet multipliers: a small orbit damps a 0.5X disturbance faster than a large one
+    assert stab[1.0].describe() in summary  # the orbit shown
+    assert stab[0.25].state == "stable"
+    small, large = (stab[s].half_order_multiplier for s in (0.25, 1.0))
+    assert small is None or (large is not None and small < large)
     assert not page._large_orbit_stale.visible
 
 
@@ -176,7 +185,7 @@ def test_a_failed_balance_shows_its_message_and_the_page_keeps_working(monkeypat
 
 def test_the_numbers_state_the_equilibrium_s_stability_and_no_whirl_below_the_threshold(orbits):
     """75 Hz, 900 ml/min: below the instability threshold (BENCHMARKS "stability")."""
-    page, _ = orbits
+    page, _, _ = orbits
     assert "below the instability threshold" in page._large_orbit_summary.object
     assert not page._large_orbit_whirl.visible
 

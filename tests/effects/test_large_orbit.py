@@ -51,3 +51,13 @@ def test_where_it_cannot_be_used_it_says_so(machine, tmp_path, capsys):
     code = main(["simulate", "--q1-mlmin", "450", "--q2-mlmin", "600", "--effect", "large_orbit",
                  "--effect", "viscosity:factor=0.8", "-o", str(tmp_path / "x.csv")])
     assert code == 2 and "no other effect" in capsys.readouterr().err
+
+
+def test_the_record_says_how_stable_its_orbit_is(record):
+    """The paper's unbalance near Q_T lies at the onset of period doubling (the time integration's 0.5X line
+    decays at about -2 /s there, a multiplier near -0.97 a revolution; BENCHMARKS "Stability of the orbit"): the
+    record's metadata carries the orbit's half-order multiplier, close to -1 but not past it."""
+    text = record.metadata["orbit_stability"]
+    assert record.metadata["orbit_stability_state"] in ("stable", "undecided")
+    mu = float(text.split("multiplier -")[1].split()[0])
+    assert 0.9 < mu < 1.03 and "0.5X" in text

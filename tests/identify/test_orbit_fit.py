@@ -241,3 +241,8 @@ def test_with_16_harmonics_the_flows_come_within_1_percent_on_the_time_integrati
         assert 1.96 * r.q_std[k] >= 0.999 * max(r.q[k] - lo, hi - r.q[k])
     model, source = np.asarray(r.effects["large_orbit"]["ratio_2x_model"]), np.asarray(truth["ratio_2x"])
     assert np.all(np.abs(model / source - 1) < 0.06)
+    # the orbit at the answer is stable: its half-order multiplier (Hill, -0.66 measured) is far from -1, as the
+    # source's 0.5X line, 0.5 % of 1X two revolutions after its start, says
+    stab = r.effects["large_orbit"]["orbit_stability"]
+    assert stab["state"] == "stable" and -0.8 < stab["half_order_multiplier"] < -0.5
+    assert truth["half_order"] < 0.01

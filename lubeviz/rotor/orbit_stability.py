@@ -1,0 +1,238 @@
+"""Whether the machine stays on the periodic orbit: the orbit's real Floquet multipliers (Hill's method).
+
+The harmonic balance (`orbit_balance`) finds a periodic orbit; it does not say that the machine stays on it. A
+small disturbance d of the orbit obeys the rotor's equations with the films' tangents along the orbit, whose
+coefficients have the period T = 2 pi / Omega:
+
+    M d'' + (C + Omega G) d' + K d = L^T [P(t) d_b + V(t) d_b'],   P = dF/dq + K0, V = dF/dv + C0
+
+(K, C hold the bearings' K0, C0, as in the balance; F is the film force, its tangent taken with the cavitation
+pattern held, `film.linearize.force_jacobian`). By Floquet's theorem the solutions are e^{st} p(t) with p
+periodic; the multiplier e^{sT} per revolution says whether a disturbance grows. Hill's method writes p as
+harmonics. With whole orders m Omega it finds the multipliers on the positive real axis (one above +1: a fold,
+the machine leaves this orbit for another). With half orders (m + 1/2) Omega it finds those on the negative real
+axis (one below -1: period doubling, a line at 0.5X grows). Condensed to the bearings (B(s): the rotor's
+receptance there at s + i w_m), the condition is
+
+    det(I - B(s) T(s)) = 0,   T_mk = P_(m-k) + V_(m-k) (s + i w_k)   (P_j, V_j: the tangents' harmonics)
+
+a real function of real s (the orders come in conjugate pairs). Its real roots are found by a scan for sign
+changes (two roots closer than the scan's step can be missed), then bisection.
+
+Complex multipliers (a whirl riding on the orbit, a Neimark-Sacker bifurcation) are not searched: the stability
+of the equilibrium (`rotor.whirl`) speaks to the whirl. The orders kept are those the orbit's N points resolve
+(the tangents' harmonics up to N / 2 - 1).
+
+Checked (tests/rotor/test_orbit_stability.py):
+- against the monodromy matrix integrated over one period (a rotor with periodically modulated bearing
+  stiffness and damping, the damped Mathieu problem on a Timoshenko shaft): the multipliers agree to 1e-6;
+- against the time integration on the films (`film_transient`) started on the balance's orbit, where the 0.5X
+  line it leaves shows the multiplier near -1 at the paper's unbalance (BENCHMARKS "Stability of the orbit"):
+  100 x 100 films, 460 / 600 ml/min: Hill -0.956 (16 harmonics), the time integration about -0.974; 60 x 40
+  films at Q_T: Hill -0.988, the time integration -1.0035 over 32 revolutions (0.5X 0.36 -> 0.40 um). They
+  differ by up to MARGIN, so a multiplier within MARGIN of 1 in size is reported as undecided.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ConvergenceError, InputError
+from ..film.feed import Feed, setup_problem
+from ..film.linearize import force_jacobian
+from ..film.solver import solve
+from .assembly import Rotor, bearing_matrices
+from .elements import X, Y, node_dofs
+from .film_bearings import FilmBearings
+
+SCAN = (-0.2, 0.1)  # the real exponents scanned, relative to Omega (at 75 Hz: -94 ... +47 /s) ...
+SCAN_POINTS = 121  # ... at this many points (a root is bracketed by a change of the determinant's sign)
+MARGIN = 0.03  # a multiplier's size within this of 1 is not decided: Hill at 16 harmonics and the time
+# integration differed by 1.5-1.8 % of it at the paper's unbalance (the module's doc)
+
+
+@dataclass(frozen=True)
+class OrbitStability:
+    """The periodic orbit's real Floquet exponents s (1/s), largest first: for whole orders the multiplier is
+    e^{sT} per revolution (positive), for half orders -e^{sT} (negative)."""
+
+    omega: float
+    half_order: tuple[float, ...]
+    whole_order: tuple[float, ...]
+    scanned: tuple[float, float]  # the range of s scanned (1/s)
+    harmonics: int = 0  # of the orbit the tangents were taken along
+
+    @property
+    def period(self) -> float:
+        return 2 * math.pi / self.omega
+
+    @property
+    def half_order_multiplier(self) -> float | None:
+        """The size of the negative multiplier farthest out, e^{sT} of the largest half-order exponent (None:
+        none in the scan)."""
+        return math.exp(self.half_order[0] * self.period) if self.half_order else None
+
+    @property
+    def whole_order_multiplier(self) -> float | None:
+        return math.exp(self.whole_order[0] * self.period) if self.whole_order else None
+
+    @property
+    def state(self) -> str:
+        """"stable", "undecided" (a multiplier within MARGIN of 1 in size) or "unstable"."""
+        sizes = [mu for mu in (self.half_order_multiplier, self.whole_order_multiplier) if mu is not None]
+        if any(mu > 1 + MARGIN for mu in sizes):
+            return "unstable"
+        if any(mu >= 1 - MARGIN for mu in sizes):
+            return "undecided"
+        return "stable"
+
+    @property
+    def unstable(self) -> bool:
+        return self.state == "unstable"
+
+    def describe(self) -> str:
+        parts = []
+        mu = self.half_order_multiplier
+        if mu is not None:
+            if mu > 1 + MARGIN:
+                what = "period doubling: a line at 0.5X grows and the orbit doubles its period"
+            elif mu >= 1 - MARGIN:
+                what = ("at the threshold of period doubling: a 0.5X line neither grows nor dies out over tens of "
+                        f"revolutions (within {100 * MARGIN:g} % of -1, the model cannot say which)")
+            elif mu > 0.8:
+                what = "period doubling near: a 0.5X disturbance dies out slowly"
+            else:
+                what = "a 0.5X disturbance dies out"
+            parts.append(f"multiplier -{mu:.3f} a revolution ({what})")
+        mu = self.whole_order_multiplier
+        if mu is not None:
+            what = ("the orbit is unstable: the machine leaves it for another" if mu > 1 + MARGIN else
+                    f"at the threshold of a jump to another orbit (within {100 * MARGIN:g} % of +1)"
+                    if mu >= 1 - MARGIN else "a slow disturbance dies out")
+            parts.append(f"multiplier +{mu:.3f} a revolution ({what})")
+        if not parts:
+            lo, hi = (math.exp(s * self.period) for s in self.scanned)
+            return (f"no real multiplier of size {lo:.2f}-{hi:.2f} a revolution: no period doubling or jump "
+                    "near this orbit")
+        return "; ".join(parts)
+
+    def summary(self) -> dict:
+        """JSON-ready."""
+        return {"state": self.state, "text": self.describe(),
+                "half_order_multiplier": None if self.half_order_multiplier is None else -self.half_order_multiplier,
+                "whole_order_multiplier": self.whole_order_multiplier,
+                "half_order_exponents_per_s": list(self.half_order), "whole_order_exponents_per_s":
+                list(self.whole_order), "harmonics": self.harmonics, "margin": MARGIN}
+
+
+def orbit_tangents(orbit, bearings: FilmBearings) -> tuple[np.ndarray, np.ndarray]:
+    """P(t), V(t) (n_bearings, N, 2, 2) along `orbit` (an `OrbitBalance` that carries its films): each film
+    re-solved at its phase point (warm from the balance's own), its tangent with the pattern held, plus K0, C0."""
+    if orbit.films is None:
+        raise InputError("orbit stability: the orbit carries no films")
+    eqs = bearings.equilibria
+    n_pts = len(orbit.films[0])
+    omega = orbit.omega
+    E = np.exp(1j * np.outer(np.arange(orbit.harmonics + 1), 2 * math.pi * np.arange(n_pts) / n_pts))
+    qb = orbit.journal_harmonics
+    q_t = np.real(qb.T @ E)
+    v_t = np.real((qb * (1j * omega * np.arange(orbit.harmonics + 1))[:, None]).T @ E)
+    P = np.zeros((len(eqs), n_pts, 2, 2))
+    V = np.zeros_like(P)
+    for j, e in enumerate(eqs):
+        sl = slice(2 * j, 2 * j + 2)
+        for k in range(n_pts):
+            problem = setup_problem(e.bearing, omega, e.position + q_t[sl, k], Feed.flow(bearings.flows[j]),
+                                    velocity=v_t[sl, k])
+            sol = solve(problem, warm=orbit.films[j][k])
+            if not sol.converged or sol.linear is None:
+                raise ConvergenceError(f"orbit stability: film {j + 1} at phase {360 * k / n_pts:.0f} deg has no "
+                                       "tangent (its active-set solve did not settle)")
+            dF = force_jacobian(sol)
+            P[j, k] = dF[:, :2] + e.coefficients.K
+            V[j, k] = dF[:, 2:] + e.coefficients.C
+    return P, V
+
+
+def hill_determinant(rotor: Rotor, coefficients, omega: float, P: np.ndarray, V: np.ndarray, *, half: bool):
+    """s -> (sign, log|det|) of I - B(s) T(s) for `rotor` on bearings of `coefficients` (K0, C0 per bearing, as
+    `bearing_matrices` takes them) with the periodic bearing terms P(t), V(t) (n_bearings, N, 2, 2) sampled at N
+    equal steps of a revolution, over the orders those points resolve: half orders (m + 1/2) Omega or whole ones
+    m Omega. Real for real s (the sign is +-1 then)."""
+    nb, n_pts = P.shape[:2]
+    if P.shape != (len(rotor.bearing_nodes), n_pts, 2, 2) or V.shape != P.shape:
+        raise InputError(f"hill_determinant: P, V of shape {P.shape}, {V.shape}; expected "
+                         f"({len(rotor.bearing_nodes)}, N, 2, 2) each")
+    K = (n_pts // 2 - 1) // 2  # orders up to K + 1/2 (or K): their differences' harmonics stay below N / 2
+    ms = np.arange(-(K + 1), K + 1) + 0.5 if half else np.arange(-K, K + 1).astype(float)
+    w = ms * omega
+    J = int(round(ms[-1] - ms[0]))
+    js = np.arange(-J, J + 1)
+    Ej = np.exp(-1j * np.outer(js, 2 * math.pi * np.arange(n_pts) / n_pts)) / n_pts
+    d = 2 * nb
+    Ph = np.zeros((len(js), d, d), complex)
+    Vh = np.zeros_like(Ph)
+    for b in range(nb):
+        Ph[:, 2 * b:2 * b + 2, 2 * b:2 * b + 2] = np.einsum("jn,nab->jab", Ej, P[b])
+        Vh[:, 2 * b:2 * b + 2, 2 * b:2 * b + 2] = np.einsum("jn,nab->jab", Ej, V[b])
+    Kt, Ct = bearing_matrices(rotor, coefficients)
+    Lb = np.array([node_dofs(nd)[[X, Y]] for nd in rotor.bearing_nodes]).ravel()
+    unit = np.eye(rotor.n_dof)[:, Lb]
+    damping = Ct + omega * rotor.G
+    diff = np.rint(ms[:, None] - ms[None, :]).astype(int) + J  # index of P_(m-k)
+    n = len(ms) * d
+
+    def det(s: float):
+        lam = s + 1j * w
+        B = np.array([np.linalg.solve(Kt + v * damping + v * v * rotor.M, unit)[Lb] for v in lam])  # (n_m, d, d)
+        T = Ph[diff] + Vh[diff] * lam[None, :, None, None]  # (n_m, n_m, d, d): row m, column k
+        return np.linalg.slogdet(np.eye(n, dtype=complex) - np.einsum("mab,mkbc->makc", B, T).reshape(n, n))
+
+    return det
+
+
+def real_roots(det, lo: float, hi: float, points: int = SCAN_POINTS) -> tuple[float, ...]:
+    """The real s in [lo, hi] where `det` (s -> (sign, log|det|), real) changes sign, largest first."""
+    from scipy.optimize import brentq
+
+    grid = np.linspace(lo, hi, points)
+    vals = [det(s) for s in grid]
+    ref = float(np.median([v[1] for v in vals]))
+
+    def real(s):
+        sign, logdet = det(s)
+        return float(np.real(sign)) * math.exp(min(logdet - ref, 700.0))
+
+    roots = [brentq(real, a, b, xtol=1e-9 * (hi - lo))
+             for a, b, (sa, _), (sb, _) in zip(grid, grid[1:], vals, vals[1:]) if np.real(sa) * np.real(sb) < 0]
+    return tuple(sorted(roots, reverse=True))
+
+
+def floquet_exponents(rotor: Rotor, coefficients, omega: float, P: np.ndarray, V: np.ndarray, *,
+                      scan: tuple[float, float] = SCAN, points: int = SCAN_POINTS,
+                      harmonics: int = 0) -> OrbitStability:
+    """The real Floquet exponents within `scan` x `omega` of the rotor on bearings K0, C0 (`coefficients`) plus
+    the periodic terms P(t), V(t) (see `hill_determinant`)."""
+    lo, hi = scan[0] * omega, scan[1] * omega
+    half = real_roots(hill_determinant(rotor, coefficients, omega, P, V, half=True), lo, hi, points)
+    whole = real_roots(hill_determinant(rotor, coefficients, omega, P, V, half=False), lo, hi, points)
+    return OrbitStability(omega=omega, half_order=half, whole_order=whole, scanned=(lo, hi), harmonics=harmonics)
+
+
+def orbit_stability(rotor: Rotor, bearings: FilmBearings, orbit, *, scan: tuple[float, float] = SCAN,
+                    points: int = SCAN_POINTS) -> OrbitStability:
+    """The real Floquet exponents of `orbit` (an `OrbitBalance` of `rotor` on `bearings`' films) within `scan` x
+    Omega: the films re-solved along the orbit (one solve per point and bearing), then Hill's determinant for
+    half and whole orders."""
+    if abs(orbit.omega - bearings.omega) > 1e-9 * orbit.omega:
+        raise InputError("orbit stability: the orbit and the films have another speed")
+    P, V = orbit_tangents(orbit, bearings)
+    return floquet_exponents(rotor, bearings.coefficients, orbit.omega, P, V, scan=scan, points=points,
+                             harmonics=orbit.harmonics)
+
+
+__all__ = ["MARGIN", "OrbitStability", "floquet_exponents", "hill_determinant", "orbit_stability", "orbit_tangents",
+           "real_roots"]

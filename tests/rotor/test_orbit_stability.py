@@ -1,0 +1,138 @@
+"""The periodic orbit's Floquet multipliers (`rotor.orbit_stability`, Hill's method).
+
+Against an independent reference: the monodromy matrix of the same linear periodic system integrated over one
+period (scipy's DOP853), on a short Timoshenko shaft whose bearing stiffness and damping are modulated at the
+shaft speed (the damped Mathieu problem): near twice a mode's frequency its multipliers lock onto the negative
+real axis (period doubling, one case past -1), near the mode's frequency onto the positive one. Then on the films:
+at the paper's unbalance the half-order multiplier lies within MARGIN of -1, where the time integration on the
+same films found -1.0035 (40 revolutions, BENCHMARKS "Stability of the orbit"), and a small orbit is stable.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from lubeviz.rotor.assembly import assemble, bearing_matrices
+from lubeviz.rotor.elements import RigidDisc, TimoshenkoBeam, X, Y, node_dofs
+from lubeviz.rotor.orbit_stability import MARGIN, floquet_exponents, hill_determinant
+
+K0 = 1e7  # N/m, the bearings' x stiffness (y: twice): the bounce modes at 116 Hz (x) and 164 Hz (y)
+
+
+def _shaft():
+    return assemble([TimoshenkoBeam(1, 0.5, 0.1, 2.1e11, 0.3, 7850.0)], [RigidDisc(1, 5.0, 0.02, 0.03)],
+                    bearing_nodes=(1, 2))
+
+
+def _terms(omega, eps, c0):
+    """P(t), V(t) of both bearings: the x stiffness modulated at 1X (bearing 2 at 0.7 of it, shifted), a little
+    y and a 2X cross-coupled part, and a damping modulation."""
+    xm, skew = np.diag([1.0, 0.2]), np.array([[0.0, 1.0], [-1.0, 0.0]])
+
+    def P(t):
+        return np.array([eps * K0 * (math.cos(omega * t) * xm + 0.1 * math.sin(2 * omega * t) * skew),
+                         eps * K0 * 0.7 * math.cos(omega * t + 0.4) * xm])
+
+    def V(t):
+        return np.array([0.3 * eps * c0 * math.sin(omega * t) * np.eye(2)] * 2)
+
+    return P, V
+
+
+def _monodromy_multipliers(rotor, coefficients, omega, P, V):
+    """The real multipliers of x' = A(t) x over one period, A from the rotor's M, C + Omega G, K and the terms."""
+    n = rotor.n_dof
+    Kt, Ct = bearing_matrices(rotor, coefficients)
+    D = Ct + omega * rotor.G
+    Lb = np.array([node_dofs(nd)[[X, Y]] for nd in rotor.bearing_nodes])
+    Minv = np.linalg.inv(rotor.M)
+
+    def A(t):
+        Pb, Vb = np.zeros((n, n)), np.zeros((n, n))
+        for b, (p, v) in enumerate(zip(P(t), V(t))):
+            Pb[np.ix_(Lb[b], Lb[b])], Vb[np.ix_(Lb[b], Lb[b])] = p, v
+        return np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ (Kt - Pb), -Minv @ (D - Vb)]])
+
+    T = 2 * math.pi / omega
+    sol = solve_ivp(lambda t, z: (A(t) @ z.reshape(2 * n, 2 * n)).ravel(), (0.0, T), np.eye(2 * n).ravel(),
+                    method="DOP853", rtol=1e-11, atol=1e-14)
+    mu = np.linalg.eigvals(sol.y[:, -1].reshape(2 * n, 2 * n))
+    real = mu[np.abs(mu.imag) < 1e-7 * np.abs(mu)].real
+    return np.sort(real[np.abs(real) > math.exp(-0.2 * 2 * math.pi)])  # those of the scan's range
+
+
+@pytest.mark.parametrize("speed_hz, eps, c0, state", [
+    (232.4, 0.10, 200.0, "unstable"),  # 2 x the x bounce mode: period doubling (-1.048)
+    (232.4, 0.03, 600.0, "stable"),  # locked on the negative axis but damped (-0.953)
+    (116.3, 0.30, 200.0, "undecided"),  # at the mode: a positive multiplier at +1.0003
+])
+def test_hill_gives_the_multipliers_of_the_monodromy_matrix(speed_hz, eps, c0, state):
+    rotor = _shaft()
+    omega = 2 * math.pi * speed_hz
+    coefficients = [(np.diag([K0, 2 * K0]), c0 * np.eye(2))] * 2
+    P, V = _terms(omega, eps, c0)
+    ref = _monodromy_multipliers(rotor, coefficients, omega, P, V)
+    assert len(ref) == 2  # the case has a locked pair on the real axis, in the scan's range
+    phase = 2 * math.pi * np.arange(32) / 32 / omega
+    Ps, Vs = np.stack([P(t) for t in phase], axis=1), np.stack([V(t) for t in phase], axis=1)
+    st = floquet_exponents(rotor, coefficients, omega, Ps, Vs)
+    T = st.period
+    hill = np.sort([-math.exp(s * T) for s in st.half_order] + [math.exp(s * T) for s in st.whole_order])
+    np.testing.assert_allclose(hill, ref, rtol=1e-6)
+    assert st.state == state
+    assert (st.half_order != ()) == (ref[0] < 0)
+
+
+def test_the_determinant_is_real_for_real_exponents_and_takes_matching_shapes():
+    rotor = _shaft()
+    omega = 2 * math.pi * 232.4
+    coefficients = [(np.diag([K0, 2 * K0]), 200.0 * np.eye(2))] * 2
+    P, V = _terms(omega, 0.1, 200.0)
+    phase = 2 * math.pi * np.arange(32) / 32 / omega
+    Ps, Vs = np.stack([P(t) for t in phase], axis=1), np.stack([V(t) for t in phase], axis=1)
+    for half in (True, False):
+        sign, _ = hill_determinant(rotor, coefficients, omega, Ps, Vs, half=half)(-3.0)
+        assert abs(sign.imag) < 1e-9 and abs(abs(sign.real) - 1) < 1e-9
+    from lubeviz.errors import InputError
+
+    with pytest.raises(InputError, match="expected \\(2, N, 2, 2\\)"):
+        hill_determinant(rotor, coefficients, omega, Ps[:1], Vs[:1], half=True)
+
+
+@pytest.fixture(scope="module")
+def films_60x40():
+    from lubeviz.model.machine import load_machine
+    from lubeviz.rotor import rotor_from_machine
+    from lubeviz.rotor.film_bearings import film_bearings, flooded_thresholds
+
+    m = load_machine()
+    m.bearings = [b.copy(n_circumferential=60, n_axial=40) for b in m.bearings]
+    return m, rotor_from_machine(m), film_bearings(m, list(flooded_thresholds(m)), coefficients="fixed-pattern")
+
+
+@pytest.mark.parametrize("scale, state, size", [(1.0, "undecided", (0.97, 1.03)), (0.4, "stable", (0.4, 0.8))])
+def test_on_the_films_the_paper_s_unbalance_is_at_the_threshold_of_period_doubling(films_60x40, scale, state,
+                                                                                    size):
+    """60 x 40 films at Q_T, 75 Hz, 5 harmonics: at the paper's unbalance the half-order multiplier lies within
+    MARGIN of -1 (5 harmonics -1.019, 16 harmonics -0.988; the time integration on these films over 40
+    revolutions -1.0035: the 0.5X line from 0.36 to 0.40 um), so the state is undecided; at 0.4 x it is stable
+    (5 harmonics -0.583, 16 harmonics -0.603)."""
+    from lubeviz.rotor.orbit_balance import orbit_balance
+    from lubeviz.rotor.orbit_stability import orbit_stability
+    from lubeviz.rotor.response import machine_unbalance
+
+    m, rotor, fb = films_60x40
+    ub = [dataclasses.replace(u, moment=u.moment * scale) for u in machine_unbalance(m)]
+    ob = orbit_balance(rotor, fb, ub, tol=1e-8)
+    st = orbit_stability(rotor, fb, ob)
+    assert st.state == state
+    assert size[0] < st.half_order_multiplier < size[1]
+    assert st.whole_order == ()  # no jump to another orbit near
+    summary = st.summary()
+    assert summary["half_order_multiplier"] == pytest.approx(-st.half_order_multiplier)
+    assert summary["state"] == state and "0.5X" in summary["text"]
