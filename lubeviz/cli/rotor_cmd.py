@@ -201,8 +201,8 @@ def run_simulate(args) -> dict:
             "snr_db": snr, "seed": args.seed, "n_samples": rec.n_samples, "duration_s": rec.duration,
             "sample_rate_hz": rec.sample_rate_hz, "speed_hz": speed_hz, "method": method,
             "effects": [e.spec() for e in effects], "seconds": time.perf_counter() - t0,
-            **{k: rec.metadata[k] for k in ("stability", "whirl_hz", "whirl_growth_per_s", "orbit_stability", "orbit_stability_state")
-               if k in rec.metadata}}
+            **{k: rec.metadata[k] for k in ("stability", "whirl_hz", "whirl_growth_per_s", "orbit_stability",
+                                            "orbit_stability_state") if k in rec.metadata}}
 
 
 def finite_float_or_error(text: str, flag: str) -> float:

@@ -54,6 +54,11 @@ MARGIN = 0.03  # a multiplier's size within this of 1 is not decided: Hill at 16
 # integration differed by 1.5-1.8 % of it at the paper's unbalance (the module's doc)
 
 
+def _band(size: float) -> str:
+    """A multiplier of this size a revolution: "unstable" beyond 1 + MARGIN, "undecided" within MARGIN of 1."""
+    return "unstable" if size > 1 + MARGIN else "undecided" if size >= 1 - MARGIN else "stable"
+
+
 @dataclass(frozen=True)
 class OrbitStability:
     """The periodic orbit's real Floquet exponents s (1/s), largest first: for whole orders the multiplier is
@@ -82,12 +87,8 @@ class OrbitStability:
     @property
     def state(self) -> str:
         """"stable", "undecided" (a multiplier within MARGIN of 1 in size) or "unstable"."""
-        sizes = [mu for mu in (self.half_order_multiplier, self.whole_order_multiplier) if mu is not None]
-        if any(mu > 1 + MARGIN for mu in sizes):
-            return "unstable"
-        if any(mu >= 1 - MARGIN for mu in sizes):
-            return "undecided"
-        return "stable"
+        bands = {_band(mu) for mu in (self.half_order_multiplier, self.whole_order_multiplier) if mu is not None}
+        return next((b for b in ("unstable", "undecided") if b in bands), "stable")
 
     @property
     def unstable(self) -> bool:
@@ -97,21 +98,17 @@ class OrbitStability:
         parts = []
         mu = self.half_order_multiplier
         if mu is not None:
-            if mu > 1 + MARGIN:
-                what = "period doubling: a line at 0.5X grows and the orbit doubles its period"
-            elif mu >= 1 - MARGIN:
-                what = ("at the threshold of period doubling: a 0.5X line neither grows nor dies out over tens of "
-                        f"revolutions (within {100 * MARGIN:g} % of -1, the model cannot say which)")
-            elif mu > 0.8:
-                what = "period doubling near: a 0.5X disturbance dies out slowly"
-            else:
-                what = "a 0.5X disturbance dies out"
+            what = {"unstable": "period doubling: a line at 0.5X grows and the orbit doubles its period",
+                    "undecided": "at the threshold of period doubling: a 0.5X line neither grows nor dies out over "
+                                 f"tens of revolutions (within {100 * MARGIN:g} % of -1, the model cannot say which)",
+                    "stable": "period doubling near: a 0.5X disturbance dies out slowly" if mu > 0.8 else
+                              "a 0.5X disturbance dies out"}[_band(mu)]
             parts.append(f"multiplier -{mu:.3f} a revolution ({what})")
         mu = self.whole_order_multiplier
         if mu is not None:
-            what = ("the orbit is unstable: the machine leaves it for another" if mu > 1 + MARGIN else
-                    f"at the threshold of a jump to another orbit (within {100 * MARGIN:g} % of +1)"
-                    if mu >= 1 - MARGIN else "a slow disturbance dies out")
+            what = {"unstable": "the orbit is unstable: the machine leaves it for another",
+                    "undecided": f"at the threshold of a jump to another orbit (within {100 * MARGIN:g} % of +1)",
+                    "stable": "a slow disturbance dies out"}[_band(mu)]
             parts.append(f"multiplier +{mu:.3f} a revolution ({what})")
         if not parts:
             lo, hi = (math.exp(s * self.period) for s in self.scanned)

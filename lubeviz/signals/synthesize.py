@@ -70,6 +70,7 @@ def synthesize_record(machine, flows: Sequence[float], *, nodes: Sequence[int] |
     elif method == "orbit":
         from ..progress import silent
         from ..rotor.orbit_balance import orbit_balance
+        from ..rotor.orbit_stability import orbit_stability
         from ..errors import ConvergenceError
         from ..rotor.whirl import check_duration, equilibrium_stability, whirl_onset
 
@@ -82,11 +83,6 @@ def synthesize_record(machine, flows: Sequence[float], *, nodes: Sequence[int] |
                                                                                           ob.y[0].real], 1))),
                  "ratio_2x": " ".join(f"{ob.harmonic_ratio(2, k):.4f}" for k in range(len(nodes))),
                  "stability": stab.describe()}
-        if not stab.unstable:  # the orbit's own multipliers (a whirl's onset is integrated below instead)
-            from ..rotor.orbit_stability import orbit_stability
-
-            ost = orbit_stability(rotor, fb, ob)
-            extra.update({"orbit_stability": ost.describe(), "orbit_stability_state": ost.state})
         if stab.unstable:  # the periodic orbit is not what the machine shows: the whirl grows on top of it
             try:
                 tr, _ = whirl_onset(rotor, fb, machine_unbalance(machine), duration=n_keep * dt, dt=dt, nodes=nodes,
@@ -106,6 +102,8 @@ def synthesize_record(machine, flows: Sequence[float], *, nodes: Sequence[int] |
             x, y = x - ob.x[0].real[:, None], y - ob.y[0].real[:, None]  # the probes' DC gap removed
             xy = np.stack([x, y], axis=1)
             extra["method"] = "orbit (harmonic balance on the p-theta films, 0X-5X)"
+            ost = orbit_stability(rotor, fb, ob)  # whether the machine stays on the periodic orbit written
+            extra.update({"orbit_stability": ost.describe(), "orbit_stability_state": ost.state})
     else:
         raise InputError(f"method {method!r}; expected 'time', 'steady' or 'orbit'")
     if snr_db is not None:
