@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import asyncio
 import html
+import importlib
 import threading
 from pathlib import Path
 
@@ -218,6 +219,7 @@ PRELOAD_WAIT_S = 30.0
 
 
 PAGES = {"Bearing": _bearing, "Rotor": _rotor, "Maps": _maps, "Identify": _identify, "Diagnose": _diagnose}
+PAGE_MODULES = {name: f"{__package__}.{name.lower()}_page" for name in PAGES}
 
 
 def build() -> pn.template.FastListTemplate:
@@ -238,15 +240,40 @@ def build() -> pn.template.FastListTemplate:
                      for name in names],
                    dynamic=True, sizing_mode="stretch_width", css_classes=["lubeviz-pages"])
 
+    building: dict[str, asyncio.Future] = {}
+
+    def build_page(name: str, index: int):
+        if name not in pages:
+            pages[name] = PAGES[name](machine, op, state)
+            tabs[index] = (name, pages[name])
+        if hasattr(pages[name], "start") and tabs.active == index:  # else started when the tab is next shown
+            asyncio.ensure_future(pages[name].start())
+
+    async def import_then_build(name: str, index: int):
+        # The page's module (HoloViews, its plots, the numerics it calls: 3 s, and 30 s and more on a loaded
+        # 2-core machine) is imported on a thread, so the tab switches at once with its spinner and the
+        # server's other sessions are not held meanwhile; the page is then built on the event loop.
+        try:
+            await asyncio.to_thread(importlib.import_module, PAGE_MODULES[name])
+            build_page(name, index)
+        except Exception as exc:  # noqa: BLE001 - shown in the tab; the other pages keep serving
+            tabs[index] = (name, pn.pane.Alert(f"The {name} page could not be built: {exc}", alert_type="danger",
+                                               sizing_mode="stretch_width"))
+
     def show(index: int):
         if not 1 <= index <= len(names):
             return  # the start page is static
         name = names[index - 1]
-        if name not in pages:
-            pages[name] = PAGES[name](machine, op, state)
-            tabs[index] = (name, pages[name])
-        if hasattr(pages[name], "start"):
-            asyncio.ensure_future(pages[name].start())
+        if name in pages:
+            build_page(name, index)
+            return
+        try:
+            asyncio.get_running_loop()
+        except RuntimeError:  # a script or a test without a server: build at once
+            build_page(name, index)
+            return
+        if name not in building or building[name].done():  # done here: it failed, try again
+            building[name] = asyncio.ensure_future(import_then_build(name, index))
 
     def closed(session_context):
         # A closed browser tab stops its page's jobs at their next step (work already in a worker process
