@@ -26,3 +26,55 @@ def test_app_page_builds():
     assert page.title.startswith("lubeviz")
     tabs = page.main[0]
     assert [name for name in tabs._names] == ["Start", "Bearing", "Rotor", "Maps", "Identify", "Diagnose"]
+
+
+def _open_first_time(monkeypatch, import_module):
+    """The dashboard with a stand-in Diagnose page, opened under a running event loop (as on the server) with
+    `import_module` in place of the page module's import: the tab right after the click, then once settled."""
+    pn = pytest.importorskip("panel")
+    import asyncio
+
+    from lubeviz.app import shell
+
+    monkeypatch.setitem(shell.PAGES, "Diagnose", lambda m, op, state: pn.pane.Markdown("the Diagnose page"))
+    monkeypatch.setattr(shell.importlib, "import_module", import_module)
+    template = shell.build()
+    tabs = template.main[0]
+    index = 1 + list(shell.PAGES).index("Diagnose")
+
+    async def click_and_wait():
+        tabs.active = index
+        at_once = (tabs.active, type(tabs[index]).__name__, "Diagnose" in template.lubeviz_pages)
+        for _ in range(200):  # the import runs on a thread
+            await asyncio.sleep(0.05)
+            if not isinstance(tabs[index], pn.Column):
+                break
+        return at_once, tabs[index]
+
+    return index, asyncio.run(click_and_wait())
+
+
+def test_a_page_opened_the_first_time_switches_its_tab_before_its_module_is_imported(monkeypatch):
+    import threading
+
+    released = threading.Event()
+    seen = []
+
+    def slow_import(name):  # the CI at ffa88b7: the Diagnose page's import took over 30 s on a loaded machine
+        seen.append(name)
+        assert released.wait(10)
+
+    timer = threading.Timer(0.5, released.set)
+    timer.start()
+    index, (at_once, settled) = _open_first_time(monkeypatch, slow_import)
+    assert at_once == (index, "Column", False)  # the tab shows, with its spinner, while the module imports
+    assert seen == ["lubeviz.app.diagnose_page"]
+    assert settled.object == "the Diagnose page"
+
+
+def test_a_page_whose_module_fails_to_import_says_so_in_its_tab(monkeypatch):
+    def broken(name):
+        raise ImportError(f"no module named {name!r}")
+
+    _, (_, settled) = _open_first_time(monkeypatch, broken)
+    assert "The Diagnose page could not be built" in settled.object and "diagnose_page" in settled.object
