@@ -51,7 +51,15 @@ def _open_first_time(monkeypatch, import_module):
                 break
         return at_once, tabs[index]
 
-    return index, asyncio.run(click_and_wait())
+    # on a thread of its own: a browser test before this one in the same worker can leave an event loop running
+    # in this thread (Playwright's sync API), and asyncio.run refuses to start inside it
+    import threading
+
+    out = {}
+    runner = threading.Thread(target=lambda: out.update(result=asyncio.run(click_and_wait())))
+    runner.start()
+    runner.join(60)
+    return index, out["result"]
 
 
 def test_a_page_opened_the_first_time_switches_its_tab_before_its_module_is_imported(monkeypatch):
