@@ -56,9 +56,19 @@ def _open_first_time(monkeypatch, import_module):
     import threading
 
     out = {}
-    runner = threading.Thread(target=lambda: out.update(result=asyncio.run(click_and_wait())))
+
+    def run():
+        try:
+            out["result"] = asyncio.run(click_and_wait())
+        except BaseException as exc:  # noqa: BLE001 - raised again in the test's own thread below
+            out["error"] = exc
+
+    runner = threading.Thread(target=run)
     runner.start()
     runner.join(60)
+    if "error" in out:
+        raise out["error"]
+    assert "result" in out, "the page did not settle within 60 s"
     return index, out["result"]
 
 
