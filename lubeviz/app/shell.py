@@ -119,8 +119,10 @@ def _svg(name: str) -> str:
     return text[text.index("<svg"):]  # from the <svg> element on (no XML declaration inside HTML)
 
 
-def start_page(open_page) -> pn.Column:
-    """The start page; `open_page(name)` switches to that page's tab."""
+def start_page(tabs: pn.Tabs | None = None) -> pn.Column:
+    """The start page. Its "Open NAME" buttons switch `tabs` to that page's tab in the browser itself: the switch
+    does not wait for the server, which may be busy building a page opened before (tens of seconds on a loaded
+    2-core machine); the server sees the new active tab when it is free and builds the page then."""
     intro = pn.pane.Markdown(INTRO.format(fb=_abbr("fb", "fb"), phi=_abbr("φ", "φ"), q_t=_abbr("Q_T", "Q_T"),
                                           starved=_abbr("starved", "starved")), sizing_mode="stretch_width")
     figures = pn.pane.HTML(
@@ -132,7 +134,8 @@ def start_page(open_page) -> pn.Column:
     for name, purpose in PAGE_PURPOSES.items():
         button = pn.widgets.Button(name=f"Open {name}", button_type="primary", width=140, description=purpose,
                                    css_classes=[f"lubeviz-open-{name.lower()}"])
-        button.on_click(lambda event, name=name: open_page(name))
+        if tabs is not None:
+            button.js_on_click(args={"tabs": tabs}, code=f"tabs.active = {1 + list(PAGES).index(name)}")
         rows.append(pn.Row(button, pn.pane.Markdown(f"**{name}**: {purpose}", sizing_mode="stretch_width",
                                                     margin=(0, 10)), sizing_mode="stretch_width"))
     glossary = pn.pane.HTML(glossary_html(), sizing_mode="stretch_width", stylesheets=[_GLOSSARY_CSS],
@@ -232,14 +235,12 @@ def build() -> pn.template.FastListTemplate:
     names = list(PAGES)
     pages: dict[str, object] = {}
 
-    def open_page(name: str):
-        tabs.active = 1 + names.index(name)  # the watcher below builds the page
-
-    tabs = pn.Tabs(("Start", start_page(open_page)),
+    tabs = pn.Tabs(("Start", pn.Column()),
                    *[(name, pn.Column(pn.indicators.LoadingSpinner(value=True, size=40), sizing_mode="stretch_width"))
                      for name in names],
                    dynamic=True, sizing_mode="stretch_width", css_classes=["lubeviz-pages"])
 
+    tabs[0] = ("Start", start_page(tabs))  # its buttons switch the tabs in the browser; the watcher builds
     building: dict[str, asyncio.Future] = {}
 
     def build_page(name: str, index: int):

@@ -8,6 +8,8 @@ tables). And the dark theme (`?theme=dark`, the template's theme switch) is pict
 
 from __future__ import annotations
 
+import re
+
 import pytest
 from playwright.sync_api import expect
 
@@ -106,6 +108,30 @@ def test_start_page_explains_each_page_and_its_button_opens_it(app_page):
         expect(app_page.locator(".bk-tab.bk-active").first).to_have_text(name)
         open_tab(app_page, "Start")
         expect(app_page.locator(".bk-tab.bk-active").first).to_have_text("Start")
+
+
+def test_an_open_button_switches_the_tab_while_the_server_is_busy(page, app_server):
+    # On a loaded machine the server may take tens of seconds to answer (building a page opened before): the
+    # start page's buttons switch the tab in the browser, with the page's spinner, and the server builds the
+    # page when it gets the message. Here the page's messages to the server are held back while it clicks.
+    held, hold, server = [], [False], []
+
+    def route(ws):
+        server.append(ws.connect_to_server())
+        ws.on_message(lambda message: held.append(message) if hold[0] else server[-1].send(message))
+
+    page.route_web_socket(re.compile(r".*/app/ws.*"), route)
+    page.goto(app_server + "/app")
+    wait_for_panel(page)
+    assert server, "the page's websocket was not routed"
+    hold[0] = True
+    page.get_by_role("button", name="Open Diagnose").click()
+    expect(page.locator(".bk-tab.bk-active").first).to_have_text("Diagnose", timeout=5_000)
+    assert held, "the tab switch was not sent to the server"
+    hold[0] = False
+    for message in held:
+        server[-1].send(message)
+    expect(page.locator(".lubeviz-diagnose-run").first).to_be_visible(timeout=SLOW_MS)  # then built
 
 
 def test_glossary_is_on_the_start_page_with_tooltips(app_page):
