@@ -2,6 +2,7 @@
 
 import subprocess
 import sys
+import threading
 
 import pytest
 
@@ -53,8 +54,6 @@ def _open_first_time(monkeypatch, import_module):
 
     # on a thread of its own: a browser test before this one in the same worker can leave an event loop running
     # in this thread (Playwright's sync API), and asyncio.run refuses to start inside it
-    import threading
-
     out = {}
 
     def run():

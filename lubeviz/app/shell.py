@@ -119,7 +119,7 @@ def _svg(name: str) -> str:
     return text[text.index("<svg"):]  # from the <svg> element on (no XML declaration inside HTML)
 
 
-def start_page(tabs: pn.Tabs | None = None) -> pn.Column:
+def start_page(tabs: pn.Tabs) -> pn.Column:
     """The start page. Its "Open NAME" buttons switch `tabs` to that page's tab in the browser itself: the switch
     does not wait for the server, which may be busy building a page opened before (tens of seconds on a loaded
     2-core machine); the server sees the new active tab when it is free and builds the page then."""
@@ -134,8 +134,7 @@ def start_page(tabs: pn.Tabs | None = None) -> pn.Column:
     for name, purpose in PAGE_PURPOSES.items():
         button = pn.widgets.Button(name=f"Open {name}", button_type="primary", width=140, description=purpose,
                                    css_classes=[f"lubeviz-open-{name.lower()}"])
-        if tabs is not None:
-            button.js_on_click(args={"tabs": tabs}, code=f"tabs.active = {1 + list(PAGES).index(name)}")
+        button.js_on_click(args={"tabs": tabs}, code=f"tabs.active = {1 + list(PAGES).index(name)}")
         rows.append(pn.Row(button, pn.pane.Markdown(f"**{name}**: {purpose}", sizing_mode="stretch_width",
                                                     margin=(0, 10)), sizing_mode="stretch_width"))
     glossary = pn.pane.HTML(glossary_html(), sizing_mode="stretch_width", stylesheets=[_GLOSSARY_CSS],

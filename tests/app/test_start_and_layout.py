@@ -112,8 +112,8 @@ def test_start_page_explains_each_page_and_its_button_opens_it(app_page):
 
 def test_an_open_button_switches_the_tab_while_the_server_is_busy(page, app_server):
     # On a loaded machine the server may take tens of seconds to answer (building a page opened before): the
-    # start page's buttons switch the tab in the browser, with the page's spinner, and the server builds the
-    # page when it gets the message. Here the page's messages to the server are held back while it clicks.
+    # start page's buttons switch the tab in the browser (its content, the spinner then the page, comes from the
+    # server: the tabs are dynamic), and the server builds the page when it gets the message. Here the page's messages to the server are held back while it clicks.
     held, hold, server = [], [False], []
 
     def route(ws):
@@ -127,6 +127,7 @@ def test_an_open_button_switches_the_tab_while_the_server_is_busy(page, app_serv
     hold[0] = True
     page.get_by_role("button", name="Open Diagnose").click()
     expect(page.locator(".bk-tab.bk-active").first).to_have_text("Diagnose", timeout=5_000)
+    expect(page.locator(".lubeviz-diagnose-run")).to_have_count(0)  # not built yet: the server has not heard
     assert held, "the tab switch was not sent to the server"
     hold[0] = False
     for message in held:
