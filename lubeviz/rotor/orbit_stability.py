@@ -1,4 +1,4 @@
-"""Whether the machine stays on the periodic orbit: the orbit's real Floquet multipliers (Hill's method).
+"""Whether the machine stays on the periodic orbit: the orbit's Floquet multipliers (Hill's method).
 
 The harmonic balance (`orbit_balance`) finds a periodic orbit; it does not say that the machine stays on it. A
 small disturbance d of the orbit obeys the rotor's equations with the films' tangents along the orbit, whose
@@ -19,13 +19,21 @@ receptance there at s + i w_m), the condition is
 a real function of real s (the orders come in conjugate pairs). Its real roots are found by a scan for sign
 changes (two roots closer than the scan's step can be missed), then bisection.
 
-Complex multipliers (a whirl riding on the orbit, a Neimark-Sacker bifurcation) are not searched: the stability
-of the equilibrium (`rotor.whirl`) speaks to the whirl. The orders kept are those the orbit's N points resolve
-(the tangents' harmonics up to N / 2 - 1).
+Complex multipliers (a whirl riding on the orbit; one leaving the unit circle is a Neimark-Sacker bifurcation,
+the motion becomes quasi-periodic with lines at nu and 1 - nu of the shaft speed) are searched from the modes of
+the machine linearized at its equilibrium, where a small orbit's exponents tend: Newton's method on
+log D(s), D = det(I - B T) prod_m det Z(s + i w_m) (Z the rotor's dynamic stiffness on K0, C0, so that D has no
+poles and its zeros are the exponents), each zero found divided out before the next start (two modes' exponents
+can lie within 1e-3 Omega of each other), `complex_roots`. A root the starts do not lead to is missed; the starts
+are every mode with Re lambda above the scan's lower end, up to half the orders kept. The orders kept are those
+the orbit's N points resolve (the tangents' harmonics up to N / 2 - 1).
 
 Checked (tests/rotor/test_orbit_stability.py):
 - against the monodromy matrix integrated over one period (a rotor with periodically modulated bearing
-  stiffness and damping, the damped Mathieu problem on a Timoshenko shaft): the multipliers agree to 1e-6;
+  stiffness and damping, the damped Mathieu problem on a Timoshenko shaft): the real multipliers agree to 1e-6,
+  the complex ones to 1e-8;
+- a small orbit on the films: its complex exponents tend to the equilibrium's eigenvalues (at 0.002 x the paper's
+  unbalance within 1e-4 Omega);
 - against the time integration on the films (`film_transient`) started on the balance's orbit, where the 0.5X
   line it leaves shows the multiplier near -1 at the paper's unbalance (BENCHMARKS "Stability of the orbit"):
   100 x 100 films, 460 / 600 ml/min: Hill -0.956 (16 harmonics), the time integration about -0.974; 60 x 40
@@ -47,9 +55,15 @@ from ..film.solver import solve
 from .assembly import Rotor, bearing_matrices
 from .elements import X, Y, node_dofs
 from .film_bearings import FilmBearings
+from .transient import linear_system
 
 SCAN = (-0.2, 0.1)  # the real exponents scanned, relative to Omega (at 75 Hz: -94 ... +47 /s) ...
 SCAN_POINTS = 121  # ... at this many points (a root is bracketed by a change of the determinant's sign)
+NEWTON_ITERATIONS = 40  # Newton steps on log D from each start (the linear system's eigenvalues) ...
+NEWTON_TOL = 1e-10  # ... until the step is below this x Omega
+MAX_STEP = 0.05  # a Newton step is at most this x Omega
+START_ORDERS = 0.5  # the starts: the linear system's modes up to this fraction of the orders kept (x Omega)
+DEDUP = 1e-5  # exponents closer than this x Omega are one; those this close to Im s = 0 or Omega / 2 are real
 MARGIN = 0.03  # a multiplier's size within this of 1 is not decided: Hill at 16 harmonics and the time
 # integration differed by 1.5-1.8 % of it at the paper's unbalance (the module's doc)
 
@@ -69,6 +83,21 @@ class OrbitStability:
     whole_order: tuple[float, ...]
     scanned: tuple[float, float]  # the range of s scanned (1/s)
     harmonics: int = 0  # of the orbit the tangents were taken along
+    complex_order: tuple[complex, ...] = ()  # complex exponents, 0 < Im s < Omega / 2, largest real part first
+
+    @property
+    def complex_multiplier(self) -> float | None:
+        """The size of the complex multiplier farthest out, e^{Re s T} (None: none found)."""
+        return math.exp(self.complex_order[0].real * self.period) if self.complex_order else None
+
+    @property
+    def whirl_orders(self) -> tuple[float, float] | None:
+        """The two lines (of the shaft speed) a disturbance of the farthest complex multiplier shows: Im s / Omega
+        and 1 - that (a whirl riding on the 1X orbit shows both)."""
+        if not self.complex_order:
+            return None
+        nu = self.complex_order[0].imag / self.omega
+        return (nu, 1.0 - nu)
 
     @property
     def period(self) -> float:
@@ -87,7 +116,8 @@ class OrbitStability:
     @property
     def state(self) -> str:
         """"stable", "undecided" (a multiplier within MARGIN of 1 in size) or "unstable"."""
-        bands = {_band(mu) for mu in (self.half_order_multiplier, self.whole_order_multiplier) if mu is not None}
+        bands = {_band(mu) for mu in (self.half_order_multiplier, self.whole_order_multiplier,
+                                      self.complex_multiplier) if mu is not None}
         return next((b for b in ("unstable", "undecided") if b in bands), "stable")
 
     @property
@@ -110,10 +140,19 @@ class OrbitStability:
                     "undecided": f"at the threshold of a jump to another orbit (within {100 * MARGIN:g} % of +1)",
                     "stable": "a slow disturbance dies out"}[_band(mu)]
             parts.append(f"multiplier +{mu:.3f} a revolution ({what})")
+        mu = self.complex_multiplier
+        if mu is not None and mu > 0.8:  # a whirl that dies out fast is not worth a line
+            a, b = self.whirl_orders
+            what = {"unstable": "a whirl riding on the orbit grows: the motion becomes quasi-periodic "
+                                f"(lines at {a:.2f}X and {b:.2f}X)",
+                    "undecided": f"at the threshold of a whirl riding on the orbit (lines at {a:.2f}X and {b:.2f}X; "
+                                 f"within {100 * MARGIN:g} % of 1 in size, the model cannot say which)",
+                    "stable": f"a whirl at {a:.2f}X and {b:.2f}X riding on the orbit dies out slowly"}[_band(mu)]
+            parts.append(f"complex multiplier of size {mu:.3f} a revolution ({what})")
         if not parts:
             lo, hi = (math.exp(s * self.period) for s in self.scanned)
-            return (f"no real multiplier of size {lo:.2f}-{hi:.2f} a revolution: no period doubling or jump "
-                    "near this orbit")
+            return (f"no real multiplier of size {lo:.2f}-{hi:.2f} a revolution and no complex one above 0.8: no "
+                    "period doubling, jump or whirl near this orbit")
         return "; ".join(parts)
 
     def summary(self) -> dict:
@@ -122,7 +161,10 @@ class OrbitStability:
                 "half_order_multiplier": None if self.half_order_multiplier is None else -self.half_order_multiplier,
                 "whole_order_multiplier": self.whole_order_multiplier,
                 "half_order_exponents_per_s": list(self.half_order), "whole_order_exponents_per_s":
-                list(self.whole_order), "harmonics": self.harmonics, "margin": MARGIN}
+                list(self.whole_order), "complex_multiplier": self.complex_multiplier,
+                "whirl_orders": None if self.whirl_orders is None else list(self.whirl_orders),
+                "complex_exponents_per_s": [[z.real, z.imag] for z in self.complex_order],
+                "harmonics": self.harmonics, "margin": MARGIN}
 
 
 def orbit_tangents(orbit, bearings: FilmBearings) -> tuple[np.ndarray, np.ndarray]:
@@ -154,11 +196,14 @@ def orbit_tangents(orbit, bearings: FilmBearings) -> tuple[np.ndarray, np.ndarra
     return P, V
 
 
-def hill_determinant(rotor: Rotor, coefficients, omega: float, P: np.ndarray, V: np.ndarray, *, half: bool):
+def hill_determinant(rotor: Rotor, coefficients, omega: float, P: np.ndarray, V: np.ndarray, *, half: bool,
+                     entire: bool = False):
     """s -> (sign, log|det|) of I - B(s) T(s) for `rotor` on bearings of `coefficients` (K0, C0 per bearing, as
     `bearing_matrices` takes them) with the periodic bearing terms P(t), V(t) (n_bearings, N, 2, 2) sampled at N
     equal steps of a revolution, over the orders those points resolve: half orders (m + 1/2) Omega or whole ones
-    m Omega. Real for real s (the sign is +-1 then)."""
+    m Omega. Real for real s (the sign is +-1 then). `entire`: times prod_m det Z(s + i w_m) (Z the rotor's
+    dynamic stiffness on K0, C0), so that it has no poles (B has them at the linear system's eigenvalues, which
+    a complex exponent of a small orbit lies next to): its zeros are the exponents, for complex s too."""
     nb, n_pts = P.shape[:2]
     if P.shape != (len(rotor.bearing_nodes), n_pts, 2, 2) or V.shape != P.shape:
         raise InputError(f"hill_determinant: P, V of shape {P.shape}, {V.shape}; expected "
@@ -182,11 +227,17 @@ def hill_determinant(rotor: Rotor, coefficients, omega: float, P: np.ndarray, V:
     diff = np.rint(ms[:, None] - ms[None, :]).astype(int) + J  # index of P_(m-k)
     n = len(ms) * d
 
-    def det(s: float):
+    def det(s):
         lam = s + 1j * w
-        B = np.array([np.linalg.solve(Kt + v * damping + v * v * rotor.M, unit)[Lb] for v in lam])  # (n_m, d, d)
+        Z = [Kt + v * damping + v * v * rotor.M for v in lam]
+        B = np.array([np.linalg.solve(z, unit)[Lb] for z in Z])  # (n_m, d, d)
         T = Ph[diff] + Vh[diff] * lam[None, :, None, None]  # (n_m, n_m, d, d): row m, column k
-        return np.linalg.slogdet(np.eye(n, dtype=complex) - np.einsum("mab,mkbc->makc", B, T).reshape(n, n))
+        sign, logdet = np.linalg.slogdet(np.eye(n, dtype=complex) - np.einsum("mab,mkbc->makc", B, T).reshape(n, n))
+        if entire:  # times prod_m det Z(s + i w_m): the poles of B cancel, the exponents are its only zeros
+            for z in Z:
+                sz, lz = np.linalg.slogdet(z)
+                sign, logdet = sign * sz, logdet + lz
+        return sign, logdet
 
     return det
 
@@ -208,6 +259,50 @@ def real_roots(det, lo: float, hi: float, points: int = SCAN_POINTS) -> tuple[fl
     return tuple(sorted(roots, reverse=True))
 
 
+def complex_roots(det, starts, omega: float, lo: float, hi: float, *, tol: float = NEWTON_TOL,
+                  iterations: int = NEWTON_ITERATIONS) -> tuple[complex, ...]:
+    """The complex exponents s (Re s in [lo, hi]) reached by Newton's method on log D(s) from each of `starts`,
+    where `det` is s -> (sign, log|D|) of an entire D (`hill_determinant(..., entire=True)`, whole orders):
+    s <- s - 1 / (log D)'(s), the derivative a central difference. Each answer is brought into the strip
+    0 <= Im s <= Omega / 2 (an exponent is one modulo i Omega, and its conjugate is one too); those on its edges
+    (within `tol` x Omega of Im s = 0 or Omega / 2: the real multipliers, `real_roots`) and duplicates are left
+    out. Largest real part first."""
+    found: list[complex] = []
+    deflate: list[complex] = []
+    for s0 in starts:
+        s = complex(s0)
+        s -= 1j * omega * round(s.imag / omega)  # into |Im s| <= Omega / 2, where the orders kept are centred
+        converged = False
+        h = 1e-7 * omega
+        for _ in range(iterations):
+            (sp, lp), (sm, lm) = det(s + h), det(s - h)
+            dlog = (lp - lm + 1j * np.angle(sp / sm)) / (2 * h)
+            dlog -= sum(1.0 / (s - r) for r in deflate)  # the zeros found already divided out
+            if not np.isfinite(dlog) or dlog == 0:
+                break
+            step = 1.0 / dlog
+            if abs(step) > MAX_STEP * omega:  # far from a zero: a bounded step along the descent
+                step *= MAX_STEP * omega / abs(step)
+            s -= step
+            h = min(h, 1e-3 * abs(step))  # the difference well inside the distance to the zero
+            if abs(step) < tol * omega:
+                converged = True
+                break
+        if not converged:
+            continue
+        # two modes' exponents can lie within a few 1e-3 Omega of each other: from the second one's start Newton's
+        # method would go to the first's, so each zero found is divided out of D, with its conjugate and their
+        # copies one order away
+        deflate += [z + 1j * m * omega for z in (s, s.conjugate()) for m in (-1, 0, 1)]
+        nu = abs((s.imag + omega / 2) % omega - omega / 2)  # into 0 .. Omega / 2
+        r = complex(s.real, nu)
+        edge = nu < DEDUP * omega or nu > (0.5 - DEDUP) * omega
+        if edge or not lo <= r.real <= hi or any(abs(r - f) < DEDUP * omega for f in found):
+            continue
+        found.append(r)
+    return tuple(sorted(found, key=lambda z: -z.real))
+
+
 def floquet_exponents(rotor: Rotor, coefficients, omega: float, P: np.ndarray, V: np.ndarray, *,
                       scan: tuple[float, float] = SCAN, points: int = SCAN_POINTS,
                       harmonics: int = 0) -> OrbitStability:
@@ -216,7 +311,13 @@ def floquet_exponents(rotor: Rotor, coefficients, omega: float, P: np.ndarray, V
     lo, hi = scan[0] * omega, scan[1] * omega
     half = real_roots(hill_determinant(rotor, coefficients, omega, P, V, half=True), lo, hi, points)
     whole = real_roots(hill_determinant(rotor, coefficients, omega, P, V, half=False), lo, hi, points)
-    return OrbitStability(omega=omega, half_order=half, whole_order=whole, scanned=(lo, hi), harmonics=harmonics)
+    orders = (P.shape[1] // 2 - 1) // 2  # as hill_determinant keeps them
+    lam = linear_system(rotor, omega, coefficients).eigenvalues
+    starts = lam[(lam.real > lo) & (lam.imag > 0) & (lam.imag <= START_ORDERS * orders * omega)]
+    cplx = complex_roots(hill_determinant(rotor, coefficients, omega, P, V, half=False, entire=True),
+                         sorted(starts, key=lambda z: -z.real), omega, lo, math.inf)
+    return OrbitStability(omega=omega, half_order=half, whole_order=whole, scanned=(lo, hi), harmonics=harmonics,
+                          complex_order=cplx)
 
 
 def orbit_stability(rotor: Rotor, bearings: FilmBearings, orbit, *, scan: tuple[float, float] = SCAN,
@@ -231,5 +332,5 @@ def orbit_stability(rotor: Rotor, bearings: FilmBearings, orbit, *, scan: tuple[
                              harmonics=orbit.harmonics)
 
 
-__all__ = ["MARGIN", "OrbitStability", "floquet_exponents", "hill_determinant", "orbit_stability", "orbit_tangents",
+__all__ = ["MARGIN", "OrbitStability", "complex_roots", "floquet_exponents", "hill_determinant", "orbit_stability", "orbit_tangents",
            "real_roots"]

@@ -44,8 +44,9 @@ def _terms(omega, eps, c0):
     return P, V
 
 
-def _monodromy_multipliers(rotor, coefficients, omega, P, V):
-    """The real multipliers of x' = A(t) x over one period, A from the rotor's M, C + Omega G, K and the terms."""
+def _monodromy_multipliers(rotor, coefficients, omega, P, V, *, complex_ones: bool = False):
+    """The real multipliers of x' = A(t) x over one period, A from the rotor's M, C + Omega G, K and the terms
+    (`complex_ones`: all of them, complex)."""
     n = rotor.n_dof
     Kt, Ct = bearing_matrices(rotor, coefficients)
     D = Ct + omega * rotor.G
@@ -62,6 +63,8 @@ def _monodromy_multipliers(rotor, coefficients, omega, P, V):
     sol = solve_ivp(lambda t, z: (A(t) @ z.reshape(2 * n, 2 * n)).ravel(), (0.0, T), np.eye(2 * n).ravel(),
                     method="DOP853", rtol=1e-11, atol=1e-14)
     mu = np.linalg.eigvals(sol.y[:, -1].reshape(2 * n, 2 * n))
+    if complex_ones:
+        return mu
     real = mu[np.abs(mu.imag) < 1e-7 * np.abs(mu)].real
     return np.sort(real[np.abs(real) > math.exp(-0.2 * 2 * math.pi)])  # those of the scan's range
 
@@ -86,6 +89,33 @@ def test_hill_gives_the_multipliers_of_the_monodromy_matrix(speed_hz, eps, c0, s
     np.testing.assert_allclose(hill, ref, rtol=1e-6)
     assert st.state == state
     assert (st.half_order != ()) == (ref[0] < 0)
+
+
+@pytest.mark.parametrize("speed_hz, eps, c0, points, found", [
+    (232.4, 0.10, 200.0, 32, 3),  # the 116 / 164 Hz modes locked: three complex pairs left in the range
+    (232.4, 0.10, 200.0, 64, 5),  # more orders kept: the 6.3 / 6.8 Omega bending pair too
+    (116.3, 0.30, 200.0, 64, 3),  # two exponents 0.004 Omega apart (found only with the first divided out)
+    (150.0, 0.60, 300.0, 32, 4),  # no mode locked: every start gives its own
+])
+def test_hill_gives_the_complex_multipliers_of_the_monodromy_matrix(speed_hz, eps, c0, points, found):
+    """Each complex multiplier Hill's method finds is one of the monodromy matrix's (to 1e-8), one per mode started
+    that is not locked onto the real axis, and none twice."""
+    rotor = _shaft()
+    omega = 2 * math.pi * speed_hz
+    coefficients = [(np.diag([K0, 2 * K0]), c0 * np.eye(2))] * 2
+    P, V = _terms(omega, eps, c0)
+    ref = _monodromy_multipliers(rotor, coefficients, omega, P, V, complex_ones=True)
+    phase = 2 * math.pi * np.arange(points) / points / omega
+    Ps, Vs = np.stack([P(t) for t in phase], axis=1), np.stack([V(t) for t in phase], axis=1)
+    st = floquet_exponents(rotor, coefficients, omega, Ps, Vs)
+    mu = np.exp(np.array(st.complex_order) * st.period)
+    assert len(mu) == found
+    assert all(abs(m - ref).min() < 1e-8 for m in mu)
+    assert all(0 < z.imag < omega / 2 for z in st.complex_order)
+    assert len({round(m.real, 6) + 1j * round(m.imag, 6) for m in mu}) == found
+    assert st.complex_multiplier == pytest.approx(max(abs(mu)), rel=1e-12)
+    nu = st.complex_order[0].imag / omega
+    assert st.whirl_orders == pytest.approx((nu, 1 - nu))
 
 
 def test_the_determinant_is_real_for_real_exponents_and_takes_matching_shapes():
@@ -136,3 +166,32 @@ def test_on_the_films_the_paper_s_unbalance_is_at_the_threshold_of_period_doubli
     summary = st.summary()
     assert summary["half_order_multiplier"] == pytest.approx(-st.half_order_multiplier)
     assert summary["state"] == state and "0.5X" in summary["text"]
+    assert st.complex_multiplier < 1 - MARGIN  # a whirl riding on the orbit dies out (0.82 at 0.4 x, 0.62 at 1 x)
+    assert len(summary["complex_exponents_per_s"]) == len(st.complex_order) >= 1
+
+
+def test_a_small_orbit_s_complex_exponents_are_the_equilibrium_s_modes(films_60x40):
+    """The analytic limit: as the orbit shrinks, the films' tangents along it tend to the equilibrium's K0, C0
+    (fixed pattern), so its Floquet exponents tend to the eigenvalues of the machine linearized there, brought
+    into 0 < Im s < Omega / 2 (the whirl modes at 0.61 and 0.74 Omega show at 0.39 and 0.26). At 0.002 x the
+    paper's unbalance they agree within 1e-4 Omega (at 0.05 x the first is 0.003 Omega off in its real part: the
+    orbit damps it)."""
+    from lubeviz.rotor.orbit_balance import orbit_balance
+    from lubeviz.rotor.orbit_stability import orbit_stability
+    from lubeviz.rotor.response import machine_unbalance
+    from lubeviz.rotor.transient import linear_system
+
+    m, rotor, fb = films_60x40
+    ub = [dataclasses.replace(u, moment=u.moment * 0.002) for u in machine_unbalance(m)]
+    st = orbit_stability(rotor, fb, orbit_balance(rotor, fb, ub, tol=1e-8))
+    omega = fb.omega
+    lam = linear_system(rotor, omega, fb.coefficients).eigenvalues
+    lam = lam[(lam.imag > 0) & (lam.real > -0.2 * omega)]
+    assert len(lam) == 2
+    modes = np.array([complex(z.real, abs((z.imag + omega / 2) % omega - omega / 2)) for z in lam])
+    assert len(st.complex_order) == 2
+    for z in st.complex_order:
+        assert abs(z - modes).min() < 1e-4 * omega
+    assert st.state == "stable" and st.half_order == () and st.whole_order == ()
+    assert st.complex_multiplier == pytest.approx(math.exp(max(modes.real) * st.period), rel=1e-3)
+    assert "0.39X and 0.61X" in st.describe()
