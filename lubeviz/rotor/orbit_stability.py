@@ -17,7 +17,8 @@ receptance there at s + i w_m), the condition is
     det(I - B(s) T(s)) = 0,   T_mk = P_(m-k) + V_(m-k) (s + i w_k)   (P_j, V_j: the tangents' harmonics)
 
 a real function of real s (the orders come in conjugate pairs). Its real roots are found by a scan for sign
-changes (two roots closer than the scan's step can be missed), then bisection.
+changes, then bisection; two roots closer than the scan's step leave a dip of |det| instead, scanned again finer
+(`real_roots`).
 
 Complex multipliers (a whirl riding on the orbit; one leaving the unit circle is a Neimark-Sacker bifurcation,
 the motion becomes quasi-periodic with lines at nu and 1 - nu of the shaft speed) are searched from the modes of
@@ -59,6 +60,7 @@ from .transient import linear_system
 
 SCAN = (-0.2, 0.1)  # the real exponents scanned, relative to Omega (at 75 Hz: -94 ... +47 /s) ...
 SCAN_POINTS = 121  # ... at this many points (a root is bracketed by a change of the determinant's sign)
+DIP_POINTS = 41  # points of the finer scan over the two steps about a dip of |det| with no sign change
 NEWTON_ITERATIONS = 40  # Newton steps on log D from each start (the linear system's eigenvalues) ...
 NEWTON_TOL = 1e-10  # ... until the step is below this x Omega
 MAX_STEP = 0.05  # a Newton step is at most this x Omega
@@ -243,7 +245,13 @@ def hill_determinant(rotor: Rotor, coefficients, omega: float, P: np.ndarray, V:
 
 
 def real_roots(det, lo: float, hi: float, points: int = SCAN_POINTS) -> tuple[float, ...]:
-    """The real s in [lo, hi] where `det` (s -> (sign, log|det|), real) changes sign, largest first."""
+    """The real s in [lo, hi] where `det` (s -> (sign, log|det|), real) changes sign, largest first.
+
+    A sign change between the scan's points is bisected. Two roots closer than the scan's step leave no sign
+    change, only a dip of |det|: at each point where log|det| has a local minimum with no sign change on either
+    side, the two steps about it are scanned again at DIP_POINTS points (a locked pair of multipliers just past
+    the tongue's edge, 0.002 Omega apart, against a step of 0.0025 Omega; between them |det| rises again, so the
+    dip is no minimum to follow). Pairs closer than that finer step are still missed."""
     from scipy.optimize import brentq
 
     grid = np.linspace(lo, hi, points)
@@ -254,8 +262,17 @@ def real_roots(det, lo: float, hi: float, points: int = SCAN_POINTS) -> tuple[fl
         sign, logdet = det(s)
         return float(np.real(sign)) * math.exp(min(logdet - ref, 700.0))
 
-    roots = [brentq(real, a, b, xtol=1e-9 * (hi - lo))
-             for a, b, (sa, _), (sb, _) in zip(grid, grid[1:], vals, vals[1:]) if np.real(sa) * np.real(sb) < 0]
+    xtol = 1e-9 * (hi - lo)
+    signs = np.sign([np.real(v[0]) for v in vals])
+    logs = np.array([v[1] for v in vals])
+    roots = [brentq(real, a, b, xtol=xtol)
+             for a, b, sa, sb in zip(grid, grid[1:], signs, signs[1:]) if sa * sb < 0]
+    for i in range(1, points - 1):
+        if not (logs[i] < logs[i - 1] and logs[i] < logs[i + 1] and signs[i - 1] == signs[i] == signs[i + 1]):
+            continue
+        fine = np.linspace(grid[i - 1], grid[i + 1], DIP_POINTS)  # a finer scan between the neighbours
+        vf = [real(s) for s in fine]
+        roots += [brentq(real, a, b, xtol=xtol) for a, b, fa, fb in zip(fine, fine[1:], vf, vf[1:]) if fa * fb < 0]
     return tuple(sorted(roots, reverse=True))
 
 
@@ -309,8 +326,10 @@ def floquet_exponents(rotor: Rotor, coefficients, omega: float, P: np.ndarray, V
     """The real Floquet exponents within `scan` x `omega` of the rotor on bearings K0, C0 (`coefficients`) plus
     the periodic terms P(t), V(t) (see `hill_determinant`)."""
     lo, hi = scan[0] * omega, scan[1] * omega
-    half = real_roots(hill_determinant(rotor, coefficients, omega, P, V, half=True), lo, hi, points)
-    whole = real_roots(hill_determinant(rotor, coefficients, omega, P, V, half=False), lo, hi, points)
+    # the entire determinant (the receptance's poles cancelled): between two close roots it dips through zero
+    # instead of passing a pole, so the dip is found (`real_roots`)
+    half = real_roots(hill_determinant(rotor, coefficients, omega, P, V, half=True, entire=True), lo, hi, points)
+    whole = real_roots(hill_determinant(rotor, coefficients, omega, P, V, half=False, entire=True), lo, hi, points)
     orders = (P.shape[1] // 2 - 1) // 2  # as hill_determinant keeps them
     lam = linear_system(rotor, omega, coefficients).eigenvalues
     starts = lam[(lam.real > lo) & (lam.imag > 0) & (lam.imag <= START_ORDERS * orders * omega)]

@@ -73,6 +73,8 @@ def _monodromy_multipliers(rotor, coefficients, omega, P, V, *, complex_ones: bo
     (232.4, 0.10, 200.0, "unstable"),  # 2 x the x bounce mode: period doubling (-1.048)
     (232.4, 0.03, 600.0, "stable"),  # locked on the negative axis but damped (-0.953)
     (116.3, 0.30, 200.0, "undecided"),  # at the mode: a positive multiplier at +1.0003
+    (232.4, 0.011, 200.0, "undecided"),  # just past the tongue's edge: -0.984 and -0.971, 0.0021 Omega apart in s,
+    # closer than the scan's step (found in the dip of |det| between the two scan points about them)
 ])
 def test_hill_gives_the_multipliers_of_the_monodromy_matrix(speed_hz, eps, c0, state):
     rotor = _shaft()
