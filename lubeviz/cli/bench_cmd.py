@@ -33,6 +33,10 @@ def register(sub) -> None:
                         "coverage, chi2 flag rate, time (give --records; ~4 min per time-integration record, cached)")
     p.add_argument("--orbit-harmonics", default="5,16",
                    help="coverage --large-orbit: the balance's harmonics to identify with, comma-separated (default 5,16)")
+    p.add_argument("--orbit-time-rounds", type=int, default=0, metavar="N",
+                   help="coverage --large-orbit: time rounds after the balance's (0-5, default 0; 5-6 min each a record)")
+    p.add_argument("--orbit-workers", type=int, default=1, metavar="N",
+                   help="coverage --large-orbit: records identified on N processes at once (default 1)")
     p.add_argument("--seed", type=int, default=2026,
                    help="coverage, budget: the corpus seed (2026: the budget's calibration corpus; another seed "
                         "is a held-out check)")
@@ -120,8 +124,13 @@ def run_bench(args) -> dict:
                                      "commas") from None
                 if not hs or any(not 5 <= h <= 32 for h in hs):
                     raise ValueError(f"--orbit-harmonics {args.orbit_harmonics!r}: expected harmonics in 5-32")
+                if not 0 <= args.orbit_time_rounds <= 5:
+                    raise ValueError(f"--orbit-time-rounds {args.orbit_time_rounds}: expected 0-5")
+                if args.orbit_workers < 1:
+                    raise ValueError(f"--orbit-workers {args.orbit_workers}: expected at least 1")
                 return vb.bench_orbit(args.machine, n=args.records, seed=args.seed, source=args.orbit_source or "time",
-                                      harmonics=hs, progress=StderrBar())
+                                      harmonics=hs, time_rounds=args.orbit_time_rounds, workers=args.orbit_workers,
+                                      progress=StderrBar())
             if args.static:
                 if cal or args.budgets.strip():
                     raise ValueError("--static: its records are identified with the oil free under the model budget; "

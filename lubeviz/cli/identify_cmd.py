@@ -28,6 +28,10 @@ def register(sub) -> None:
                         "record: it follows the film's sharp turn where it is thinnest; over 12 time-integration "
                         "records the flows 1.0 %% off median, 3.7 %% at most; 5, what diagnose tries, 20-40 s, "
                         "2.4 %% median, 10 %% at most)")
+    p.add_argument("--orbit-time-rounds", type=int, default=None, metavar="N",
+                   help="with --effect large_orbit: after the balance, N rounds (0-5, default 0) that integrate the "
+                        "model in time at the answer (5-6 min each on one core) and take the balance's truncation "
+                        "out of it; see BENCHMARKS.md \"Time rounds\"")
     p.set_defaults(run=run_identify)
 
     p = sub.add_parser("reproduce", help="the paper's 64-case protocol, Tables 4-8")
@@ -48,7 +52,7 @@ def run_identify(args) -> dict:
     parse_effects(args.effect)  # a bad effect is a bad-input error before any work
     results = identify_files(args.files, args.machine, args.mode, workers=args.workers, progress=StderrBar(),
                              effect_specs=tuple(args.effect), oil_check="always" if args.oil_check else "if-tabled",
-                             orbit_harmonics=args.orbit_harmonics)
+                             orbit_harmonics=args.orbit_harmonics, orbit_time_rounds=args.orbit_time_rounds)
     for path, item, _ in results:
         for w in () if item is None else tuple(item.warnings) + tuple(item.result.warnings):
             sys.stderr.write(f"lubeviz identify: {path}: warning: {w}\n")

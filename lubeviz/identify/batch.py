@@ -134,7 +134,8 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
         check_orbit_chain(chain)
         of = fit_large_orbit(chain, measured, names=tuple(settings.features), budget=budget, lower=settings.lower,
                              upper=settings.upper, harmonics=settings.orbit_harmonics,
-                             points=orbit_points(settings.orbit_harmonics), progress=progress)
+                             points=orbit_points(settings.orbit_harmonics),
+                             time_rounds=settings.orbit_time_rounds, progress=progress)
         out = to_identification(of.fit, chain)
         out = dataclasses.replace(out, effects={**out.effects, "large_orbit": orbit_summary(of)})
         return dataclasses.replace(out, warnings=out.warnings + oil_notes) if oil_notes else out
@@ -410,12 +411,14 @@ def result_csv(item: RecordIdentification) -> str:
     return out.getvalue()
 
 
-def _worker(path, machine_path, mode, effect_specs=(), oil_check="if-tabled", orbit_harmonics=None):
+def _worker(path, machine_path, mode, effect_specs=(), oil_check="if-tabled", orbit_harmonics=None,
+            orbit_time_rounds=None):
     from ..effects import parse_effects
 
     try:
         return identify_file(path, None if machine_path is None else load_machine(machine_path),
-                             _settings(mode, oil_check, orbit_harmonics), effects=parse_effects(effect_specs)), None
+                             _settings(mode, oil_check, orbit_harmonics, orbit_time_rounds),
+                             effects=parse_effects(effect_specs)), None
     except LubevizError as exc:
         return None, str(exc)
 
@@ -423,16 +426,19 @@ def _worker(path, machine_path, mode, effect_specs=(), oil_check="if-tabled", or
 def identify_files(paths, machine_path=None, mode: str = "best", *, workers: int | None = None,
                    progress: ProgressFn = silent, effect_specs=(),
                    oil_check: str = "if-tabled",
-                   orbit_harmonics: int | None = None) -> list[tuple[str, RecordIdentification | None, str | None]]:
+                   orbit_harmonics: int | None = None,
+                   orbit_time_rounds: int | None = None) -> list[tuple[str, RecordIdentification | None, str | None]]:
     """Identify many records; returns (file, result or None, error message or None) in input order.
-    `oil_check`, `orbit_harmonics`: those settings (`IdentificationSettings`; None: its default).
+    `oil_check`, `orbit_harmonics`, `orbit_time_rounds`: those settings (`IdentificationSettings`; None: its
+    default).
 
     Tables are built (or loaded) once, up front, then records run on `workers` processes.
     """
     paths = [str(p) for p in paths]
     grouped = _set_groups(paths)
     if grouped is not None:
-        return _identify_groups(grouped, machine_path, mode, progress, effect_specs, oil_check, orbit_harmonics)
+        return _identify_groups(grouped, machine_path, mode, progress, effect_specs, oil_check, orbit_harmonics,
+                                orbit_time_rounds)
     machine = load_machine(machine_path)
     machine_tables(machine, progress=progress)  # warm the cache before fanning out
     workers = min(len(paths), os.cpu_count() or 1) if workers is None else max(1, int(workers))
@@ -441,7 +447,7 @@ def identify_files(paths, machine_path=None, mode: str = "best", *, workers: int
     if workers == 1 or len(paths) == 1:
         from ..effects import parse_effects
 
-        settings = _settings(mode, oil_check, orbit_harmonics)
+        settings = _settings(mode, oil_check, orbit_harmonics, orbit_time_rounds)
         effects = parse_effects(effect_specs)
         model = None
         for n, p in enumerate(paths, start=1):
@@ -458,8 +464,8 @@ def identify_files(paths, machine_path=None, mode: str = "best", *, workers: int
             progress(n, len(paths), os.path.basename(p))
     else:
         with ProcessPoolExecutor(max_workers=workers) as pool:
-            futures = {pool.submit(_worker, p, machine_path, mode, tuple(effect_specs), oil_check, orbit_harmonics): p
-                       for p in paths}
+            futures = {pool.submit(_worker, p, machine_path, mode, tuple(effect_specs), oil_check, orbit_harmonics,
+                                   orbit_time_rounds): p for p in paths}
             for n, f in enumerate(as_completed(futures), start=1):
                 out[futures[f]] = f.result()
                 progress(n, len(paths), f"{os.path.basename(futures[f])} ({time.perf_counter() - t0:.1f} s)")
@@ -480,15 +486,18 @@ def _set_groups(paths):
     return group_records(records)
 
 
-def _settings(mode, oil_check, orbit_harmonics) -> IdentificationSettings:
+def _settings(mode, oil_check, orbit_harmonics, orbit_time_rounds=None) -> IdentificationSettings:
     return IdentificationSettings(mode=mode, oil_check=oil_check,
-                                  **({} if orbit_harmonics is None else {"orbit_harmonics": int(orbit_harmonics)}))
+                                  **({} if orbit_harmonics is None else {"orbit_harmonics": int(orbit_harmonics)}),
+                                  **({} if orbit_time_rounds is None else
+                                     {"orbit_time_rounds": int(orbit_time_rounds)}))
 
 
-def _identify_groups(groups, machine_path, mode, progress, effect_specs, oil_check="if-tabled", orbit_harmonics=None):
+def _identify_groups(groups, machine_path, mode, progress, effect_specs, oil_check="if-tabled", orbit_harmonics=None,
+                     orbit_time_rounds=None):
     from ..effects import parse_effects
 
-    settings = _settings(mode, oil_check, orbit_harmonics)
+    settings = _settings(mode, oil_check, orbit_harmonics, orbit_time_rounds)
     effects = parse_effects(effect_specs)
     out = []
     for group in groups:

@@ -53,6 +53,10 @@ class IdentificationSettings(param.Parameterized):
                                         "records: 16, 1-2 min a record, flows off by 1.0 % median, 3.7 % at most; 5 "
                                         "(what a diagnosis tries), 20-40 s, 2.4 % median, 10 % at most; the sigma "
                                         "carries either")
+    orbit_time_rounds = param.Integer(0, bounds=(0, 5),
+                                      doc="With large orbits declared: time rounds after the balance's (each integrates "
+                                          "the model in time at the answer, 5-6 min on one core at 75 Hz, and corrects "
+                                          "the balance's truncation; BENCHMARKS \"Time rounds\"). 0: the balance alone")
     speed_tolerance = Quantity(0.02, bounds=(0.0, 1.0), unit="",
                                doc="Refuse a record whose speed differs from the model's by more than this fraction")
 

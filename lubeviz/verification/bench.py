@@ -114,21 +114,19 @@ ORBIT_SCALES = (0.5, 1.0)  # ... and the machine's unbalance, times this (the pa
 
 
 def bench_orbit(machine_path=None, *, n: int = 12, seed: int = 2026, speed_hz: float = 75.0, source: str = "time",
-                harmonics=(5, 16), progress: ProgressFn = silent) -> dict:
+                harmonics=(5, 16), time_rounds: int = 0, workers: int = 1, progress: ProgressFn = silent) -> dict:
     """Large-orbit records (`orbit_record.make_orbit_record`, `source` "time": the time integration, every harmonic;
     "balance": the source's 6-harmonic balance on 200 x 200 films) at `speed_hz`, flows ORBIT_FLOWS x Q_T and the
-    unbalance ORBIT_SCALES x the machine's, seeded, identified with `large_orbit` declared at each of `harmonics`:
-    error, 95 % interval coverage, chi2 flag rate and time per record, with Wilson intervals. The records not yet
-    cached are made two at a time first (~4 min each from the time integration)."""
-    from ..effects import parse_effect
-    from ..identify.batch import identify_record
-    from ..identify.settings import IdentificationSettings
-    from ..model.machine import load_machine
+    unbalance ORBIT_SCALES x the machine's, seeded, identified with `large_orbit` declared at each of `harmonics`
+    (and `time_rounds` time rounds after the balance's, `IdentificationSettings.orbit_time_rounds`): error, 95 %
+    interval coverage, chi2 flag rate and time per record, with Wilson intervals. The records not yet cached are
+    made two at a time first (~4 min each from the time integration); then identified on `workers` processes."""
+    from concurrent.futures import ProcessPoolExecutor
+
     from .independent import IndependentSpec, thresholds_mlmin
-    from .orbit_record import make_orbit_record, make_orbit_records
+    from .orbit_record import make_orbit_records
 
     t0 = time.perf_counter()
-    machine = load_machine(machine_path)
     qt = thresholds_mlmin(speed_hz, machine_path)
     rng = np.random.default_rng(seed)
     jobs = []
@@ -139,28 +137,67 @@ def bench_orbit(machine_path=None, *, n: int = 12, seed: int = 2026, speed_hz: f
                                      seed=seed * 1000 + i), scale))
     progress(0, n, f"making the records not yet cached ({source})")
     make_orbit_records(jobs, method=source)
-    rows = {int(h): [] for h in harmonics}
-    for i, (spec, scale) in enumerate(jobs, start=1):
-        made = make_orbit_record(spec, unbalance_scale=scale, method=source)
-        q = np.array([spec.q1_mlmin, spec.q2_mlmin])
-        for h in rows:
-            try:
-                r = identify_record(made.record, machine, IdentificationSettings(orbit_harmonics=h),
-                                    effects=(parse_effect("large_orbit"),)).result
-            except ConvergenceError as e:  # a balance that does not settle: a miss, counted, not the bench's end
-                rows[h].append({"failed": str(e), "q_mlmin": q.tolist(), "unbalance_scale": scale})
-                continue
-            rows[h].append({**_flow_row(speed_hz, q, r), "unbalance_scale": scale,
-                            "ratio_2x": list(made.truth["ratio_2x"]),
-                            "half_order": made.truth.get("half_order"),
-                            "signed_error_pct": ((r.q * 6e7 / q - 1) * 100).tolist(),
-                            "sigma_pct": (np.asarray(r.q_std) / r.q * 100).tolist()})
-        progress(i, n, f"record {i}")
+    hs = tuple(int(h) for h in harmonics)
+    args = [(machine_path, spec, scale, source, hs, int(time_rounds)) for spec, scale in jobs]
+    if workers <= 1:
+        results = []
+        for i, a in enumerate(args, start=1):
+            results.append(_orbit_rows(*a))
+            progress(i, n, f"record {i}")
+    else:
+        with ProcessPoolExecutor(max_workers=int(workers)) as pool:
+            futures = [pool.submit(_orbit_rows, *a) for a in args]
+            results = []
+            for i, f in enumerate(futures, start=1):
+                results.append(f.result())
+                progress(i, n, f"record {i}")
+    rows = {h: [res[h] for res in results] for h in hs}
     out = {"records": n, "seed": seed, "speed_hz": speed_hz, "source": source, "flows_over_qt": list(ORBIT_FLOWS),
-           "unbalance_scales": list(ORBIT_SCALES), "seconds": time.perf_counter() - t0}
+           "unbalance_scales": list(ORBIT_SCALES), "time_rounds": int(time_rounds), "workers": int(workers),
+           "seconds": time.perf_counter() - t0}
     for h, rr in rows.items():
         out[f"harmonics {h}"] = orbit_summary(rr)
     out["rows"] = {str(h): rr for h, rr in rows.items()}
+    return out
+
+
+def _pct(flows_mlmin, q) -> list:
+    return (np.asarray(flows_mlmin) / q * 100 - 100).tolist()
+
+
+def _orbit_rows(machine_path, spec, scale, source, harmonics, time_rounds) -> dict:
+    """`bench_orbit`'s rows of one record, {harmonics: row} (a process of its pool runs this)."""
+    from ..effects import parse_effect
+    from ..identify.batch import identify_record
+    from ..identify.settings import IdentificationSettings
+    from ..model.machine import load_machine
+    from .orbit_record import make_orbit_record
+
+    machine = load_machine(machine_path)
+    made = make_orbit_record(spec, unbalance_scale=scale, method=source)
+    q = np.array([spec.q1_mlmin, spec.q2_mlmin])
+    out = {}
+    for h in harmonics:
+        try:
+            r = identify_record(made.record, machine, IdentificationSettings(orbit_harmonics=h,
+                                                                             orbit_time_rounds=time_rounds),
+                                effects=(parse_effect("large_orbit"),)).result
+        except ConvergenceError as e:  # a balance that does not settle: a miss, counted, not the bench's end
+            out[h] = {"failed": str(e), "q_mlmin": q.tolist(), "unbalance_scale": scale}
+            continue
+        lo = r.effects["large_orbit"]
+        out[h] = {**_flow_row(spec.speed_hz, q, r), "unbalance_scale": scale,
+                  "ratio_2x": list(made.truth["ratio_2x"]), "half_order": made.truth.get("half_order"),
+                  "signed_error_pct": ((r.q * 6e7 / q - 1) * 100).tolist(),
+                  "sigma_pct": (np.asarray(r.q_std) / r.q * 100).tolist(),
+                  **({"time_rounds": [{"signed_error_pct_after": _pct(t["flows_after_mlmin"], q),
+                                       "gap_1x_percent": t["gap_1x_percent"], "settled_percent": t["settled_percent"],
+                                       "chi2": t["chi2"], "seconds": t["seconds"],
+                                       "not_kept": [{"signed_error_pct_at": _pct(o["flows_at_mlmin"], q),
+                                                     "signed_error_pct_after": _pct(o["flows_after_mlmin"], q),
+                                                     "chi2": o["chi2"], "consistent": o["consistent"]}
+                                                    for o in t["not_kept"]]} for t in lo["time_rounds"]]}
+                     if lo.get("time_rounds") else {})}
     return out
 
 

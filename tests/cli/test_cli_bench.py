@@ -47,6 +47,8 @@ def test_static_coverage_refuses_the_clean_corpus_options(capsys, extra):
     (["--orbit-harmonics", "5,x"], ["--orbit-harmonics", "'5,x'", "integers"]),
     (["--static"], ["--large-orbit", "--static"]),
     (["--calibrations", "0.8"], ["--large-orbit", "--calibrations"]),
+    (["--orbit-time-rounds", "6"], ["--orbit-time-rounds", "0-5"]),
+    (["--orbit-workers", "0"], ["--orbit-workers", "at least 1"]),
 ])
 def test_large_orbit_coverage_checks_its_options_before_making_records(capsys, extra, words):
     assert main(["bench", "coverage", "--large-orbit", "--records", "1", *extra]) == 2
