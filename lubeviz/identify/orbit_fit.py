@@ -418,7 +418,6 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     q = theta[:2].copy()
     scale = measured_scale(chain, measured, theta)  # the linear model's reading; each round reads it again
     history = [q.copy()]
-    scales = [scale]
     state = dict(q=q, theta=theta, scale=scale, ob=None, defect=None, rounds=0, gap=None, chi2=None, ob_scale=scale)
 
     qt = chain.q_threshold
@@ -467,7 +466,6 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
             new_scale = measured_scale(chain, measured, theta, defect)
             scale_moved = abs(new_scale / scale - 1.0)
             scale = new_scale
-            scales.append(scale)
             state.update(q=q, theta=theta, scale=scale, ob=ob, defect=defect)
             if (moved < stop_tol or moved_sigma < SIGMA_TOL) and scale_moved < SCALE_TOL:
                 settled = True
