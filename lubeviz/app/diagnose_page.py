@@ -293,11 +293,13 @@ class DiagnosePage(pn.viewable.Viewer):
         kind = "success" if d.explained and not d.ambiguous else ("warning" if d.explained or d.ambiguous else "danger")
         added = f"**Effect added: {d.added.label}.** " if d.added is not None else (
             "**No effect needed.** " if d.explained else "**No effect explains the record.** ")
+        # The flows first: the browser receives each change as its own message, and whoever reads the verdict
+        # (a user, a test) should find the flows it speaks of already there.
+        self._flows.object = self._flows_text(d, s, r["truth"], r["name"])
         self._verdict.alert_type = kind
         notes = r.get("notes", ())
         self._verdict.object = added + d.verdict + ("".join(f"\n\n_Note: {n}_" for n in notes) if notes else "")
         self._verdict.visible = True
-        self._flows.object = self._flows_text(d, s, r["truth"], r["name"])
         self._residuals.object = self._residual_plot(d)
         self._candidates.objects = [pn.widgets.Tabulator(self._candidates_table(d, s), disabled=True, show_index=False,
                                                          sizing_mode="stretch_width",

@@ -41,7 +41,9 @@ def test_diagnose_page_names_the_effect_and_downloads_the_report(app_page, scree
     expect(verdict).to_contain_text("Effect added: probe_rotation[plane=1]", timeout=SLOW_MS)
     assert answered < 5.0 and running, f"the page answered in {answered:.1f} s (diagnosis still running: {running})"
 
-    flows = text(page.locator(".lubeviz-diagnosis-flows"))
+    flows_pane = page.locator(".lubeviz-diagnosis-flows")
+    expect(flows_pane).to_contain_text(re.compile(r"Q2 = [0-9.]+ ± .*Q2 = [0-9.]+ ± ", re.S), timeout=30_000)
+    flows = text(flows_pane)
     q1 = [float(v) for v in re.findall(r"Q1 = ([0-9.]+) ± ", flows)]
     q2 = [float(v) for v in re.findall(r"Q2 = ([0-9.]+) ± ", flows)]
     assert len(q1) == len(q2) == 2, flows  # before and after
