@@ -137,6 +137,9 @@ class OrbitFit:
     unbalance_scale: float = 1.0  # the unbalance's size the record's 1X implies, relative to the declared one
     orbit_stability: OrbitStability | None = None  # of the periodic orbit at the answer (Floquet multipliers)
     time_rounds: tuple[TimeRound, ...] = ()  # the time rounds after the balance's (`fit_large_orbit(time_rounds=)`)
+    # with time rounds: the flows' 95 % intervals from the slope's union alone (no truncation term, no union with
+    # the balance's), m^3/s by name; for measuring their coverage, not the answer's intervals
+    time_round_intervals: dict | None = None
 
     @property
     def balances(self) -> int:
@@ -557,6 +560,10 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     progress(total - 1, total, "large orbits: intervals")
     final = fit(chain.with_defect(defect), measured, start=theta, **kw)
     intervals = _slope_union(chain, measured, defect, theta, final, kw)
+    # the time rounds' own intervals, without the truncation term they take out and the balance's union: reported
+    # so that their coverage can be measured (`bench coverage --large-orbit --orbit-time-rounds`), never shown as
+    # the answer's
+    own = {n: intervals[n] for n in chain.names[:2] if n in intervals} if time_log else None
     intervals = _truncation_union(chain.with_defect(defect), measured, final, intervals, kw, full_budget)
     if balance_intervals is not None:  # near Q_T the time rounds can end on the kink with a narrow interval (record
         # 5 of the bench: Q2 +2.8 % with sigma 0.9 %); until their own sigma is measured, the balance's bounds it
@@ -583,7 +590,8 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     progress(total, total, "large orbits: done")
     return OrbitFit(fit=final, plain=plain, orbit=ob, defect=defect, history=tuple(history),
                     converged=converged, seconds=time.perf_counter() - t0, stability=stability,
-                    unbalance_scale=scale_used, orbit_stability=orbit_stab, time_rounds=tuple(time_log))
+                    unbalance_scale=scale_used, orbit_stability=orbit_stab, time_rounds=tuple(time_log),
+                    time_round_intervals=own)
 
 
 def _slope_union(chain: ForwardChain, measured, defect: ResponseDefect, theta, final: Fit, kw) -> dict:
@@ -661,4 +669,6 @@ def orbit_summary(of: OrbitFit) -> dict:
             **({} if of.orbit_stability is None else {"orbit_stability": of.orbit_stability.summary()}),
             "time_rounds": [{**_time_round(r), "seconds": r.seconds,
                              "not_kept": [_time_round(o) for o in r.others]} for r in of.time_rounds],
+            **({} if of.time_round_intervals is None else {"time_round_intervals_mlmin": [
+                [lo * 6e7, None if hi is None else hi * 6e7] for lo, hi in of.time_round_intervals.values()]}),
             "seconds": of.seconds}

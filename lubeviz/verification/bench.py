@@ -196,7 +196,10 @@ def _orbit_rows(machine_path, spec, scale, source, harmonics, time_rounds) -> di
                                        "not_kept": [{"signed_error_pct_at": _pct(o["flows_at_mlmin"], q),
                                                      "signed_error_pct_after": _pct(o["flows_after_mlmin"], q),
                                                      "chi2": o["chi2"], "consistent": o["consistent"]}
-                                                    for o in t["not_kept"]]} for t in lo["time_rounds"]]}
+                                                    for o in t["not_kept"]]} for t in lo["time_rounds"]],
+                      # the time rounds' own intervals (no truncation term, no union with the balance's)
+                      "time_round_covered": [lo_ <= qk <= (np.inf if hi is None else hi) for (lo_, hi), qk in
+                                             zip(lo["time_round_intervals_mlmin"], q)]}
                      if lo.get("time_rounds") else {})}
     return out
 
@@ -209,6 +212,8 @@ def orbit_summary(rows) -> dict:
     return {**_summary(done), "records": len(rows), "failed": _rate("failed" in r for r in rows),
             "within_1pct": _rate("failed" not in r and r["max_abs_error_pct"] <= 1.0 for r in rows),
             "sigma_pct_median": float(np.median([max(r["sigma_pct"]) for r in done])) if done else None,
+            **({"time_round_coverage": _rate(all(r["time_round_covered"]) for r in timed)}
+               if (timed := [r for r in done if "time_round_covered" in r]) else {}),
             "fit_s_median": float(np.median([r["seconds"] for r in done])) if done else None}
 
 

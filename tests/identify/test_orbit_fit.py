@@ -246,3 +246,60 @@ def test_with_16_harmonics_the_flows_come_within_1_percent_on_the_time_integrati
     stab = r.effects["large_orbit"]["orbit_stability"]
     assert stab["state"] == "stable" and -0.8 < stab["half_order_multiplier"] < -0.5
     assert truth["half_order"] < 0.01
+
+
+def test_a_time_round_with_a_better_orbit_model_standing_in_brings_the_five_harmonic_fit_to_it(machine, time_record,
+                                                                                                monkeypatch):
+    """The time rounds' loop (`fit_large_orbit(time_rounds=)`), with the 16-harmonic balance standing in for the time
+    integration (which costs 5 min a round): the 5-harmonic fit of the time-integration record (+0.87 / +1.02 %
+    measured, above) takes the better model's 1X gap to its own at its answer into the correction, held constant,
+    and runs its rounds again. The fixed point of that loop is the better model's own answer (-0.23 / +0.30 % with
+    16 harmonics, above), so the round must move the flows toward the truth. The stand-in is called at the last
+    balance's flows with that balance and its unbalance scale, as `time_gap` is. (A first version on a record of the
+    16-harmonic balance at the paper's unbalance failed in CI: from the 5-harmonic orbit that balance did not settle,
+    the round was dropped with a warning; here the orbit is the 0.6 x one, where it settles.)"""
+    from lubeviz.identify import orbit_fit
+    from lubeviz.identify.orbit_fit import _balance
+    from lubeviz.progress import silent
+
+    rec = time_record.record
+    q = np.array(WEAKER_Q)
+    calls = []
+
+    def better(chain, ob, scale, revolutions=4, steps=512, progress=silent):
+        calls.append((np.asarray(ob.bearings.flows, dtype=float).copy(), scale))
+        b = _balance(chain, ob.bearings.flows, ob, 16, 64, 1e-8, silent, scale=scale)
+        gs = np.zeros((2, 2))
+        for k in chain.static_planes:
+            gs[k] = b.x[0, k].real - ob.x[0, k].real, b.y[0, k].real - ob.y[0, k].real
+        one = np.ravel(np.stack([ob.x[1], ob.y[1]], axis=-1))
+        pct = 100 * np.abs(np.ravel(np.stack([b.x[1], b.y[1]], axis=-1)) / one - 1)
+        return ((b.x[1] - ob.x[1]) / scale, (b.y[1] - ob.y[1]) / scale, gs), pct, 0.0
+
+    monkeypatch.setattr(orbit_fit, "time_gap", better)
+    # Q2's answer lies 3.6 % below Q_T, inside KINK_BAND: the round would also run across the kink from 3.6 % above
+    # it (measured: the test passed so, in twice the time, 17 min against 8 on a loaded machine; that branch is
+    # measured on the bench, record 5 of BENCHMARKS "Time rounds"). Here the loop alone: the band narrowed so
+    # that no flow is near the kink.
+    monkeypatch.setattr(orbit_fit, "KINK_BAND", 0.03)
+    r = identify_record(rec, machine, IdentificationSettings(orbit_harmonics=5, orbit_time_rounds=1),
+                        effects=(parse_effect("large_orbit"),)).result
+    assert not [w for w in r.warnings if "time round" in w], r.warnings
+    rounds = r.effects["large_orbit"]["time_rounds"]
+    assert len(rounds) == 1 and len(calls) == 1 and not rounds[0]["not_kept"]
+    kept = rounds[0]
+    # the gap is taken at the last balance's flows (the 5-harmonic answer, within the rounds' tolerance)
+    np.testing.assert_allclose(np.asarray(kept["flows_at_mlmin"]) / 6e7, calls[0][0], rtol=1e-12)
+    before = np.abs(np.asarray(kept["flows_at_mlmin"]) / q - 1)
+    after = np.abs(r.q * 6e7 / q - 1)
+    assert before.max() > 0.006  # the 5-harmonic answer's truncation
+    assert after.max() < 0.6 * before.max() and after.max() < 0.006
+    assert 0.5 < max(kept["gap_1x_percent"]) < 10.0  # the truncation in the 1X: a few %, not a convention's 100 %
+    assert kept["consistent"] and r.model_explains_data
+    assert all(_inside(r.intervals[k], q[k]) for k in range(2))
+    # the time rounds' own intervals are reported (for the bench's coverage) and the answer's hold them
+    own = r.effects["large_orbit"]["time_round_intervals_mlmin"]
+    assert len(own) == 2
+    for k, (lo, hi) in enumerate(own):
+        assert lo <= r.q[k] * 6e7 <= hi
+        assert r.intervals[k][0] * 6e7 <= lo * (1 + 1e-12) and hi <= r.intervals[k][1] * 6e7 * (1 + 1e-12)

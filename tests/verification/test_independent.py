@@ -336,3 +336,9 @@ def test_the_orbit_bench_counts_a_balance_that_does_not_settle_as_a_miss():
     assert s["sigma_pct_median"] == 4.25 and s["fit_s_median"] == 101.25
     nothing = orbit_summary([rows[2]])
     assert nothing["failed"]["k"] == 1 and nothing["within_1pct"]["k"] == 0 and nothing["sigma_pct_median"] is None
+    assert "time_round_coverage" not in s  # without time rounds no such figure
+    # with time rounds, the coverage of their own intervals: a record counts when both flows are inside
+    timed = [{**row(0.2), "time_round_covered": [True, True]}, {**row(0.3), "time_round_covered": [True, False]},
+             rows[2]]
+    t = orbit_summary(timed)["time_round_coverage"]
+    assert (t["k"], t["n"]) == (1, 2)
