@@ -2,7 +2,8 @@
 
 The time integration itself is too slow for the suite (4-6 min a round at the paper's point); its figures on the
 bench's 12 time-integration records are in BENCHMARKS "Time rounds". Here: the gap's conventions on a small orbit
-(the time integration at a coarse step)."""
+(the time integration at a coarse step). The rounds' loop, with a better orbit model standing in for the time
+integration, is tested in `test_orbit_fit.py` on that module's time-integration record."""
 
 import numpy as np
 import pytest
