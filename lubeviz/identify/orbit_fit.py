@@ -491,8 +491,8 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     time_log = []
     time_warnings = []
 
-    def snapshot() -> dict:
-        return {key: (v.copy() if isinstance(v, np.ndarray) else v) for key, v in state.items()}
+    def copied(d: dict) -> dict:  # the rounds' state, its arrays copied (a branch must not move another's)
+        return {key: (v.copy() if isinstance(v, np.ndarray) else v) for key, v in d.items()}
 
     balance_intervals = None
     if time_rounds:  # the balance's own intervals: those with time rounds are never narrower (below)
@@ -503,7 +503,7 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
 
     for k in range(int(time_rounds)):
         t_round = time.perf_counter()
-        base = snapshot()
+        base = copied(state)
         at = np.asarray(base["ob"].bearings.flows, dtype=float)  # the last balance's flows, within the rounds'
         # tolerance of the answer: the gap is taken there
         where = [at]  # there, and across Q_T from it for a flow near its kink
@@ -517,7 +517,7 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
         branches = []
         for b, pt in enumerate(where):
             state.clear()
-            state.update({key: (v.copy() if isinstance(v, np.ndarray) else v) for key, v in base.items()})
+            state.update(copied(base))
             done = state["rounds"]
             label = f"time round {k + 1}" + ("" if b == 0 else ", across Q_T")
 
@@ -541,7 +541,7 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
                 state.update(q=pt.copy(), theta=theta_pt, ob=ob_pt)
             settled_rounds = rounds(None, slope_films, max_rounds, tol, f"{label}, balance")
             consistent = all((state["q"][j] >= qt[j]) == (pt[j] >= qt[j]) for j in near)
-            branches.append(dict(state=snapshot(), converged=settled_rounds, consistent=consistent,
+            branches.append(dict(state=copied(state), converged=settled_rounds, consistent=consistent,
                                  round=TimeRound(flows_at=pt.copy(), flows_after=state["q"].copy(),
                                                  gap_percent=gap_pct, settled_percent=settled, seconds=0.0,
                                                  chi2=float(state["chi2"]), consistent=consistent)))

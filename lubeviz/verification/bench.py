@@ -57,13 +57,16 @@ def _summary(rows) -> dict:
 BANDS = ((50.0, 62.5), (62.5, 80.0), (80.0, 100.0 + 1e-9))
 
 
+def _inside(low, high, value) -> bool:
+    """`value` in [low, high]; an upper end None is open."""
+    return bool(low <= value <= (math.inf if high is None else high))
+
+
 def _flow_row(speed_hz: float, q, r) -> dict:
     """One record's row of a rate bench: true flows `q` (ml/min) against the identification `r`."""
     qi = r.q * 6e7
-    holds = []
-    for k in range(2):
-        low, high = r.intervals[k]
-        holds.append(bool(low * 6e7 <= q[k] <= (math.inf if high is None else high * 6e7)))
+    holds = [_inside(low * 6e7, None if high is None else high * 6e7, q[k]) for k, (low, high) in
+             enumerate(r.intervals[:2])]
     return {"speed_hz": speed_hz, "q_mlmin": q.tolist(), "q_id_mlmin": qi.tolist(),
             "max_abs_error_pct": float(np.max(np.abs(qi / q - 1)) * 100), "holds": holds,
             "above_qt": [bool(q[k] > r.q_threshold[k] * 6e7) for k in range(2)],
@@ -188,7 +191,7 @@ def _orbit_rows(machine_path, spec, scale, source, harmonics, time_rounds) -> di
         lo = r.effects["large_orbit"]
         out[h] = {**_flow_row(spec.speed_hz, q, r), "unbalance_scale": scale,
                   "ratio_2x": list(made.truth["ratio_2x"]), "half_order": made.truth.get("half_order"),
-                  "signed_error_pct": ((r.q * 6e7 / q - 1) * 100).tolist(),
+                  "signed_error_pct": _pct(r.q * 6e7, q),
                   "sigma_pct": (np.asarray(r.q_std) / r.q * 100).tolist(),
                   **({"time_rounds": [{"signed_error_pct_after": _pct(t["flows_after_mlmin"], q),
                                        "gap_1x_percent": t["gap_1x_percent"], "settled_percent": t["settled_percent"],
@@ -198,7 +201,7 @@ def _orbit_rows(machine_path, spec, scale, source, harmonics, time_rounds) -> di
                                                      "chi2": o["chi2"], "consistent": o["consistent"]}
                                                     for o in t["not_kept"]]} for t in lo["time_rounds"]],
                       # the time rounds' own intervals (no truncation term, no union with the balance's)
-                      "time_round_covered": [lo_ <= qk <= (np.inf if hi is None else hi) for (lo_, hi), qk in
+                      "time_round_covered": [_inside(low, high, qk) for (low, high), qk in
                                              zip(lo["time_round_intervals_mlmin"], q)]}
                      if lo.get("time_rounds") else {})}
     return out
