@@ -11,7 +11,7 @@ def register(sub) -> None:
     p = sub.add_parser("bench", help="performance figures of BENCHMARKS.md")
     add_common(p)
     p.add_argument("what", choices=("film", "mesh", "smoothness", "rotor", "stability", "identify", "table",
-                                    "coverage", "budget", "diagnose"),
+                                    "coverage", "budget", "diagnose", "read"),
                    help="film: solver timings; mesh: mesh study; smoothness: roughness of K, C over Q; "
                         "rotor: assembly, response, modes, 15 s record (ROSS alongside); stability: critical speed and "
                         "instability threshold across 50-150 %% Q_T; "
@@ -22,7 +22,8 @@ def register(sub) -> None:
                         "coverage: error, 95 %% interval coverage and chi2 flag rate over --records clean independent "
                         "records (with and without the model budget, by speed band); budget: the model budget "
                         "against the model-vs-independent feature differences; diagnose: every effect at two "
-                        "strengths on independent records, named / ambiguous / unexplained, flows before and after")
+                        "strengths on independent records, named / ambiguous / unexplained, flows before and after; "
+                        "read: the record reader's peak memory on a ~195 MB CSV and .npz, each read in a fresh process")
     p.add_argument("--records", type=int, default=120, help="coverage: independent records (default 120)")
     p.add_argument("--static", action="store_true",
                    help="coverage: records with the static shaft position and the oil's viscosity x0.7-1.3 of the "
@@ -70,6 +71,10 @@ def register(sub) -> None:
 def run_bench(args) -> dict:
     if args.repeat < 1:
         raise ValueError(f"--repeat {args.repeat}: expected at least 1")
+    if args.what == "read":
+        from ..signals.bench_read import bench_read
+
+        return bench_read()
     if args.what == "mesh":
         return bench_mesh(args.machine)
     if args.what == "smoothness":

@@ -10,6 +10,7 @@ and y noise of a plane; that correlation is neglected here (exact for X/Y probes
 from __future__ import annotations
 
 from dataclasses import dataclass
+import math
 from typing import Sequence
 
 import numpy as np
@@ -31,6 +32,8 @@ class MeasuredFeatures:
     speed_hz: float
     line_snr: np.ndarray  # |Zf|, |Zb| of each plane over their noise std: (2 planes, 2)
     static_names: tuple[str, ...] = ()  # static offsets the record holds (SPEC §6 `static: absolute`)
+    source: str | None = None  # the record's file, for messages
+    strongest_line_hz: float | None = None  # the strongest line of the record's full spectrum (Hz), if any
 
     @property
     def std(self) -> np.ndarray:
@@ -41,14 +44,20 @@ class MeasuredFeatures:
         return MeasuredFeatures(names=tuple(names), values=self.values[idx], cov=self.cov[np.ix_(idx, idx)],
                                 x=self.x, y=self.y, nodes=self.nodes, speed_hz=self.speed_hz,
                                 line_snr=self.line_snr,
-                                static_names=tuple(n for n in self.static_names if n in names))
+                                static_names=tuple(n for n in self.static_names if n in names),
+                                source=self.source, strongest_line_hz=self.strongest_line_hz)
 
 
 def measure(record, names: Sequence[str] = ALL_FEATURES, *, harmonics: int = 3) -> MeasuredFeatures:
     """Features of a `Record` for the identification, with the noise covariance."""
     names = tuple(names)
     xy = record.xy()
-    fits = fit_channels(xy.reshape(4, -1), record.t, record.speed_hz, harmonics=harmonics,
+    # The features do not depend on the time origin (a common shift rotates every amplitude alike), so the
+    # start is taken modulo one revolution: a t0 of 1.7e15 s (epoch nanoseconds in seconds) keeps every
+    # sample time exact instead of rounding them to 0.25 s. For a usual t0 the times are the record's own.
+    t0 = math.fmod(float(getattr(record, "t0", 0.0)), 1.0 / record.speed_hz)
+    t = t0 + np.arange(record.n_samples) / record.sample_rate_hz
+    fits = fit_channels(xy.reshape(4, -1), t, record.speed_hz, harmonics=harmonics,
                         sample_rate=record.sample_rate_hz)
     amp = np.array([f.amplitude for f in fits])  # x1, y1, x2, y2
     x, y = amp[0::2], amp[1::2]
@@ -87,4 +96,16 @@ def measure(record, names: Sequence[str] = ALL_FEATURES, *, harmonics: int = 3) 
         cov = full
         names = names + STATIC_FEATURES
     return MeasuredFeatures(names=names, values=values, cov=cov, x=x, y=y, nodes=tuple(int(n) for n in record.nodes),
-                            speed_hz=float(record.speed_hz), line_snr=snr, static_names=static_names)
+                            speed_hz=float(record.speed_hz), line_snr=snr, static_names=static_names,
+                            source=getattr(record, "source", None), strongest_line_hz=_strongest_line(record))
+
+
+def _strongest_line(record) -> float | None:
+    """The record's strongest spectral line (Hz), to say what a record without a usable 1X line holds."""
+    from ..errors import LubevizError
+    from ..signals.speed_check import spectrum_speed_check
+
+    try:
+        return spectrum_speed_check(record).strongest_hz
+    except (LubevizError, ValueError):
+        return None

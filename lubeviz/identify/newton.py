@@ -192,11 +192,28 @@ def check_record(model: ForwardModel, measured: MeasuredFeatures, settings: Iden
     for k in range(2):
         f_snr, b_snr = measured.line_snr[k]
         if f_snr < settings.min_line_snr:
-            raise InputError(f"plane {k + 1} (node {measured.nodes[k]}): no usable 1X line (forward component "
-                             f"only {f_snr:.1f} noise standard deviations)")
+            raise InputError(_no_line_message(measured, k, f_snr))
         if b_snr < settings.min_line_snr:
             raise InputError(f"plane {k + 1} (node {measured.nodes[k]}): the backward 1X component is buried in "
                              f"noise ({b_snr:.1f} noise standard deviations); fb cannot be measured")
+
+
+def _no_line_message(measured: MeasuredFeatures, k: int, f_snr: float) -> str:
+    """'<file>: plane k (node n): no usable 1X line ...', with the declared speed and what the spectrum's
+    strongest line suggests (a wrong speed label or sample rate puts the line elsewhere)."""
+    where = getattr(measured, "source", None) or "record"
+    speed = measured.speed_hz
+    text = (f"{where}: plane {k + 1} (node {measured.nodes[k]}): no usable 1X line at the declared speed_hz"
+            f" {speed:g} Hz (forward component only {f_snr:.1f} noise standard deviations)")
+    strongest = getattr(measured, "strongest_line_hz", None)
+    if strongest is None:
+        return text + "; the spectrum holds no clear line at all (noise only?)"
+    strongest = abs(strongest)  # a backward line has a negative frequency
+    r = strongest / speed
+    if abs(r - 1.0) < 1e-3:
+        return text + f"; the spectrum's strongest line is the 1X at {strongest:.6g} Hz, too weak in this plane"
+    return (text + f"; the spectrum's strongest line is at {strongest:.6g} Hz ({r:.4g} x the declared speed):"
+            " check the speed_hz label or the sample rate")
 
 
 def identify(model: ForwardModel, measured: MeasuredFeatures,

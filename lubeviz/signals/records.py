@@ -90,12 +90,14 @@ from scipy.io.matlab import MatReadError
 from ..errors import DataFormatError, InputError
 from ..model.machine import model_name_problem
 from ..units import length_factor
+from .speed_check import check_speed_label
 
 MAX_RECORD_BYTES = 200_000_000  # files above this are refused before reading (read at call time)
 MIN_REVOLUTIONS = 10.0  # the 1X DFT needs several whole revolutions to separate 1X from noise
 MIN_SAMPLES = 16
 MIN_PROBE_SEPARATION_DEG = 10.0  # two probes closer than this (mod 180°) cannot resolve X and Y
 TIME_RTOL = 1e-6  # allowed relative deviation of each time step from the mean step
+TIME_PRECISION = 1e-3  # a 't' column whose float64 spacing exceeds this fraction of a step cannot hold the times
 MIN_VIBRATION_PTP = 1e-12  # m; a channel moving less than this (1 pm, far below any probe) is dead
 MAX_VIBRATION_PTP = 5e-3  # m; no journal-bearing shaft vibrates 5 mm peak-to-peak: wrong units
 MIN_BATCHES = 10  # batch means for a mean's standard error: at least this many batches
@@ -152,6 +154,7 @@ class Record:
     # [oil] in the model file it settles the film's viscosity.
     oil_temperature_c: float | None = None
     warnings: tuple[str, ...] = ()  # what the reader ignored (unknown keys, columns), for the user
+    units: str | None = None  # the units the file declared (m, mm, um, mils): named when amplitudes look off
     # Derived when built (never passed): mean reading - rest reading resolved to X, Y (2 planes, 2) in
     # metres, and its standard error; None without `rest_position`.
     static_offset: np.ndarray | None = field(default=None, init=False, repr=False)
@@ -178,7 +181,7 @@ class Record:
             i = int(np.flatnonzero(~np.isfinite(d[k, a]))[0])
             raise _fail(where, f"{CHANNELS[2 * k + a]}, index {i}", f"{d[k, a, i]} is not finite",
                         "finite displacements")
-        put("displacement", _frozen_copy(d))
+        put("displacement", d if _owned_frozen(d) else _frozen_copy(d))
         n = d.shape[2]
         if n < MIN_SAMPLES:
             raise _fail(where, "samples", f"too few samples ({n})", f"at least {MIN_SAMPLES}")
@@ -457,7 +460,11 @@ def read_record(path, *, default_nodes=DEFAULT_NODES) -> Record:
         raise _fail(where, "file", "is empty", f"a {suffix} record")
     reader = {".csv": _read_csv, ".npz": _read_npz, ".mat": _read_mat}[suffix]
     columns, meta, extra, origin = reader(path, where)
-    return _assemble(columns, meta, extra, origin, default_nodes)
+    record = _assemble(columns, meta, extra, origin, default_nodes)
+    del columns  # _assemble took the samples over
+    # The declared speed against the spectrum's own 1X line (a wrong speed label or sample rate):
+    # every record read for identification passes here (CLI, app uploads, sets).
+    return check_speed_label(record)
 
 
 def read_record_bytes(content, filename: str, *, default_nodes=DEFAULT_NODES) -> Record:
@@ -494,7 +501,9 @@ def write_record(record: Record, path, *, units: str = "m") -> Path:
         scale = length_factor(units)
     except ValueError as exc:
         raise _fail(where, "units", str(exc)) from None
-    columns = {"t": record.t}
+    t_end = record.t0 + record.duration
+    lossy_t = _time_spacing(record.t0, t_end) > TIME_PRECISION / record.sample_rate_hz
+    columns = {} if lossy_t else {"t": record.t}  # a t0 too large for a t column: '# t0_s' instead
     for k, a in np.ndindex(2, 2):
         reading = record.displacement[k, a]
         columns[CHANNELS[2 * k + a]] = reading if scale == 1.0 else reading / scale
@@ -502,6 +511,8 @@ def write_record(record: Record, path, *, units: str = "m") -> Path:
         columns["keyphasor"] = record.keyphasor
     meta = {"speed_hz": record.speed_hz, "sample_rate_hz": record.sample_rate_hz,
             "units": units.strip().lower(), "node1": record.nodes[0], "node2": record.nodes[1]}
+    if lossy_t:
+        meta["t0_s"] = record.t0
     if record.probe_angles_deg != DEFAULT_PROBE_ANGLES_DEG:
         meta["probe_angles_deg"] = record.probe_angles_deg
     if record.machine is not None:
@@ -658,7 +669,7 @@ def _assemble(columns: dict, meta: dict, extra: dict, origin: _Origin, default_n
         rate = _positive(rate, where, "sample_rate_hz", "samples per second")
     t0 = _finite(meta["t0_s"], where, "t0_s", "seconds") if "t0_s" in meta else None
     if "t" in columns:
-        rate, t_first = _time_axis(columns["t"], rate, origin)
+        rate, t_first = _time_axis(columns.pop("t"), rate, origin)
         if t0 is not None and t0 != t_first:
             raise _fail(where, "t0_s", f"{t0!r} disagrees with the first time {t_first!r}",
                         "no t0_s, or the same value as t")
@@ -671,10 +682,15 @@ def _assemble(columns: dict, meta: dict, extra: dict, origin: _Origin, default_n
                   else default_nodes[k] for k in range(2))
     angles = meta.get("probe_angles_deg", DEFAULT_PROBE_ANGLES_DEG)
     rest = _static_fields(meta, where)
-    displacement = np.stack([columns[c] for c in CHANNELS]).reshape(2, 2, -1)
-    _check_vibration(displacement * scale, where, units)
+    # One (2, 2, n) array filled channel by channel; each column is let go once copied (peak memory of a
+    # large record: the samples about once, not three times).
+    displacement = np.empty((2, 2, lengths["x1"]))
+    for j, c in enumerate(CHANNELS):
+        displacement[j // 2, j % 2] = columns.pop(c)
+    _check_vibration(displacement, where, units, scale=scale)
     if scale != 1.0:
-        displacement = displacement * scale
+        displacement *= scale
+    displacement.flags.writeable = False  # handed to Record without a copy
     if rest is not None:
         rest = rest * scale
         if static_offset is not None:  # the readings were the dynamic part: give them this mean
@@ -688,7 +704,7 @@ def _assemble(columns: dict, meta: dict, extra: dict, origin: _Origin, default_n
                   machine=meta.get("machine"), keyphasor=columns.get("keyphasor"),
                   metadata=extra, source=where, rest_position=rest, set_name=meta.get("set"),
                   oil_temperature_c=meta.get("oil_temperature_c"),  # checked by Record
-                  warnings=tuple(warnings))
+                  warnings=tuple(warnings), units=units.strip().lower())
 
 
 def _static_fields(meta: dict, where: str) -> np.ndarray | None:
@@ -709,11 +725,24 @@ def _static_fields(meta: dict, where: str) -> np.ndarray | None:
     return _rest_position(meta["rest_position"], where) if has_rest else None
 
 
+def _time_spacing(*times: float) -> float:
+    """Distance between adjacent float64 numbers at the largest of `times` (s)."""
+    return float(np.spacing(max(abs(t) for t in times)))
+
+
 def _time_axis(t: np.ndarray, rate: float | None, origin: _Origin) -> tuple[float, float]:
     """Sample rate and start of a strictly increasing, uniform time column (s)."""
     where = origin.where
     if t.size < 2:
         raise _fail(where, "t", f"too few samples ({t.size})", f"at least {MIN_SAMPLES}")
+    span = float(t[-1]) - float(t[0])
+    if span > 0:  # times so large that float64 cannot tell one sample from the next
+        step, spacing = span / (t.size - 1), _time_spacing(float(t[0]), float(t[-1]))
+        if spacing > TIME_PRECISION * step:
+            raise _fail(where, "t", f"times near {float(t[0]):.6g} s are held in float64 only to"
+                        f" {spacing:.3g} s, too coarse for the sample step of {step:.3g} s",
+                        "times counted from the record's start (or no 't' column: 'sample_rate_hz' and,"
+                        " for the absolute start, '# t0_s: ...')")
     steps = np.diff(t)
     bad = np.flatnonzero(steps <= 0)
     if bad.size:
@@ -721,12 +750,16 @@ def _time_axis(t: np.ndarray, rate: float | None, origin: _Origin) -> tuple[floa
         raise _fail(where, origin.at("t", i),
                     f"non-monotonic time: t = {float(t[i])!r} after {float(t[i - 1])!r}",
                     "strictly increasing time")
-    typical = np.median(steps)  # robust to the one gap or jump we want to point at
-    bad = np.flatnonzero(np.abs(steps - typical) > TIME_RTOL * typical)
+    typical = float(np.median(steps, overwrite_input=True))  # robust to the one gap or jump we point at
+    steps = np.diff(t)  # (the median scrambled them) the deviations, in place: one temporary array
+    steps -= typical
+    np.abs(steps, out=steps)
+    bad = np.flatnonzero(steps > TIME_RTOL * typical)
+    del steps
     if bad.size:
         i = int(bad[0]) + 1
         raise _fail(where, origin.at("t", i),
-                    f"non-uniform sampling: step {float(steps[i - 1])!r} s, typical step"
+                    f"non-uniform sampling: step {float(t[i] - t[i - 1])!r} s, typical step"
                     f" {float(typical)!r} s", f"uniform steps (relative tolerance {TIME_RTOL:g})")
     dt = float(t[-1] - t[0]) / (t.size - 1)
     if rate is None:
@@ -739,19 +772,53 @@ def _time_axis(t: np.ndarray, rate: float | None, origin: _Origin) -> tuple[floa
 
 # -- CSV ----------------------------------------------------------------------------------------
 
-def _read_csv(path: Path, where: str):
+_CSV_CHUNK_BYTES = 1 << 20  # bytes decoded at a time
+_CSV_BATCH_ROWS = 1 << 14  # data rows parsed at a time
+
+
+def _text_lines(path: Path, where: str):
+    """The file's lines, as `str.splitlines` splits them (any line ending), decoded chunk by chunk.
+
+    A partial last line of a chunk (or a CR that a LF may follow) waits for the next chunk, so the lines
+    and their numbers are those of the whole text; a byte that is not UTF-8 is named by its file offset.
+    """
+    import codecs
+
+    decoder = codecs.getincrementaldecoder("utf-8-sig")()
+    carry, offset = "", 0
     try:
-        text = path.read_bytes().decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise _fail(where, "file", f"is not UTF-8 text (byte {exc.start})", "a CSV text file") from None
+        with open(path, "rb") as f:
+            while True:
+                chunk = f.read(_CSV_CHUNK_BYTES)
+                try:
+                    text = decoder.decode(chunk, final=not chunk)
+                except UnicodeDecodeError as exc:
+                    raise _fail(where, "file", f"is not UTF-8 text (byte {offset + exc.start})",
+                                "a CSV text file") from None
+                offset += len(chunk)
+                parts = (carry + text).splitlines()
+                if not chunk:
+                    yield from parts
+                    return
+                # the last part may be cut: keep it, with its line ending, for the next round
+                keep = (carry + text).splitlines(keepends=True)
+                carry = keep.pop() if keep else ""
+                yield from parts[:len(keep)]
     except OSError as exc:
         raise _fail(where, "file", f"cannot be read ({exc.strerror or exc})") from None
-    lines = text.splitlines()
+
+
+def _read_csv(path: Path, where: str):
+    """Metadata and header line by line, then the data in batches of rows parsed by numpy's C parser
+    straight into float arrays: the text is never held whole (a 200 MB file reads in a few times the
+    memory of its numbers)."""
+    lines = iter(_text_lines(path, where))
     meta, extra, seen, notes = {}, {}, {}, []
-    i = 0
-    while i < len(lines):
-        s = lines[i].strip()
+    i, header = 0, None
+    for line in lines:
+        s = line.strip()
         if s and not s.startswith("#"):
+            header = line
             break
         body = s[1:].strip()
         if ":" not in body:  # a free comment, unless it looks like a known key without its colon
@@ -775,10 +842,9 @@ def _read_csv(path: Path, where: str):
             elif key:
                 extra[key] = value
         i += 1
-    if i == len(lines):
+    if header is None:
         raise _fail(where, "header", "no header row and no data", "a header row such as 't,x1,y1,x2,y2'")
     header_line = i + 1
-    header = lines[i]
     delimiter = next((d for d in (",", ";", "\t") if d in header), None)
     names = [c.strip().strip("\"'").strip().lower() for c in header.split(delimiter)]
     if all(_is_number(c) for c in names):
@@ -793,16 +859,38 @@ def _read_csv(path: Path, where: str):
         elif name and not name.startswith(FREE_PREFIXES):
             notes.append(_ignored_warning(where, f"column {name!r}", name, COLUMNS))
 
-    body = lines[i + 1:]
-    line_numbers = np.arange(header_line + 1, header_line + 1 + len(body))
-    stripped = [line.strip() for line in body]
-    if not all(stripped):  # blank lines carry no sample: drop them, keep the line numbers right
-        keep = [k for k, s in enumerate(stripped) if s]
-        body, stripped, line_numbers = [body[k] for k in keep], [stripped[k] for k in keep], \
-            line_numbers[keep]
-    if not body:
+    tables, numbers = [], []
+    line_no = header_line
+    batch: list[str] = []
+    batch_lines: list[int] = []
+    for line in lines:
+        line_no += 1
+        if line.strip():  # blank lines carry no sample: dropped, the line numbers kept right
+            batch.append(line)
+            batch_lines.append(line_no)
+            if len(batch) == _CSV_BATCH_ROWS:
+                tables.append(_csv_batch(batch, batch_lines, where, delimiter, names, positions, header_line))
+                numbers.append(np.array(batch_lines, dtype=np.int64))
+                batch, batch_lines = [], []
+    if batch:
+        tables.append(_csv_batch(batch, batch_lines, where, delimiter, names, positions, header_line))
+        numbers.append(np.array(batch_lines, dtype=np.int64))
+    del batch, batch_lines
+    if not numbers:
         raise _fail(where, "data", f"no data rows after the header (line {header_line})",
                     f"at least {MIN_SAMPLES} rows of numbers")
+    line_numbers = np.concatenate(numbers)
+    columns = {}
+    for k, name in enumerate(positions):  # one column at a time: the batches are let go as they are joined
+        columns[name] = np.concatenate([table[k] for table in tables])
+    del tables
+    return columns, meta, extra, _Origin(where, line_numbers, tuple(n for n in names if n), tuple(notes))
+
+
+def _csv_batch(body: list[str], line_numbers: list[int], where: str, delimiter, names, positions,
+               header_line: int) -> list[np.ndarray]:
+    """The used columns of a batch of non-blank data rows, each a float64 array; every bad row named by line."""
+    stripped = [line.strip() for line in body]
     comments = [k for k, s in enumerate(stripped) if s[0] == "#"]
     if comments:
         raise _fail(where, f"line {line_numbers[comments[0]]}", "comment after the header",
@@ -814,18 +902,16 @@ def _read_csv(path: Path, where: str):
         k = int(bad[0])
         raise _fail(where, f"line {line_numbers[k]}", f"ragged row: {widths[k]} cells",
                     f"{len(names)} cells, as in the header (line {header_line})")
-
-    columns = {}
-    if positions:
-        try:  # fast path: numpy's C parser on the columns we use
-            table = np.loadtxt(body, delimiter=delimiter, usecols=list(positions.values()),
-                               comments=None, ndmin=2, dtype=np.float64)
-        except ValueError:  # slow path, only to name the first bad cell
-            rows = [line.split(delimiter) for line in body]
-            table = np.array([[_cell(r[j], where, name, n) for name, j in positions.items()]
-                              for r, n in zip(rows, line_numbers)])
-        columns = dict(zip(positions, table.T))
-    return columns, meta, extra, _Origin(where, line_numbers, tuple(n for n in names if n), tuple(notes))
+    if not positions:
+        return []
+    try:  # fast path: numpy's C parser on the columns we use
+        table = np.loadtxt(body, delimiter=delimiter, usecols=list(positions.values()),
+                           comments=None, ndmin=2, dtype=np.float64)
+    except ValueError:  # slow path, only to name the first bad cell
+        rows = [line.split(delimiter) for line in body]
+        table = np.array([[_cell(r[j], where, name, n) for name, j in positions.items()]
+                          for r, n in zip(rows, line_numbers)])
+    return [np.ascontiguousarray(table[:, k]) for k in range(table.shape[1])]
 
 
 def _write_csv(path: Path, columns: dict, meta: dict, extra: Mapping[str, str]) -> None:
@@ -873,30 +959,89 @@ def _is_number(cell: str) -> bool:
 # -- NumPy .npz and MATLAB .mat ----------------------------------------------------------------
 
 def _read_npz(path: Path, where: str):
+    """Members one by one, each .npy header read first (`_npz_member`): no header can make us allocate
+    more than the member holds or `MAX_RECORD_BYTES`, and each array is read straight into its own buffer."""
     entries = {}
     try:
-        archive = np.load(path, allow_pickle=False)
-        if not isinstance(archive, np.lib.npyio.NpzFile):  # a .npy file named .npz
-            raise _fail(where, "file", "holds a single array", "an .npz archive of named arrays")
-        with archive:
-            unpacked = sum(info.file_size for info in archive.zip.infolist())
+        with open(path, "rb") as f:
+            if f.read(6) == b"\x93NUMPY":  # a .npy file named .npz
+                raise _fail(where, "file", "holds a single array", "an .npz archive of named arrays")
+        with zipfile.ZipFile(path) as archive:
+            infos = archive.infolist()
+            unpacked = sum(info.file_size for info in infos)
             if unpacked > MAX_RECORD_BYTES:  # a small archive may inflate to anything: ask first
                 raise _fail(where, "file", f"unpacks to {unpacked / 1e6:.1f} MB",
                             f"at most {MAX_RECORD_BYTES / 1e6:g} MB (lubeviz.signals.records.MAX_RECORD_BYTES)")
-            for key in archive.files:
-                try:
-                    entries[key] = archive[key]
-                except ValueError as exc:
-                    if "pickle" not in str(exc):
-                        raise
-                    raise _fail(where, repr(key), "holds Python objects (pickled data)",
-                                "numbers or text") from None
-    except (ValueError, OSError, EOFError, zipfile.BadZipFile, zlib.error,
+            for info in infos:
+                if info.is_dir():
+                    continue
+                key = info.filename[:-4] if info.filename.endswith(".npy") else info.filename
+                entries[key] = _npz_member(archive, info, key, where)
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile, zlib.error, struct.error,
             NotImplementedError, RuntimeError) as exc:  # zipfile: unknown versions, encryption
         if isinstance(exc, DataFormatError):
             raise
         raise _fail(where, "file", f"is not a readable .npz archive ({exc})") from None
     return _split_entries(entries, where)
+
+
+_NPZ_SMALL = 4  # values a metadata array may hold (probe angles and rest readings: 4)
+_READ_CHUNK = 1 << 20  # bytes read from a member at a time (zipfile copies each read once)
+
+
+def _npz_member(archive: zipfile.ZipFile, info: zipfile.ZipInfo, key: str, where: str):
+    """One .npz member as an array, its header checked before anything is allocated.
+
+    Refused (naming the member): a header numpy cannot read, Python objects, structured or other
+    non-numeric, non-text data, a shape whose bytes exceed what the member holds or MAX_RECORD_BYTES, a
+    record column that is not a vector, a metadata field of more than a few values. A large array under
+    a name the record format does not use is not read at all: an empty stand-in, reported as ignored.
+    """
+    member = f"member {info.filename!r}"
+    low = key.lower()
+    with archive.open(info) as f:
+        try:
+            version = np.lib.format.read_magic(f)
+            if version == (1, 0):
+                shape, fortran, dtype = np.lib.format.read_array_header_1_0(f)
+            elif version == (2, 0):
+                shape, fortran, dtype = np.lib.format.read_array_header_2_0(f)
+            else:  # (3, 0): utf-8 field names, i.e. structured data, which a record never holds
+                raise ValueError(f"format version {version[0]}.{version[1]}")
+        except (ValueError, TypeError, SyntaxError, EOFError) as exc:
+            raise _fail(where, member, f"is not a readable .npy array ({exc})",
+                        "arrays saved by numpy.savez") from None
+        if dtype.hasobject:
+            raise _fail(where, repr(key), "holds Python objects (pickled data)", "numbers or text")
+        if dtype.fields is not None or dtype.kind not in "biufcUS":
+            raise _fail(where, member, f"holds {dtype} values", "numbers or text")
+        count = math.prod(shape)
+        nbytes = count * dtype.itemsize
+        held = info.file_size - f.tell()  # bytes after the header (uncompressed)
+        if nbytes > held or nbytes > MAX_RECORD_BYTES:
+            raise _fail(where, member, f"its header claims shape {shape} of {dtype} ({nbytes / 1e6:.6g} MB)"
+                        f" but the member holds {max(held, 0)} bytes of data",
+                        f"a header that agrees with its data, at most {MAX_RECORD_BYTES / 1e6:g} MB")
+        spread = sum(1 for d in shape if d != 1)
+        if low in COLUMNS and (spread > 1 or dtype.kind not in "biuf"):
+            if dtype.kind not in "biuf":
+                raise _fail(where, repr(key), f"holds {dtype} values", "real numbers")
+            raise _fail(where, repr(key), f"shape {shape}", "a vector of samples")
+        if low in META_KEYS and count > _NPZ_SMALL:
+            raise _fail(where, repr(key), f"array of shape {shape}", "a single value, a text or a few numbers")
+        if low not in RESERVED and count > 1:
+            return np.empty((0, 0))  # not used by a record: not read (reported as ignored)
+        flat = np.empty(count, dtype=dtype)
+        view = memoryview(flat.view(np.uint8)) if nbytes else memoryview(bytearray())
+        pos = 0
+        while pos < nbytes:
+            got = f.readinto(view[pos:pos + _READ_CHUNK])
+            if not got:
+                raise _fail(where, member, f"data cut short after {pos} of {nbytes} bytes",
+                            "a complete .npz archive")
+            pos += got
+        f.read(1)  # to the member's end, so zipfile checks its CRC
+        return flat.reshape(shape, order="F" if fortran else "C")
 
 
 def _read_mat(path: Path, where: str):
@@ -1084,7 +1229,7 @@ def _column(value, where: str, name: str) -> np.ndarray:
     a = np.squeeze(a)
     if a.ndim != 1:
         raise _fail(where, name, f"shape {np.shape(value)}", "a vector of samples")
-    return a.astype(np.float64)
+    return np.asarray(a, dtype=np.float64)  # no copy when the file already holds float64
 
 
 # -- field coercion (strings from CSV, numbers or 0-d arrays from .npz/.mat or the API) -------
@@ -1247,20 +1392,21 @@ def _ignored_warning(where: str, what: str, name: str, known) -> str:
     return f"{where}: {what} ignored; {hint}"
 
 
-def _check_vibration(displacement: np.ndarray, where: str, units: str | None = None) -> None:
+def _check_vibration(displacement: np.ndarray, where: str, units: str | None = None, *,
+                     scale: float = 1.0) -> None:
     """Refuse a channel that does not move (dead probe) or moves more than a shaft can (wrong units).
 
-    `displacement` in metres; `units` is the file's units field, named in the message when known.
+    `displacement` x `scale` in metres; `units` is the file's units field, named in the message when known.
     The peak-to-peak does not see the DC gap, so this holds for `static: absolute` records too.
     """
     if displacement.shape[-1] < MIN_SAMPLES:
         return  # too short to judge; refused for its length where that is checked
-    ptp = np.ptp(displacement, axis=-1)
+    ptp = np.ptp(displacement, axis=-1) * scale
     for k, a in np.ndindex(2, 2):
         name = CHANNELS[2 * k + a]
         if ptp[k, a] < MIN_VIBRATION_PTP:
             raise _fail(where, name, f"no vibration: the channel is constant"
-                        f" ({float(displacement[k, a, 0])!r} m throughout)",
+                        f" ({float(displacement[k, a, 0]) * scale!r} m throughout)",
                         "a probe signal that moves (a disconnected, saturated or unpowered probe"
                         " reads a constant)")
         if ptp[k, a] > MAX_VIBRATION_PTP:
@@ -1323,6 +1469,12 @@ def _numeric_array(value, where: str, name: str) -> np.ndarray:
     if a.dtype.kind not in "iuf":
         raise _fail(where, name, f"holds {a.dtype} values", "real numbers")
     return a
+
+
+def _owned_frozen(a: np.ndarray) -> bool:
+    """A float64 array nobody else can write: read-only, owning its C-contiguous data (the reader's own,
+    handed over without a copy; `_assemble` makes them so, and `dataclasses.replace` passes them on)."""
+    return (a.dtype == np.float64 and a.base is None and a.flags.c_contiguous and not a.flags.writeable)
 
 
 def _frozen_copy(a: np.ndarray) -> np.ndarray:

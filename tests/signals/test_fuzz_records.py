@@ -448,6 +448,73 @@ def _npy_bytes(a):
     return buf.getvalue()
 
 
+def _npy_with_header(shape, descr="<f8", data=b"\0" * 64):
+    """An .npy member whose header claims `shape` whatever data follows (issue 34, item 6)."""
+    buf = io.BytesIO()
+    np.lib.format.write_array_header_1_0(buf, {"descr": descr, "fortran_order": False, "shape": shape})
+    return buf.getvalue() + data
+
+
+def _replace_member(npz: bytes, member: str, data: bytes) -> bytes:
+    src = zipfile.ZipFile(io.BytesIO(npz))
+    out = io.BytesIO()
+    with zipfile.ZipFile(out, "w") as z:
+        for info in src.infolist():
+            z.writestr(info.filename, data if info.filename == member else src.read(info))
+        if member not in src.namelist():
+            z.writestr(member, data)
+    return out.getvalue()
+
+
+def _mat4_huge() -> bytes:
+    """A MAT v4 file whose header claims a 10^6 x 10^6 double matrix and holds 8 bytes."""
+    import struct
+
+    name = b"x1\0"
+    return struct.pack("<5i", 0, 1_000_000, 1_000_000, 0, len(name)) + name + b"\0" * 8
+
+
+def hostile_cases(text: str, npz: bytes, mat: bytes) -> list:
+    """Issue 34: headers claiming huge sizes, wrong speed labels and rates, epoch times (items 6, 7)."""
+    cases = []
+    for member, shape, descr in (("x1.npy", (10**12,), "<f8"), ("x1.npy", (2**62,), "<f8"),
+                                 ("y2.npy", (1000, 1000, 1000), "<f8"), ("t.npy", (10**9,), "<c16"),
+                                 ("probe_angles_deg.npy", (10**10, 2), "<f8"), ("x_extra.npy", (10**11,), "<f8"),
+                                 ("x1.npy", (401,), "<f8"), ("x1.npy", (20, 20), "<f8"),
+                                 ("x1.npy", (400,), "<M8[s]"), ("probe_angles_deg.npy", (3, 3), "<f8")):
+        data = b"\0" * (400 * 8) if shape in ((401,), (20, 20), (400,), (3, 3)) else b"\0" * 64
+        label = "x".join(str(d) for d in shape)
+        cases.append((f"npz-header-{member[:-4]}-{label}-{descr.strip('<[]')}", ".npz", "bad",
+                      _replace_member(npz, member, _npy_with_header(shape, descr, data))))
+    structured = io.BytesIO()
+    np.save(structured, np.zeros(400, dtype=[("a", "<f8"), ("b", "<f8")]))
+    cases.append(("npz-structured-x1", ".npz", "bad", _replace_member(npz, "x1.npy", structured.getvalue())))
+    cases.append(("mat4-huge-header", ".mat", "bad", _mat4_huge()))
+
+    def relabel(key, factor):
+        out = []
+        for line in text.splitlines():
+            if line.startswith(f"# {key}:"):
+                line = f"# {key}: {float(line.split(':', 1)[1]) * factor!r}"
+            out.append(line)
+        return "\n".join(out) + "\n"
+
+    for factor in (1.05, 0.9, 2.0, 60.0):  # beyond half a bin of the 0.2 s record's 5 Hz resolution
+        cases.append((f"csv-speed-label-x{factor:g}", ".csv", "bad", relabel("speed_hz", factor).encode()))
+    cases.append(("csv-speed-label-x1.01", ".csv", "bad", relabel("speed_hz", 1.01).encode()))  # read at its 1X, warned
+    lines = text.splitlines()
+    head = [ln for ln in lines if ln.startswith("#")]
+    body = lines[len(head):]
+    no_t = [",".join(r.split(",")[1:]) for r in body]
+    rate = [f"# sample_rate_hz: {2000.0 * 1.05!r}" if ln.startswith("# sample_rate_hz") else ln for ln in head]
+    cases.append(("csv-sample-rate-x1.05-no-t", ".csv", "bad", "\n".join(rate + no_t).encode()))
+    epoch = [",".join([repr(1.7e15 + float(r.split(",")[0]))] + r.split(",")[1:]) for r in body[1:]]
+    cases.append(("csv-t-column-epoch", ".csv", "bad", "\n".join(head + body[:1] + epoch).encode()))
+    t0 = [ln for ln in head] + ["# t0_s: 1.7e15"]
+    cases.append(("csv-t0-epoch-no-t", ".csv", "valid", "\n".join(t0 + no_t).encode()))
+    return cases
+
+
 def _corpus():
     import tempfile
     from pathlib import Path
@@ -458,7 +525,8 @@ def _corpus():
         text = write_record(rec, Path(tmp) / "base.csv", units="um").read_text()
         npz = write_record(rec, Path(tmp) / "base.npz", units="um").read_bytes()
         mat = write_record(rec, Path(tmp) / "base.mat", units="um").read_bytes()
-    return csv_cases(text, rng) + array_cases(".npz", npz, rng) + array_cases(".mat", mat, rng)
+    return (csv_cases(text, rng) + array_cases(".npz", npz, rng) + array_cases(".mat", mat, rng)
+            + hostile_cases(text, npz, mat))
 
 
 CORPUS = _corpus()
