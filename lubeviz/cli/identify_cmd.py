@@ -22,7 +22,7 @@ def register(sub) -> None:
                         "fitted with the flows, e.g. viscosity:bearing=both or probe_rotation:plane=1,angle_deg=4")
     p.add_argument("--oil-check", action="store_true",
                    help="for a record at one speed without the static position, give the flows' intervals with the "
-                        "oil viscosity free within x0.75-1.33 (tables +-30 %% viscosity once if needed, ~1 min)")
+                        "oil viscosity free within x0.75-1.33 (tables +-30 %% viscosity once if needed, ~30 s)")
     p.add_argument("--orbit-harmonics", type=int, default=None, metavar="N",
                    help="with --effect large_orbit: harmonics of the periodic orbit, 5-32 (default 16, 1-2 min a "
                         "record: it follows the film's sharp turn where it is thinnest; over 12 time-integration "
@@ -53,7 +53,7 @@ def run_identify(args) -> dict:
     t0 = time.perf_counter()
     parse_effects(args.effect)  # a bad effect is a bad-input error before any work
     results = identify_files(args.files, args.machine, args.mode, workers=args.workers, progress=StderrBar(),
-                             effect_specs=tuple(args.effect), oil_check="always" if args.oil_check else "if-tabled",
+                             effect_specs=tuple(args.effect), oil_check="always" if args.oil_check else "warn",
                              orbit_harmonics=args.orbit_harmonics, orbit_time_rounds=args.orbit_time_rounds)
     for path, item, _ in results:
         for w in () if item is None else tuple(item.warnings) + tuple(item.result.warnings):

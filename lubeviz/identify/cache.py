@@ -8,9 +8,16 @@ every input that affects its numbers (`slice_inputs`). A file is trusted only if
 what the key says: its stored key and a sha256 of its arrays match, its shapes agree, every value is
 finite, its ratios are the grid the key asks for and its S the key's node. Anything else (truncated
 file, a bad zip, another key, NaN, tampered values) is reported with a `StaleCacheWarning`, deleted
-and rebuilt. Files are read with `allow_pickle=False` and written atomically (temporary file in the
+and rebuilt. Only a regular file is opened: `os.lstat` refuses a FIFO (opening one would block for
+ever), a socket, a device, a directory or a symlink under a slice's name before any open, and the
+same warning says so (the name is removed, a directory left in place). Files are read with `allow_pickle=False` and written atomically (temporary file in the
 same directory, then `os.replace`), so a crash or a concurrent writer never leaves a half-written
 slice under a valid name.
+
+The cache only saves time, so no cache failure loses an answer: a directory that cannot be written (read-only,
+a path that is a file, a directory where a slice should be, a full disk) gives a `CacheStoreWarning` ("could
+not store ... in <dir>: <reason>; rebuilt next time") and the slices just built are used from memory (and kept
+there for this process, `_UNSTORED`); a build lock that cannot be taken is skipped with a `CacheWarning`.
 
 A bearing's dimensional table (`bearing_view`, `cached_table`, `machine_tables`) is a view: its
 Sommerfeld number picks the 4 slices around it (one on a node), those missing are built (in
@@ -39,11 +46,13 @@ from __future__ import annotations
 import contextlib
 import functools
 import hashlib
+import io
 import json
 import math
 import multiprocessing
 import os
 import queue as queue_module
+import stat
 import tempfile
 import threading
 import time
@@ -81,8 +90,16 @@ _LOAD_DIGITS = 12  # significant digits of the static load kept in a view's key 
 _ARRAYS = ("ratio", "values", "q_threshold", "sommerfeld", "seconds")
 
 
-class StaleCacheWarning(UserWarning):
-    """A cached slice could not be trusted (corrupt, tampered or for other inputs) and is rebuilt."""
+class CacheWarning(UserWarning):
+    """The disk cache could not be used as intended; the answer is computed all the same."""
+
+
+class StaleCacheWarning(CacheWarning):
+    """A cached slice could not be trusted (corrupt, tampered, for other inputs, not a regular file) and is rebuilt."""
+
+
+class CacheStoreWarning(CacheWarning):
+    """Slices could not be written to the cache directory: they are used from memory and rebuilt next time."""
 
 
 # --- where ---------------------------------------------------------------------------------------
@@ -264,12 +281,64 @@ class _Untrusted(Exception):
     """Why a cache file is not used (becomes the warning's text)."""
 
 
-def _read(path: Path, key: str, sommerfeld: float, span, points: int) -> Slice:
-    """Load and validate one slice file; raises _Untrusted with the reason."""
+# Far above any slice (about 25 kB at 140 ratios): a larger file, or zip members claiming more, are not read.
+_MAX_SLICE_BYTES = 64 << 20
+
+_FILE_KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISLNK, "a symbolic link"), (stat.S_ISFIFO, "a FIFO"),
+               (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"))
+
+
+def _kind(mode: int) -> str:
+    return next((name for test, name in _FILE_KINDS if test(mode)), "not a regular file")
+
+
+def _reason(exc: OSError) -> str:
+    """An OSError as a short reason: its type and text, without a temporary file's name."""
+    return f"{type(exc).__name__}: {exc.strerror}" if exc.strerror else f"{type(exc).__name__}: {exc}"
+
+
+def _file_bytes(path: Path) -> bytes | None:
+    """The bytes of the cache file `path`; None when there is none (or the directory above it is a file).
+    Anything but a regular file is refused by `lstat` before it is opened (a FIFO would block the reader),
+    and the open itself follows no symlink and does not block, in case the name was swapped meanwhile."""
     try:
-        with np.load(path, allow_pickle=False) as z:
+        st = os.lstat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return None
+    except OSError as exc:
+        raise _Untrusted(f"cannot be examined ({_reason(exc)})") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise _Untrusted(f"{_kind(st.st_mode)}, not a regular file; not opened")
+    if st.st_size > _MAX_SLICE_BYTES:
+        raise _Untrusted(f"{st.st_size} bytes, more than any slice ({_MAX_SLICE_BYTES})")
+    flags = os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0)
+    try:
+        fd = os.open(path, flags)
+    except FileNotFoundError:
+        return None
+    except OSError as exc:
+        raise _Untrusted(f"unreadable ({_reason(exc)})") from None
+    with os.fdopen(fd, "rb") as fh:
+        mode = os.fstat(fh.fileno()).st_mode
+        if not stat.S_ISREG(mode):  # replaced between lstat and open
+            raise _Untrusted(f"{_kind(mode)}, not a regular file")
+        try:
+            content = fh.read(_MAX_SLICE_BYTES + 1)
+        except OSError as exc:
+            raise _Untrusted(f"unreadable ({_reason(exc)})") from None
+    if len(content) > _MAX_SLICE_BYTES:  # grew since lstat
+        raise _Untrusted(f"more than any slice ({_MAX_SLICE_BYTES} bytes)")
+    return content
+
+
+def _read(content: bytes, key: str, sommerfeld: float, span, points: int) -> Slice:
+    """Load and validate one slice file's bytes; raises _Untrusted with the reason."""
+    try:
+        with np.load(io.BytesIO(content), allow_pickle=False) as z:
+            if sum(info.file_size for info in z.zip.infolist()) > _MAX_SLICE_BYTES:
+                raise _Untrusted(f"its members claim more than any slice ({_MAX_SLICE_BYTES} bytes)")
             data = {name: z[name] for name in z.files}
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+    except (OSError, ValueError, EOFError, MemoryError, zipfile.BadZipFile) as exc:
         raise _Untrusted(f"unreadable ({type(exc).__name__}: {exc})") from None
     needed = set(_ARRAYS) | {"key", "checksum", "format"}
     if not needed <= set(data):
@@ -310,22 +379,45 @@ _VALIDATED_MAX = 512
 def _load_or_discard(path: Path, key: str, sommerfeld: float, span, points: int) -> Slice | None:
     """The cached slice if present and trustworthy; None (after warning and deleting) otherwise."""
     try:
-        ident = (key, float(sommerfeld), tuple(span), int(points), hashlib.sha256(path.read_bytes()).hexdigest())
-    except FileNotFoundError:
-        return None
-    if ident in _VALIDATED:
-        return _VALIDATED[ident]
-    try:
-        s = _read(path, key, sommerfeld, span, points)
+        content = _file_bytes(path)
+        if content is None:
+            return None
+        ident = (key, float(sommerfeld), tuple(span), int(points), hashlib.sha256(content).hexdigest())
+        if ident in _VALIDATED:
+            return _VALIDATED[ident]
+        s = _read(content, key, sommerfeld, span, points)
         if len(_VALIDATED) >= _VALIDATED_MAX:
             _VALIDATED.clear()
         _VALIDATED[ident] = s
         return s
     except _Untrusted as why:
-        warnings.warn(f"coefficient table cache {path}: {why}; deleting it and rebuilding",
+        warnings.warn(f"coefficient table cache {path}: {why}; {_discard(path)}rebuilding",
                       StaleCacheWarning, stacklevel=4)
-        path.unlink(missing_ok=True)
         return None
+
+
+def _discard(path: Path) -> str:
+    """Delete an untrusted cache entry (the name only: a symlink's target is left alone); a directory is
+    left in place. Returns the warning's words for what was done."""
+    try:
+        if stat.S_ISDIR(os.lstat(path).st_mode):
+            return "left in place, "
+        path.unlink(missing_ok=True)
+    except OSError as exc:
+        return f"could not delete it ({_reason(exc)}), "
+    return "deleting it and "
+
+
+# Slices built in this process that could not be stored (an unwritable cache directory), by key: the next
+# view that needs them uses them instead of solving them again. Cleared when full (each is ~12 kB).
+_UNSTORED: dict = {}
+_UNSTORED_MAX = 256
+
+
+def _keep_unstored(key: str, s: Slice) -> None:
+    if len(_UNSTORED) >= _UNSTORED_MAX:
+        _UNSTORED.clear()
+    _UNSTORED[key] = s
 
 
 # --- slices: load or build ---------------------------------------------------------------------------
@@ -354,23 +446,44 @@ def geometry_table(bearing: Bearing, sommerfeld=None, *, span=DEFAULT_SPAN, poin
     keys = {i: slice_key(geometry, nodes[i], span=span, points=points) for i in wanted}
     paths = {i: directory / f"{k}.npz" for i, k in keys.items()}
 
-    def load(indices):  # the trusted slices on disk into the table; returns those still missing
+    def load(indices):  # the trusted slices on disk (or kept in memory, unstored) into the table; returns those missing
         for i in indices:
             s = _load_or_discard(paths[i], keys[i], float(nodes[i]), span, points)
+            s = _UNSTORED.get(keys[i]) if s is None else s
             if s is not None:
                 table.slices[i] = s
         return [i for i in indices if i not in table.slices]
+
+    unstored: list[str] = []  # why slices just built could not be written
+
+    def store(i, s: Slice):  # the slice serves this table whether or not it can be written
+        table.slices[i] = s
+        try:
+            _write(paths[i], s, keys[i], slice_inputs(geometry, nodes[i], span=span, points=points))
+        except OSError as exc:
+            unstored.append(_reason(exc))
+            _keep_unstored(keys[i], s)
 
     missing = load(wanted)
     if not missing:
         progress(1, 1, "tables from cache")
         return table
-    with _build_lock(_lock_path(directory, geometry, span, points), progress):
+    lock = _lock_path(directory, geometry, span, points)
+    with _build_lock(lock, progress) as lock_problem:
         missing = load(missing)  # what another builder stored while this one waited
         if not missing:
             progress(1, 1, "tables from cache (built by another process)")
             return table
-        _build_missing(table, geometry, nodes, missing, paths, keys, span, points, progress, workers)
+        try:
+            _build_missing(nodes, missing, geometry, span, points, progress, workers, store)
+        finally:
+            if unstored:
+                warnings.warn(f"could not store {len(unstored)} coefficient table slice(s) in {directory}: "
+                              f"{unstored[0]}; they are used from memory and will be rebuilt next time",
+                              CacheStoreWarning, stacklevel=3)
+            elif lock_problem:
+                warnings.warn(f"could not take the build lock {lock}: {lock_problem}; built without waiting for "
+                              "other builders (at worst they solve the same slices twice)", CacheWarning, stacklevel=3)
     return table
 
 
@@ -383,40 +496,58 @@ def _lock_path(directory: Path, geometry: dict, span, points: int) -> Path:
 @contextlib.contextmanager
 def _build_lock(path: Path, progress: ProgressFn, poll_s: float = 0.2):
     """Hold an exclusive lock on `path` (created if absent) for the block: polls every `poll_s`, calling
-    `progress` while it waits (so a `Cancelled` raised there ends the wait). Without `fcntl` (not POSIX)
-    the block runs unlocked: concurrent builders then only duplicate work, never corrupt it (atomic writes)."""
+    `progress` while it waits (so a `Cancelled` raised there ends the wait). Yields None when locked, else why
+    not (a directory that cannot be written, a lock path that is not a regular file, no locks on this file
+    system): the block then runs unlocked, as it does without `fcntl` (not POSIX). Concurrent builders then
+    only duplicate work, never corrupt it (atomic writes)."""
     try:
         import fcntl
     except ImportError:  # pragma: no cover - not POSIX
-        yield
+        yield "no file locks on this platform"
         return
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "a+b") as handle:
+    flags = os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0) | os.O_CLOEXEC
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(path, flags, 0o644)
+    except OSError as exc:
+        problem = _reason(exc)
+    else:
+        problem = None
+    if problem is not None:
+        yield problem
+        return
+    try:
+        mode = os.fstat(fd).st_mode
+        problem = None if stat.S_ISREG(mode) else f"{_kind(mode)}, not a regular file"
         waited = 0.0
-        while True:
+        while problem is None:
             try:
-                fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
                 break
             except BlockingIOError:
                 progress(0, 1, f"waiting for another build of these table slices ({waited:.0f} s)")
                 time.sleep(poll_s)
                 waited += poll_s
+            except OSError as exc:  # e.g. ENOLCK: a file system without locks
+                problem = _reason(exc)
+        if problem is not None:
+            yield problem
+            return
         try:
-            yield
+            yield None
         finally:
-            fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
+            fcntl.flock(fd, fcntl.LOCK_UN)
+    finally:
+        os.close(fd)
 
 
-def _build_missing(table, geometry, nodes, missing, paths, keys, span, points, progress, workers) -> None:
+def _build_missing(nodes, missing, geometry, span, points, progress, workers, store) -> None:
+    """Build the slices `missing` (indices into `nodes`), handing each to `store(i, slice)` as it is done."""
     # up to two jobs per slice (its parts r <= 1 and r > 1), so even one slice uses two processes
     workers = min(2 * len(missing), os.cpu_count() or 1) if workers is None else int(workers)
     if workers < 1:
         raise InputError(f"workers = {workers}; expected at least 1")
     total = points * len(missing)
-
-    def store(i, s: Slice):
-        _write(paths[i], s, keys[i], slice_inputs(geometry, nodes[i], span=span, points=points))
-        table.slices[i] = s
 
     if workers == 1:
         for j, i in enumerate(missing):
@@ -425,23 +556,6 @@ def _build_missing(table, geometry, nodes, missing, paths, keys, span, points, p
             store(i, _build_one(geometry, float(nodes[i]), span, points, offset))
         return
     _build_parallel(geometry, nodes, missing, span, points, progress, workers, total, store)
-
-
-def slices_cached(bearing: Bearing, sommerfeld, *, span=DEFAULT_SPAN, points: int = DEFAULT_POINTS,
-                  directory=None) -> bool:
-    """Whether every slice that queries at S value(s) `sommerfeld` need is on disk (not validated here:
-    `geometry_table` validates on load and rebuilds what it cannot trust). Lets a caller do optional
-    work only when it costs no film solve."""
-    geometry = geometry_values(bearing)
-    nodes = sommerfeld_nodes()
-    table = DimensionlessTable(geometry=geometry, nodes=nodes, span=tuple(float(v) for v in span), points=int(points))
-    try:
-        wanted = table.needed(sommerfeld)
-    except InputError:
-        return False
-    directory = _slices_dir(directory)
-    return all((directory / f"{slice_key(geometry, nodes[i], span=span, points=points)}.npz").exists()
-               for i in wanted)
 
 
 def _view(table: DimensionlessTable, bearing: Bearing, load, omega: float, index: int, key: str) -> CoefficientTable:

@@ -40,12 +40,12 @@ class IdentificationSettings(param.Parameterized):
     min_line_snr = Quantity(3.0, bounds=(0.0, None), unit="",
                             doc="Refuse a record whose forward or backward 1X line is below this many "
                                 "noise standard deviations")
-    oil_check = param.Selector(default="if-tabled", objects=["if-tabled", "always", "never"],
-                               doc="Best mode, one record without the static position: also give the flows' "
-                                   "intervals with the oil viscosity free within x0.75-1.33 (hotter or colder oil "
-                                   "than declared mimics a supply change; this says how much). 'if-tabled': when "
-                                   "the coefficient tables already cover that viscosity range (else a warning says "
-                                   "the flows assume the declared oil); 'always': build them if needed (~1 min once)")
+    oil_check = param.Selector(default="warn", objects=["warn", "always", "never"],
+                               doc="Best mode, one record without the static position: hotter or colder oil than "
+                                   "declared mimics a supply change. 'always': also give the flows' intervals with "
+                                   "the oil viscosity free within x0.75-1.33 (this says how much; builds the tables "
+                                   "of that range if needed, ~30 s once); 'warn': a warning says the flows assume "
+                                   "the declared oil; 'never': neither. Never decided by what the cache holds")
     orbit_harmonics = param.Integer(16, bounds=(5, 32),
                                     doc="With large orbits declared: harmonics of the balance's periodic orbit (points "
                                         "per revolution: 24 at 5, else 4 per harmonic; fewer than 5 are refused, the "

@@ -2,8 +2,12 @@
 relevant input, untrustworthy files rebuilt, never inside the repository, parallel builds identical to
 serial ones, bearings of one geometry sharing slices."""
 
+import contextlib
 import dataclasses
+import errno
 import math
+import os
+import signal
 import warnings
 from pathlib import Path
 
@@ -207,8 +211,27 @@ def _other_grid_with_valid_checksum(path):
     _rewrite(path, ratio=ratio, checksum=np.array(cache._checksum(str(d["key"]), arrays)))
 
 
+def _claims_a_huge_array(path):
+    """A member whose .npy header claims 10^13 values (80 TB) while the file holds a few bytes of them."""
+    import io
+    import zipfile
+
+    d = _stored(path)
+    member = io.BytesIO()
+    np.lib.format.write_array_header_1_0(member, {"descr": "<f8", "fortran_order": False, "shape": (10**12, 10)})
+    member.write(d["values"].tobytes())
+    with zipfile.ZipFile(path, "w") as z:
+        for name, a in d.items():
+            if name != "values":
+                buf = io.BytesIO()
+                np.save(buf, a)
+                z.writestr(name + ".npy", buf.getvalue())
+        z.writestr("values.npy", member.getvalue())
+
+
 @pytest.mark.parametrize("damage", [_truncate, _garbage, _wrong_key, _nan_with_valid_checksum, _tampered_value,
-                                    _pickled_object, _wrong_shape, _other_grid_with_valid_checksum])
+                                    _pickled_object, _wrong_shape, _other_grid_with_valid_checksum,
+                                    _claims_a_huge_array])
 def test_untrustworthy_file_is_rebuilt(tmp_path, builds, damage):
     m = coarse_machine()
     good = cached_table(m, 0, points=POINTS, directory=tmp_path)
@@ -401,3 +424,178 @@ def test_two_builders_of_one_geometry_take_turns_and_solve_each_slice_once(tmp_p
         with pytest.raises(Cancelled):
             cached_table(m, 0, points=POINTS, directory=tmp_path / "elsewhere", progress=cancel)
     assert len(builds) == SLICES
+
+
+# --- a cache that cannot be used: the answer all the same, a warning, never a hang ----------------------
+
+@contextlib.contextmanager
+def no_hang(seconds=60):
+    """Fail (instead of blocking the test run for ever) when the block takes longer than `seconds`: SIGALRM
+    interrupts a blocking open() of a FIFO and raises here."""
+    def expire(signum, frame):
+        raise TimeoutError(f"blocked for more than {seconds} s")
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+@pytest.fixture
+def reference(tmp_path_factory):
+    """Bearing 1's table from a cache that works (built once per test, in its own directory)."""
+    return cached_table(coarse_machine(), 0, points=POINTS, directory=tmp_path_factory.mktemp("good"))
+
+
+@pytest.fixture
+def fresh_memory(monkeypatch):
+    """No slices kept in memory from earlier tests (those a broken cache could not store)."""
+    monkeypatch.setattr(cache, "_UNSTORED", {})
+    monkeypatch.setattr(cache, "_VALIDATED", {})
+
+
+def read_only(monkeypatch, directory):
+    """Make `directory` behave as read-only (the tests run as root, for whom chmod 0o555 stops no write):
+    creating a directory or opening a file for writing under it raises PermissionError (EACCES)."""
+    directory = str(directory)
+    real_open, real_mkdir = os.open, os.mkdir
+    writing = os.O_WRONLY | os.O_RDWR | os.O_CREAT
+
+    def inside(path):
+        return os.path.abspath(os.fsdecode(path)).startswith(directory + os.sep)
+
+    def guarded_open(path, flags, *args, **kwargs):
+        if flags & writing and inside(path):
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), os.fsdecode(path))
+        return real_open(path, flags, *args, **kwargs)
+
+    def guarded_mkdir(path, *args, **kwargs):
+        if inside(path) and not os.path.isdir(path):
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), os.fsdecode(path))
+        return real_mkdir(path, *args, **kwargs)
+
+    monkeypatch.setattr(os, "open", guarded_open)
+    monkeypatch.setattr(os, "mkdir", guarded_mkdir)
+
+
+def test_a_read_only_cache_directory_still_gives_the_table_with_a_warning(tmp_path, monkeypatch, builds,
+                                                                           reference, fresh_memory):
+    (tmp_path / "slices").mkdir()
+    read_only(monkeypatch, tmp_path)
+    with no_hang(), pytest.warns(cache.CacheStoreWarning,
+                                 match=r"could not store 4 coefficient table slice\(s\) in .*Permission denied.*"
+                                       "rebuilt next time"):
+        table = cached_table(coarse_machine(), 0, points=POINTS, directory=tmp_path)
+    assert_same_table(table, reference)
+    assert list((tmp_path / "slices").iterdir()) == []  # nothing written, not even the lock
+    n = len(builds)
+    with warnings.catch_warnings():  # the slices built are kept in memory: no second solve in this process
+        warnings.simplefilter("error")
+        again = cached_table(coarse_machine(), 0, points=POINTS, directory=tmp_path)
+    assert len(builds) == n
+    assert_same_table(again, reference)
+
+
+def test_a_read_only_cache_that_holds_the_slices_serves_them_without_a_warning(tmp_path, monkeypatch, builds,
+                                                                                 fresh_memory):
+    first = cached_table(coarse_machine(), 0, points=POINTS, directory=tmp_path)
+    read_only(monkeypatch, tmp_path)
+    with no_hang(), warnings.catch_warnings():
+        warnings.simplefilter("error")
+        second = cached_table(coarse_machine(), 0, points=POINTS, directory=tmp_path)
+    assert len(builds) == SLICES
+    assert_same_table(second, first)
+
+
+@pytest.mark.parametrize("where", ["cache directory", "slices directory"])
+def test_a_cache_directory_that_is_a_file_still_gives_the_table_with_a_warning(tmp_path, builds, reference,
+                                                                              fresh_memory, where):
+    root, before = tmp_path / "cache", len(builds)
+    if where == "cache directory":
+        root.write_text("not a directory")
+    else:
+        root.mkdir()
+        (root / "slices").write_text("not a directory")
+    with no_hang(), pytest.warns(cache.CacheStoreWarning, match=r"could not store .* in .*cache.*slices: "
+                                                               r"(NotADirectoryError|FileExistsError)"):
+        table = cached_table(coarse_machine(), 0, points=POINTS, directory=root)
+    assert_same_table(table, reference)
+    assert len(builds) == before + SLICES
+
+
+def _fifo(path):
+    os.mkfifo(path)
+
+
+def _directory(path):
+    path.mkdir()
+    (path / "inside").write_text("kept")
+
+
+def _symlink_outside(path):
+    outside = path.parents[2] / "outside.npz"
+    outside.write_bytes(b"a file outside the cache: never read, never changed")
+    path.symlink_to(outside)
+
+
+@pytest.mark.parametrize("special, kind", [(_fifo, "a FIFO"), (_directory, "a directory"),
+                                           (_symlink_outside, "a symbolic link")])
+def test_a_special_file_in_place_of_a_slice_is_never_opened_and_the_table_still_comes(
+        tmp_path, builds, reference, fresh_memory, special, kind):
+    m = coarse_machine()
+    cached_table(m, 0, points=POINTS, directory=tmp_path)
+    path = slice_files(tmp_path)[1]
+    path.unlink()
+    special(path)
+    before = len(builds)
+    with no_hang(), warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        table = cached_table(m, 0, points=POINTS, directory=tmp_path)
+    assert_same_table(table, reference)
+    assert len(builds) == before + 1  # the special file's slice solved again, the others read
+    stale = {str(w.message) for w in caught if issubclass(w.category, StaleCacheWarning)}  # read before and
+    assert len(stale) == 1  # after the build lock: one message, shown once under Python's default filter
+    assert path.name in min(stale) and f"{kind}, not a regular file; not opened" in min(stale)
+    if special is _directory:  # left in place (it may hold anything): the slice cannot be stored there
+        assert (path / "inside").read_text() == "kept"
+        assert any(issubclass(w.category, cache.CacheStoreWarning) and "IsADirectoryError" in str(w.message)
+                   for w in caught)
+    else:  # the name is replaced by the slice, a regular file; a symlink's target is untouched
+        assert path.is_file() and not path.is_symlink()
+        assert not any(issubclass(w.category, cache.CacheStoreWarning) for w in caught)
+    if special is _symlink_outside:
+        assert (tmp_path.parent / "outside.npz").read_bytes().startswith(b"a file outside the cache")
+
+
+@pytest.mark.parametrize("special", [_fifo, _directory])
+def test_a_build_lock_that_cannot_be_taken_lets_the_build_go_on_unlocked(tmp_path, builds, reference,
+                                                                        fresh_memory, special):
+    m = coarse_machine()
+    lock = cache._lock_path(tmp_path / "slices", geometry_values(m.bearings[0]), tables.DEFAULT_SPAN, POINTS)
+    lock.parent.mkdir(parents=True)
+    special(lock)
+    with no_hang(), pytest.warns(cache.CacheWarning, match="could not take the build lock"):
+        table = cached_table(m, 0, points=POINTS, directory=tmp_path)
+    assert_same_table(table, reference)
+    assert len(slice_files(tmp_path)) == SLICES  # stored all the same
+
+
+def test_a_failed_write_mid_build_keeps_the_built_slices_and_warns(tmp_path, monkeypatch, builds, reference,
+                                                                  fresh_memory):
+    """A disk that fills up after two slices: those two are stored, the others used from memory."""
+    real_write, written = cache._write, []
+
+    def write_twice(path, *args):
+        if len(written) == 2:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+        written.append(path)
+        return real_write(path, *args)
+
+    monkeypatch.setattr(cache, "_write", write_twice)
+    with pytest.warns(cache.CacheStoreWarning, match=r"could not store 2 .*No space left on device"):
+        table = cached_table(coarse_machine(), 0, points=POINTS, directory=tmp_path)
+    assert_same_table(table, reference)
+    assert slice_files(tmp_path) == sorted(written)
