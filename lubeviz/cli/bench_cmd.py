@@ -11,7 +11,7 @@ def register(sub) -> None:
     p = sub.add_parser("bench", help="performance figures of BENCHMARKS.md")
     add_common(p)
     p.add_argument("what", choices=("film", "mesh", "smoothness", "rotor", "stability", "identify", "table",
-                                    "coverage", "budget", "diagnose", "read"),
+                                    "coverage", "budget", "diagnose", "read", "broken"),
                    help="film: solver timings; mesh: mesh study; smoothness: roughness of K, C over Q; "
                         "rotor: assembly, response, modes, 15 s record (ROSS alongside); stability: critical speed and "
                         "instability threshold across 50-150 %% Q_T; "
@@ -23,7 +23,10 @@ def register(sub) -> None:
                         "records (with and without the model budget, by speed band); budget: the model budget "
                         "against the model-vs-independent feature differences; diagnose: every effect at two "
                         "strengths on independent records, named / ambiguous / unexplained, flows before and after; "
-                        "read: the record reader's peak memory on a ~195 MB CSV and .npz, each read in a fresh process")
+                        "read: the record reader's peak memory on a ~195 MB CSV and .npz, each read in a fresh process; "
+                        "broken: --records independent records broken as a measurement breaks (columns exchanged or "
+                        "negated, a copied channel, units slips, mains pickup, or clean), diagnosed: right / wrong "
+                        "alone / intervals holding")
     p.add_argument("--records", type=int, default=120, help="coverage: independent records (default 120)")
     p.add_argument("--static", action="store_true",
                    help="coverage: records with the static shaft position and the oil's viscosity x0.7-1.3 of the "
@@ -106,6 +109,12 @@ def run_bench(args) -> dict:
         record = Path(lubeviz.__file__).resolve().parents[1] / "assets" / "sample_record.csv"
         return bench_table(args.machine, points=args.points, identify_record=record if record.exists() else None,
                            progress=StderrBar())
+    if args.what == "broken":
+        from ..verification.broken import bench_broken
+
+        if args.records < 1:
+            raise ValueError(f"--records {args.records}: expected at least 1")
+        return bench_broken(args.machine, n=args.records, seed=args.seed, progress=StderrBar())
     if args.what in ("coverage", "budget", "diagnose"):
         from ..verification import bench as vb
 

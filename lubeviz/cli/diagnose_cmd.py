@@ -33,7 +33,7 @@ def _candidates(text):
     for n in names:
         if n not in EFFECTS:
             EFFECTS.parse(n)  # raises with the closest name
-        if not EFFECTS[n].diagnose_free:
+        if not EFFECTS[n].diagnosed:
             raise InputError(f"--effects: {n} is not fitted by a diagnosis (oil_temperature is the viscosity "
                              "in °C: give viscosity; a diagnosed factor is also told as a temperature)")
     return [EFFECTS[n] for n in names]
@@ -60,7 +60,7 @@ def run_diagnose(args) -> dict | list:
         inputs = diagnosis_inputs(group, machine, progress=bar)
         chains, meas = inputs.chains, inputs.measured
         d = diagnose(chains, meas, candidates=candidates, level=args.level, progress=bar, budget=inputs.budget,
-                     lines=inputs.lines)
+                     lines=inputs.lines, findings=inputs.findings)
         label = "+".join(str(r.source) for r in group)
         item = diagnosis_dict(d, file=label)
         item["warnings"] = list(notes) + list(inputs.notes)

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
-from ..identify.batch import beyond_1x, check_model_speed, model_speed
+from ..identify.batch import beyond_1x, check_model_speed, model_speed, record_checks
 from ..identify.measured import measure
 from ..identify.oil_reading import budget_with_reading, oil_reading
 from ..progress import ProgressFn, silent
@@ -24,6 +24,7 @@ class DiagnosisInputs:
     budget: object  # ModelBudget or None (the default)
     lines: tuple  # signals.lines.Line beyond 1X, all records
     notes: tuple[str, ...]  # warnings to show
+    findings: tuple = ()  # identify.plausibility.Finding: what is impossible or suspicious in the records
 
     def one_or_many(self):
         """(chain, measured) of a single record, or the lists of a set: what `diagnose` takes."""
@@ -57,4 +58,6 @@ def diagnosis_inputs(records: Sequence, machine, *, measured: Sequence | None = 
     budget = budget_with_reading(None, tolerance) if tolerance > 0 else None
     lines, _ = beyond_1x(list(records))  # named in the verdict (identify's warnings say the same)
     notes += [w for r in records for w in getattr(r, "warnings", ())]
-    return DiagnosisInputs(chains=chains, measured=meas, budget=budget, lines=lines, notes=tuple(notes))
+    findings = record_checks(list(records), meas, machine)
+    return DiagnosisInputs(chains=chains, measured=meas, budget=budget, lines=lines, notes=tuple(notes),
+                           findings=findings)

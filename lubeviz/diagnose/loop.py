@@ -30,6 +30,7 @@ from ..identify.fit import Fit, fit
 from ..progress import ProgressFn, silent
 
 AMBIGUITY_AIC = 4.0
+REFITS = 3  # passing candidates refined in turn until one still explains the record
 
 
 @dataclass(frozen=True)
@@ -84,6 +85,7 @@ class Diagnosis:
     # 95 % interval (the winner's profile interval, the others' +-1.96 sigma): what the flows are known to be
     # until a measurement separates the causes. None when nothing is ambiguous.
     set_intervals: tuple | None = None
+    findings: tuple = ()  # identify.plausibility.Finding: the record(s) checked against the machine as declared
 
     @property
     def final(self) -> Fit:
@@ -115,18 +117,31 @@ def _fit_candidate(base_chain, measured, effect, names, budget, level, starts_ph
 
 def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level: float = 0.01,
              ambiguity_aic: float = AMBIGUITY_AIC, progress: ProgressFn = silent, truth: dict | None = None,
-             phase_starts: bool = True, lines=()) -> Diagnosis:
+             phase_starts: bool = True, lines=(), findings=()) -> Diagnosis:
     """Diagnose a record (or the records of one set: sequences of chains and measured features).
 
     `chain`: the plain forward chain(s) (no effects); `candidates`: Effect instances or classes to try in
     every placement (default: the whole library); `lines`: the record's lines beyond 1X
-    (`signals.lines.present_lines`), which the linear model and every effect lack: named in the verdict."""
+    (`signals.lines.present_lines`), which the linear model and every effect lack: named in the verdict;
+    `findings`: what is impossible or suspicious in the record(s) as declared (`identify.plausibility`), which
+    the verdict leads with. A measurement fault (copied channels, one plane in other units) gets no effect
+    fitted: the effect would describe the fault."""
     from ..effects import EFFECTS
 
     t0 = time.perf_counter()
     chains = list(chain) if isinstance(chain, (list, tuple)) else [chain]
     meas = list(measured) if isinstance(measured, (list, tuple)) else [measured]
     before = fit(chains, meas, names=names, budget=budget, level=level)
+    findings = tuple(findings)
+    broken = [f for f in findings if f.fault]
+    if broken:  # the orbit is not the shaft's: an effect fitted to it would describe the fault, not the machine
+        verdict = ("Measurement fault: " + ". ".join(f.text for f in broken) + ". The plain fit (Q1, Q2 = "
+                   f"{before.values[0] * 6e7:.0f}, {before.values[1] * 6e7:.0f} ml/min, chi2 = {before.chi2:.1f} for "
+                   f"{before.dof} dof) describes the fault, not the machine, and no effect was fitted: correct the "
+                   "record (or leave that plane out) and diagnose again.")
+        return Diagnosis(before=before, candidates=(), added=None, after=None, explained=False, ambiguous=(),
+                         verdict=verdict, seconds=time.perf_counter() - t0, truth=dict(truth or {}),
+                         lines=tuple(lines), findings=findings)
     oil_known = _oil_declared(chains)
     pool = []
     orbit = None
@@ -135,7 +150,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         if e.stage == "response":  # large orbits: tried below, when the record shows their 2X
             orbit = e
             continue
-        if not e.diagnose_free:  # not fitted by a diagnosis (oil_temperature: `viscosity` told in °C)
+        if not e.diagnosed:  # not fitted by a diagnosis (oil_temperature: `viscosity` told in °C)
             continue
         if oil_known and e.effect_name == "viscosity":  # an oil temperature reading settles the viscosity
             continue
@@ -153,6 +168,18 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
     tried.sort(key=lambda c: c.aic)
     passing = [c for c in tried if c.passes]
     set_intervals = None
+    # the winner: the best passing candidate whose refined fit (its parameters free again, refined from the
+    # screening fit, with intervals) still explains the record. The outcome is that result's, never the screening's.
+    best, after, refused = None, None, []
+    for cand in ([] if before.explained else passing[:REFITS]):
+        refit = cand.fit if cand.defect is not None else fit(
+            [c.adding(cand.effect.candidate()) for c in chains], meas, names=names, budget=budget, level=level,
+            start=cand.fit.values)
+        if refit.explained:
+            best, after = cand, refit
+            break
+        refused.append((cand, refit))
+    passing = [c for c in passing if c not in (r for r, _ in refused)]
     if before.explained:
         added, after, explained, ambiguous = None, None, True, ()
         verdict = (f"Explained: the model fits the record within noise and model uncertainty "
@@ -166,14 +193,10 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
             verdict += (f" But the oil's viscosity is not pinned by this record: oil x{OIL_RANGE[0]:g}-"
                         f"{OIL_RANGE[1]:.2f} as viscous as declared explains it as well, with Q1 in {look_alike[2]} "
                         f"and Q2 in {look_alike[3]} ml/min. To tell them apart: {separated[0]}.")
-    elif passing:
-        best = passing[0]
-        close = [c for c in passing[1:] if c.aic - best.aic < ambiguity_aic]
+    elif best is not None:
+        close = [c for c in passing if c is not best and c.aic - best.aic < ambiguity_aic]
         added = best
-        # the winner added: its parameters free again (started at their fitted values), with intervals
-        after = best.fit if best.defect is not None else fit([c.adding(best.effect.candidate()) for c in chains],
-                                                             meas, names=names, budget=budget, level=level)
-        explained = bool(after.explained)
+        explained = True
         ambiguous = tuple(c.label for c in close)
         separated = tuple(dict.fromkeys(type(c.effect).separated_by for c in [best, *close]
                                          if type(c.effect).separated_by))
@@ -202,17 +225,26 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
                        f"Q2 = {after.values[1] * 6e7:.0f} ml/min (plain model: {before.values[0] * 6e7:.0f}, "
                        f"{before.values[1] * 6e7:.0f})." + (ORBIT_REFINE if best.defect is not None else ""))
     else:
-        best = tried[0] if tried and tried[0].fit is not None else None
+        closest = tried[0] if tried and tried[0].fit is not None else None
         added, after, explained, ambiguous = None, None, False, ()
         separated = ()
-        left = "" if best is None else (f" The closest candidate, {best.label}, still leaves chi2 = "
-                                        f"{best.fit.chi2:.1f} for {best.fit.dof} dof.")
+        left = "" if closest is None else (f" The closest candidate, {closest.label}, still leaves chi2 = "
+                                           f"{closest.fit.chi2:.1f} for {closest.fit.dof} dof.")
+        if refused:
+            left = " " + "; ".join(
+                f"{c.label} passed the screening fit (chi2 = {c.fit.chi2:.1f}) but not once refined with its "
+                f"intervals (chi2 = {r.chi2:.1f} for {r.dof} dof)" for c, r in refused) + "."
         verdict = ("Unexplained: the model does not fit the record and no effect in the library brings the "
                    f"residual back to noise (plain chi2 = {before.chi2:.1f} for {before.dof} dof)." + left +
                    " Do not trust the flows; check the machine and the measurement.")
-    big = [line for line in lines if line.relative_to_1x > LINE_NOTICE]
+    from ..signals.lines import CAUSES
+
+    pickup = [line for line in lines if line.kind == "mains" and line.relative_to_1x > LINE_NOTICE]
+    if pickup:  # not the machine: named apart from the lines the model lacks
+        verdict += (" The record also holds " + "; ".join(line.describe() for line in pickup) + ": " +
+                    CAUSES["mains"] + ". The flows rest on the 1X line, which it does not touch.")
+    big = [line for line in lines if line.relative_to_1x > LINE_NOTICE and line.kind != "mains"]
     if big:
-        from ..signals.lines import CAUSES
 
         verdict += (" Beyond 1X the record also holds " + "; ".join(line.describe() for line in big) +
                     ", which the linear model does not produce" +
@@ -233,10 +265,17 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
             verdict += (" Above the threshold the machine is not in a steady state (the whirl grows on top of the "
                         "unbalance orbit): the flows above rest on the 1X part of a transient and on a steady model, "
                         "so take them as indicative; their intervals do not carry this.")
+    if findings:
+        impossible = [f.text for f in findings if f.impossible]
+        odd = [f.text for f in findings if not f.impossible]
+        verdict = ((("The record cannot be what it declares: " + ". ".join(impossible) + ". ") if impossible else "") +
+                   (("Check the record: " + ". ".join(odd) + ". ") if odd else "") +
+                   "The flows below rest on amplitude ratios and angles, which a scale error does not change. " +
+                   verdict)
     return Diagnosis(before=before, candidates=tuple(tried), added=added, after=after, explained=explained,
                      ambiguous=ambiguous, verdict=verdict, separated_by=separated,
                      seconds=time.perf_counter() - t0, truth=dict(truth or {}), lines=tuple(lines),
-                     set_intervals=set_intervals, stability=stability)
+                     set_intervals=set_intervals, stability=stability, findings=findings)
 
 
 def _whirl_words(chain, added, final: Fit, line):
@@ -341,7 +380,7 @@ def _story(c: Candidate) -> str:
         size = ("" if c.unbalance_scale is None else
                 f"; the orbit's size implies {c.unbalance_scale:.2f} x the declared unbalance")
         return f"{c.label} (the film force along the orbit, not its linearization{size})"
-    return f"{c.label} ({main})"
+    return f"{c.label} ({main or c.effect.summary()})" if (main or c.effect.summary()) else c.label
 
 
 def _oil_words(chains, c: Candidate) -> str:
@@ -387,6 +426,7 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
            "after": fit_dict(d.after), "explained": d.explained, "ambiguous": list(d.ambiguous),
            "separated_by": list(d.separated_by), "verdict": d.verdict, "seconds": d.seconds,
            "lines_beyond_1x": [line.as_dict() for line in d.lines],
+           "record_findings": [f.as_dict() for f in d.findings],
            "stability_at_flows": None if d.stability is None else {
                "text": d.stability.describe(), "unstable": d.stability.unstable,
                "least_stable_mode_hz": d.stability.frequency_hz, "growth_per_s": d.stability.growth,

@@ -126,6 +126,8 @@ def _story(effect) -> str:
 # --- what to do --------------------------------------------------------------------------------------
 
 def _outcome(d) -> str:
+    if any(f.fault for f in d.findings):
+        return "measurement fault"
     if d.explained and d.added is None:
         return "explained"
     if d.added is not None and d.ambiguous:
@@ -139,6 +141,12 @@ def _actions(d, nodes) -> list[str]:
     """One sentence per thing to do, in the order to do them (HTML, escaped)."""
     out = []
     outcome = _outcome(d)
+    if outcome == "measurement fault":
+        return [f"<b>Correct the record first</b>: {escape('. '.join(f.text for f in d.findings if f.fault))}. "
+                "Its features describe the fault, not the machine: no effect was fitted and the flows mean nothing."]
+    if d.findings:
+        out.append(f"<b>Check the record</b>: {escape('. '.join(f.text for f in d.findings))}. The flows rest on "
+                   "amplitude ratios and angles, which a scale error does not change.")
     if outcome in ("unexplained", "effect added, still not explained"):
         out.append("<b>Do not act on the flows alone</b>: the model does not explain this record, even with "
                    "the best effect of the library. Check the machine (alignment, rub, looseness) and the "

@@ -20,9 +20,10 @@ from .probe_gain import ProbeGain
 from .probe_rotation import ProbeRotation
 from .unbalance2 import Unbalance2
 from .viscosity import Viscosity
+from .wiring import Wiring
 
 EFFECTS = Registry()
-for _cls in (Viscosity, OilTemperature, Clearance, Unbalance2, Pedestals, ProbeRotation, ProbeGain, Bow, LargeOrbit):
+for _cls in (Viscosity, OilTemperature, Clearance, Unbalance2, Pedestals, ProbeRotation, ProbeGain, Bow, Wiring, LargeOrbit):
     EFFECTS.register(_cls)
 
 
@@ -36,4 +37,4 @@ def parse_effects(texts: Iterable[str]) -> tuple[Effect, ...]:
 
 
 __all__ = ["EFFECTS", "STAGES", "Bow", "Clearance", "Effect", "LargeOrbit", "OilTemperature", "Pedestals", "ProbeGain", "ProbeRotation",
-           "Unbalance2", "Viscosity", "bow_shape", "parse_effect", "parse_effects"]
+           "Unbalance2", "Viscosity", "Wiring", "bow_shape", "parse_effect", "parse_effects"]

@@ -36,6 +36,7 @@ class Effect(param.Parameterized):
     neutral: ClassVar[dict] = {}  # continuous values at which the effect changes nothing
     step: ClassVar[dict] = {}  # finite-difference step of each continuous parameter (its own unit)
     diagnose_free: ClassVar[tuple[str, ...]] = ()  # what a diagnosis fits (the others held at defaults)
+    diagnosed: ClassVar[bool] = True  # whether a diagnosis tries this effect (each placement)
     separated_by: ClassVar[str] = ""  # the measurement that tells this effect from look-alikes
     # True for an effect that acts as a synchronous (1X) force on the rotor with a free magnitude and
     # phase: at one speed it can stand for any other such force, including effects not in the library
@@ -56,6 +57,17 @@ class Effect(param.Parameterized):
         """The value of continuous parameter `pname` at which the machine is as declared (a fit's start
         when the parameter is None)."""
         return float(self.neutral.get(pname, 0.0))
+
+    # --- the probes stage (effects of other stages leave these as they are) ---------------------------
+    def probe_matrix(self, plane: int, angles_deg, values: dict, shape):
+        """(..., 2, 2) matrix taking plane `plane`'s (0-based) displacement to what its probes, resolved with
+        the declared angles, read; None when this effect does not change that plane."""
+        return None
+
+    def rewire(self, d, static, probe_angles_deg):
+        """The readings of every plane `d` (..., planes, [x, y]) and their static offsets as the record's
+        columns hold them (a measurement mixed up between planes or channels); applied after `probe_matrix`."""
+        return d, static
 
     # --- fitting ---------------------------------------------------------------------------------
     @property
@@ -125,6 +137,10 @@ class Effect(param.Parameterized):
     def placements(self) -> list["Effect"]:
         """Every placement of this effect (each bearing, plane, channel...): the candidates to try."""
         return [self]
+
+    def summary(self) -> str:
+        """What this effect in its placement is, in a few words, when its fitted values do not say it ('' then)."""
+        return ""
 
     def describe(self) -> str:
         return (type(self).__doc__ or "").strip().split("\n\n")[0]

@@ -28,7 +28,8 @@ class OilTemperature(Effect):
     continuous = ("temperature_c",)
     placement = ("bearing",)
     step = {"temperature_c": 0.01}
-    diagnose_free = ()  # a diagnosis fits `viscosity` (the same effect) and converts
+    diagnose_free = ()
+    diagnosed = False  # a diagnosis fits `viscosity` (the same effect) and converts
     separated_by = Effect.separated_by
 
     bearing = param.Selector(default="both", objects=BEARINGS, doc="Bearing(s) whose oil is at this temperature")

@@ -10,7 +10,6 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 import dataclasses
 from dataclasses import dataclass
 
-import numpy as np
 
 from ..errors import InputError, LubevizError
 from ..model.machine import load_machine
@@ -36,6 +35,7 @@ class RecordIdentification:
     speeds_hz: tuple[float, ...] = ()  # a set: every record's speed
     set_name: str | None = None
     lines: tuple = ()  # `signals.lines.Line`s present beyond 1X (the linear model has none)
+    findings: tuple = ()  # `plausibility.Finding`s: what is impossible or suspicious in the record as declared
 
 
 def check_model_speed(machine, speed_hz: float) -> None:
@@ -82,9 +82,23 @@ def identify_record(record, machine=None, settings: IdentificationSettings | Non
     else:
         result = _fit_record(record, machine, speed, measured, settings, effects, budget, progress, model)
     lines, notes = beyond_1x(record)
+    findings = record_checks([record], [measured], machine)
     return RecordIdentification(file=str(record.source or "record"), result=result, nodes=tuple(record.nodes),
-                                speed_hz=record.speed_hz, warnings=tuple(getattr(record, "warnings", ())) + notes,
-                                lines=lines)
+                                speed_hz=record.speed_hz, warnings=tuple(f.text for f in findings) +
+                                tuple(getattr(record, "warnings", ())) + notes, lines=lines, findings=findings)
+
+
+def record_checks(records, measured, machine) -> tuple:
+    """`plausibility.record_findings` of each record (its measured features in `measured`) against the plain
+    model of `machine` at the record's speed, planes and probes."""
+    from .chain import ForwardChain
+    from .plausibility import record_findings
+
+    out = []
+    for rec, m in zip(records, measured):
+        chain = ForwardChain(machine, model_speed(machine, rec), rec.nodes, probe_angles_deg=rec.probe_angles_deg)
+        out += record_findings(rec, m, chain)
+    return tuple(out)
 
 
 def beyond_1x(records) -> tuple[tuple, tuple[str, ...]]:
@@ -101,8 +115,9 @@ def beyond_1x(records) -> tuple[tuple, tuple[str, ...]]:
             continue
         lines += found
         where = str(getattr(rec, "source", None) or "record")
-        notes += [f"{where}: {line.describe()}; the linear model has none ({CAUSES[line.kind]}): the flows rest on "
-                  "the 1X part" for line in found if line.relative_to_1x > LINE_NOTICE]
+        notes += [(f"{where}: {line.describe()}: {CAUSES['mains']}" if line.kind == "mains" else
+                   f"{where}: {line.describe()}; the linear model has none ({CAUSES[line.kind]}): the flows rest on "
+                   "the 1X part") for line in found if line.relative_to_1x > LINE_NOTICE]
     return tuple(lines), tuple(notes)
 
 
@@ -146,25 +161,16 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
         out = dataclasses.replace(out, warnings=out.warnings + oil_notes)
     if settings.oil_check != "never" and not measured.static_names and not any(
             getattr(e, "effect_name", "") in ("viscosity", "oil_temperature", "clearance") for e in effects):
-        if settings.oil_check == "always" or _oil_range_tabled(chain):
+        # Whether it runs depends on the setting only, never on what the cache holds: the same command gives
+        # the same answer on a cold or a warm cache.
+        if settings.oil_check == "always":
             out = _oil_check(out, res, chain, measured, settings, budget)
         else:
             out = dataclasses.replace(out, warnings=out.warnings + (
                 "the flows assume the declared oil viscosity: one record at one speed cannot tell hotter or colder "
-                "oil from a supply change (--oil-check quantifies it: it tables +-30 % viscosity once, about a "
-                "minute; the static shaft position or records at other speeds separate them)",))
+                "oil from a supply change (--oil-check quantifies it: it tables +-30 % viscosity once, about half "
+                "a minute; the static shaft position or records at other speeds separate them)",))
     return out
-
-
-def _oil_range_tabled(chain) -> bool:
-    from .cache import slices_cached
-    from .dimensionless import sommerfeld_number
-
-    for src in chain.sources:
-        s0 = sommerfeld_number(src.bearing, src.load, chain.omega)
-        if not slices_cached(src.bearing, s0 * np.linspace(OIL_RANGE[0], OIL_RANGE[1], 9)):
-            return False
-    return True
 
 
 OIL_RANGE = (0.75, 1.0 / 0.75)
@@ -266,9 +272,12 @@ def identify_group(records, machine=None, settings: IdentificationSettings | Non
     files = "+".join(str(r.source or "record") for r in records)
     warnings = tuple(w for r in records for w in getattr(r, "warnings", ())) + tuple(notes)
     lines, line_notes = beyond_1x(records)
+    findings = record_checks(records, meas, machine)
     return RecordIdentification(file=files, result=result, nodes=tuple(records[0].nodes),
-                                speed_hz=records[0].speed_hz, warnings=warnings + line_notes, lines=lines,
-                                speeds_hz=tuple(r.speed_hz for r in records), set_name=records[0].set_name)
+                                speed_hz=records[0].speed_hz,
+                                warnings=tuple(f.text for f in findings) + warnings + line_notes, lines=lines,
+                                speeds_hz=tuple(r.speed_hz for r in records), set_name=records[0].set_name,
+                                findings=findings)
 
 
 def identify_file(path, machine=None, settings: IdentificationSettings | None = None, *,
@@ -280,8 +289,7 @@ def identify_file(path, machine=None, settings: IdentificationSettings | None = 
     if machine is None:
         machine, notes = machine_for(rec)
     out = identify_record(rec, machine, settings, progress=progress, model=model, effects=effects)
-    return RecordIdentification(file=str(path), result=out.result, nodes=out.nodes, speed_hz=out.speed_hz,
-                                warnings=notes + out.warnings, lines=out.lines)
+    return dataclasses.replace(out, file=str(path), warnings=notes + out.warnings)
 
 
 def result_dict(item: RecordIdentification) -> dict:
@@ -307,11 +315,13 @@ def result_dict(item: RecordIdentification) -> dict:
                           "chi2": r.alternatives_chi2[j] if j < len(r.alternatives_chi2) else None}
                          for j, a in enumerate(r.alternatives)],
         "q1_interval_mlmin": _interval(r, 0), "q2_interval_mlmin": _interval(r, 1),
-        "q1_interval_any_oil_mlmin": _interval(r, 0, r.intervals_any_oil),
-        "q2_interval_any_oil_mlmin": _interval(r, 1, r.intervals_any_oil), "oil_degeneracy": r.oil_degeneracy,
+        "q1_interval_any_oil_mlmin": None if r.intervals_any_oil is None else _interval(r, 0, r.intervals_any_oil),
+        "q2_interval_any_oil_mlmin": None if r.intervals_any_oil is None else _interval(r, 1, r.intervals_any_oil),
+        "oil_degeneracy": r.oil_degeneracy,
         "chi2": r.chi2, "dof": r.dof, "p_value": r.p_value, "level": r.level,
         "model_explains_data": r.model_explains_data, "effects": r.effects,
         "lines_beyond_1x": [line.as_dict() for line in getattr(item, "lines", ())],
+        "record_findings": [f.as_dict() for f in getattr(item, "findings", ())],
         "warnings": list(r.warnings) + list(getattr(item, "warnings", ())),
         "message": r.message, "seconds": r.seconds,
     }
@@ -343,6 +353,8 @@ def result_text(d: dict) -> list[str]:
         verdict = ends[0] if ends[0] == ends[1] else f"{ends[0]} to {ends[1]} (the interval spans Q_T's band)"
         out.append(f"  Q{k} = {d[f'q{k}_mlmin']:.1f} ml/min, {span}; Q_T = {qt:.0f} ml/min "
                    f"({d[f'q{k}_mlmin'] / qt:.2f} Q_T): {verdict}")
+    for f in d.get("record_findings", []):
+        out.append(f"  {'THE RECORD CANNOT BE WHAT IT DECLARES' if f['impossible'] else 'check the record'}: {f['text']}")
     if d.get("chi2") is not None:
         told = ("the model explains the record" if d["model_explains_data"] else
                 "THE MODEL DOES NOT EXPLAIN THE RECORD (intervals widened; run lubeviz diagnose)")
@@ -411,7 +423,7 @@ def result_csv(item: RecordIdentification) -> str:
     return out.getvalue()
 
 
-def _worker(path, machine_path, mode, effect_specs=(), oil_check="if-tabled", orbit_harmonics=None,
+def _worker(path, machine_path, mode, effect_specs=(), oil_check="warn", orbit_harmonics=None,
             orbit_time_rounds=None):
     from ..effects import parse_effects
 
@@ -425,7 +437,7 @@ def _worker(path, machine_path, mode, effect_specs=(), oil_check="if-tabled", or
 
 def identify_files(paths, machine_path=None, mode: str = "best", *, workers: int | None = None,
                    progress: ProgressFn = silent, effect_specs=(),
-                   oil_check: str = "if-tabled",
+                   oil_check: str = "warn",
                    orbit_harmonics: int | None = None,
                    orbit_time_rounds: int | None = None) -> list[tuple[str, RecordIdentification | None, str | None]]:
     """Identify many records; returns (file, result or None, error message or None) in input order.
@@ -493,7 +505,7 @@ def _settings(mode, oil_check, orbit_harmonics, orbit_time_rounds=None) -> Ident
                                      {"orbit_time_rounds": int(orbit_time_rounds)}))
 
 
-def _identify_groups(groups, machine_path, mode, progress, effect_specs, oil_check="if-tabled", orbit_harmonics=None,
+def _identify_groups(groups, machine_path, mode, progress, effect_specs, oil_check="warn", orbit_harmonics=None,
                      orbit_time_rounds=None):
     from ..effects import parse_effects
 

@@ -429,6 +429,9 @@ class ForwardChain:
                         static = static.copy()
                         d[..., k, :] = np.einsum("...ij,...j->...i", M, d[..., k, :])
                         static[..., k, :] = np.einsum("...ij,...j->...i", M, static[..., k, :])
+        for e in self.effects:  # then the columns as the record holds them (a mixed-up measurement)
+            if e.stage == "probes":
+                d, static = e.rewire(d, static, self.probe_angles_deg)
         self.evaluations += int(np.prod(shape)) if shape else 1
         return ChainOutput(x=d[..., 0], y=d[..., 1], static=static if self.static_planes else None)
 
@@ -499,6 +502,9 @@ class ForwardChain:
                     if M is not None:
                         d[k] = M @ d[k]
                         static[k] = M @ static[k]
+        for e in self.effects:
+            if e.stage == "probes":
+                d, static = e.rewire(d, static, self.probe_angles_deg)
         return ChainOutput(x=d[:, 0], y=d[:, 1], static=static)
 
     def jacobian(self, theta: np.ndarray, names: Sequence[str], *, free=None):

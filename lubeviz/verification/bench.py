@@ -293,7 +293,7 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
     records' method (`orbit_record.make_orbit_record`: "balance", or "time" for the time integration)."""
     from ..diagnose import diagnose
     from ..diagnose.loop import OTHER_FORCE
-    from ..identify.batch import beyond_1x
+    from ..identify.batch import beyond_1x, record_checks
     from ..identify.chain import ForwardChain
     from ..identify.measured import measure
     from ..model.machine import load_machine
@@ -332,7 +332,9 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
             spec = IndependentSpec(speed_hz=speed_hz, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]),
                                    effects=(text,), seed=100 + i)
             rec = make_record(spec).record
-        d = diagnose(chain, measure(rec), candidates=candidates, lines=beyond_1x(rec)[0])
+        m = measure(rec)
+        d = diagnose(chain, m, candidates=candidates, lines=beyond_1x(rec)[0],
+                     findings=record_checks([rec], [m], machine))
         truth = name.split(" ")[0]
         named = d.added.effect.effect_name if (d.added is not None and not d.ambiguous) else None
         in_set = truth in ([] if d.added is None else [d.added.effect.effect_name]) + [

@@ -1,0 +1,55 @@
+"""A mixed-up measurement (`wiring`): its record is the plain record's columns exchanged or negated, whatever
+the probes' angles; the chain's direct solve agrees."""
+
+import numpy as np
+import pytest
+
+from lubeviz.effects import EFFECTS, parse_effect
+from lubeviz.effects.wiring import FAULTS
+from lubeviz.identify.chain import ForwardChain, simulate
+
+Q = np.array([450.0, 600.0]) / 6e7
+ANGLES = ((45.0, 135.0), (0.0, 90.0))  # plane 1 turned: a fault across planes must carry the angles
+COLUMNS = ("x1", "y1", "x2", "y2")
+
+
+@pytest.fixture(scope="module")
+def plain(machine):
+    chain = ForwardChain(machine, 75.0, (6, 20), probe_angles_deg=ANGLES)
+    return chain, simulate(chain, Q, snr_db=None, duration_s=0.2).displacement.reshape(4, -1)
+
+
+def _expected(columns, source, sign):
+    """The columns a fault writes, from the plain record: column i holds sign[i] x channel source[i]."""
+    return np.array([sign[i] * columns[source[i]] for i in range(4)])
+
+
+CASES = {  # by hand, from what each fault means (not from the effect's table)
+    "planes_swapped": ((2, 3, 0, 1), (1, 1, 1, 1)),
+    "x_y_swapped": ((1, 0, 3, 2), (1, 1, 1, 1)),
+    "x1_y1_swapped": ((1, 0, 2, 3), (1, 1, 1, 1)),
+    "y2_inverted": ((0, 1, 2, 3), (1, 1, 1, -1)),
+    "plane1_inverted": ((0, 1, 2, 3), (-1, -1, 1, 1)),
+}
+
+
+@pytest.mark.parametrize("fault", sorted(CASES))
+def test_a_wiring_fault_writes_the_plain_records_columns_mixed_up(plain, fault):
+    chain, columns = plain
+    rec = simulate(chain.adding(parse_effect(f"wiring:fault={fault}")), Q, snr_db=None, duration_s=0.2)
+    got = rec.displacement.reshape(4, -1)
+    np.testing.assert_allclose(got, _expected(columns, *CASES[fault]), atol=1e-12 * np.abs(columns).max())
+
+
+def test_every_fault_is_a_placement_a_diagnosis_tries():
+    assert {e.fault for e in EFFECTS["wiring"]().placements()} == set(FAULTS)
+    assert EFFECTS["wiring"].diagnosed and not EFFECTS["wiring"]().free  # nothing to fit: a discrete choice
+
+
+@pytest.mark.parametrize("fault", ["planes_swapped", "x2_inverted"])
+def test_chain_equals_the_direct_solve_with_a_wiring_fault(plain, fault):
+    chain = plain[0].adding(parse_effect(f"wiring:fault={fault}"))
+    a, b = chain.output(Q), chain.direct_output(Q)
+    scale = np.abs(b.x).max()
+    np.testing.assert_allclose(a.x, b.x, atol=1e-10 * scale)
+    np.testing.assert_allclose(a.y, b.y, atol=1e-10 * scale)
