@@ -28,6 +28,7 @@ from ..progress import Cancelled
 from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
+from .text import plain
 from .widgets import quantity_slider
 
 hv.extension("bokeh", logo=False)
@@ -350,7 +351,7 @@ class BearingPage(pn.viewable.Viewer):
             pipe.send(data)
 
     def _fail(self, exc: Exception):
-        self._error.object = f"**Could not solve the film**: {exc}"
+        self._error.object = f"**Could not solve the film**: {plain(exc)}"
         self._error.visible = True
 
     # --- events --------------------------------------------------------------------------------------

@@ -37,7 +37,9 @@ from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .session import SessionState
-from .widgets import RecordDropper, not_loaded_message, quantity_slider, show_effect
+from .text import file_label, plain, plain_text_formatters, without_upload_dirs
+from .widgets import (RecordDropper, not_loaded_message, quantity_slider, record_warnings_markdown, refused_message,
+                      show_effect)
 
 hv.extension("bokeh", logo=False)
 
@@ -64,7 +66,7 @@ def _verdict_badge(v: str) -> str:
     return {"starved": "🟠 starved", "normal": "🟢 normal", "over-supplied": "🔵 over-supplied"}.get(v, v)
 
 
-DIAGNOSABLE = [n for n, cls in EFFECTS.items() if cls.diagnose_free]  # oil_temperature is `viscosity` in °C
+DIAGNOSABLE = [n for n, cls in EFFECTS.items() if cls.diagnosed]  # oil_temperature is `viscosity` in °C
 
 
 class DiagnosePage(pn.viewable.Viewer):
@@ -90,9 +92,10 @@ class DiagnosePage(pn.viewable.Viewer):
         self._record_name: str | None = None  # what the page calls the record on screen (file or sample)
         self._upload = RecordDropper(
             accepted_filetypes=[".csv", ".npz", ".mat", "text/csv", "application/octet-stream"],
-            max_file_size=f"{UPLOAD_LIMIT_MB}MB", sizing_mode="stretch_width",
-            css_classes=["lubeviz-diagnose-upload"])
+            max_file_size=f"{UPLOAD_LIMIT_MB}MB", limit_bytes=UPLOAD_LIMIT_MB * 1_000_000,
+            sizing_mode="stretch_width", css_classes=["lubeviz-diagnose-upload"])
         self._upload.param.watch(self._on_upload, "upload")
+        self._upload.param.watch(self._on_refused, "refused")
         self._effect_story = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["lubeviz-effect-story"],
                                               styles={"font-size": "0.9em"})
         self._effect_widgets = pn.Column(sizing_mode="stretch_width")
@@ -109,6 +112,8 @@ class DiagnosePage(pn.viewable.Viewer):
                                              css_classes=["lubeviz-diagnose-record"])
         self._message = pn.pane.Alert("", alert_type="danger", visible=False, sizing_mode="stretch_width",
                                       css_classes=["lubeviz-diagnose-error"])
+        self._record_warnings = pn.pane.Alert("", alert_type="warning", visible=False, sizing_mode="stretch_width",
+                                              css_classes=["lubeviz-diagnose-record-warnings"])
         self._verdict = pn.pane.Alert("", alert_type="info", visible=False, sizing_mode="stretch_width",
                                       css_classes=["lubeviz-verdict"])
         self._flows = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["lubeviz-diagnosis-flows"])
@@ -129,7 +134,8 @@ class DiagnosePage(pn.viewable.Viewer):
             "### Record", self._upload, pn.pane.Markdown("**or a sample that carries an effect:**"),
             sample_settings, self._effect_story, self._effect_widgets, *flows, self._sample_button,
             self._record_info, "### Diagnosis", tried, self._run, self.jobs, self._download, width=340)
-        results = pn.Column(self._message, self._verdict, self._flows, self._residuals, sizing_mode="stretch_width")
+        results = pn.Column(self._message, self._record_warnings, self._verdict, self._flows, self._residuals,
+                            sizing_mode="stretch_width")
         self._layout = pn.Column(
             pn.Row(controls, results, sizing_mode="stretch_width"),
             pn.pane.Markdown("### Candidate effects, best first", sizing_mode="stretch_width"), self._candidates,
@@ -165,9 +171,16 @@ class DiagnosePage(pn.viewable.Viewer):
         self._residuals.object = self._residual_plot(None)
         self._download.disabled = True
         self._run.disabled = False
+        self._record_info.object = self._info_text(record, truth, name)
+        self._record_warnings.object = record_warnings_markdown(record, self.machine)
+        self._record_warnings.visible = bool(self._record_warnings.object)
+
+    def _info_text(self, record, truth, name: str) -> str:
+        """The record's box (Markdown): its name, speed, length and planes, the oil temperature and static
+        position it carries, and the true flows only of a sample this page simulated (`truth`)."""
         n = record.displacement.shape[-1]
         dur = n / record.sample_rate_hz
-        lines = [f"**{name}**", "",
+        lines = [f"**{plain(name)}**", "",
                  f"speed {record.speed_hz:g} Hz; {dur:.2f} s ({dur * record.speed_hz:.0f} revolutions); planes at "
                  f"nodes {record.nodes[0]} and {record.nodes[1]}"]
         t_oil = getattr(record, "oil_temperature_c", None)
@@ -181,8 +194,8 @@ class DiagnosePage(pn.viewable.Viewer):
         if truth:
             q = truth["q_mlmin"]
             lines += ["", f"Truth: Q1 = {q[0]:.0f}, Q2 = {q[1]:.0f} ml/min" +
-                      (f", effect `{truth['effect']}`" if truth.get("effect") else "")]
-        self._record_info.object = "\n".join(lines)
+                      (f", effect {plain(truth['effect'])}" if truth.get("effect") else "")]
+        return "\n".join(lines)
 
     async def _on_sample(self, event):
         effect = self.effect.hold()
@@ -194,10 +207,10 @@ class DiagnosePage(pn.viewable.Viewer):
         except Cancelled:
             return
         except LubevizError as exc:
-            self._show_error(f"**No sample.** {exc}")
+            self._show_error(f"**No sample.** {plain(exc)}")
             return
         except Exception as exc:  # noqa: BLE001 - shown on the page
-            self._show_error(f"**No sample**: unexpected problem: {exc}")
+            self._show_error(f"**No sample**: unexpected problem: {plain(exc)}")
             return
         self._loaded(*loaded, name=loaded[0].source)
 
@@ -215,6 +228,7 @@ class DiagnosePage(pn.viewable.Viewer):
         if event.new is None:
             return
         filename, content = event.new  # every drop, the same file again included
+        filename = file_label(filename)  # the base name, shortened: never a path on the page
         if content is not None and len(content) > MAX_RECORD_BYTES:
             self._not_loaded(filename, f"{filename}: {len(content) / 1e6:.1f} MB is too large")
             self._upload.rejected = True
@@ -225,25 +239,26 @@ class DiagnosePage(pn.viewable.Viewer):
         except Cancelled:
             return
         except LubevizError as exc:
-            self._not_loaded(filename, str(exc))
+            self._not_loaded(filename, without_upload_dirs(exc))
             self._upload.rejected = True
             return
         except Exception as exc:  # noqa: BLE001 - never let a bad upload stop the app
-            self._not_loaded(filename, f"{filename}: unexpected problem: {exc}")
+            self._not_loaded(filename, f"{filename}: unexpected problem ({type(exc).__name__}): "
+                                       f"{without_upload_dirs(exc)}")
             self._upload.rejected = True
             return
         self._upload.rejected = False
         self._loaded(*loaded, name=filename)
 
+    def _on_refused(self, event):
+        if event.new is not None:
+            self._not_loaded(file_label(event.new[0]), refused_message(*event.new, UPLOAD_LIMIT_MB))
+
     def _read(self, content, filename, progress):
+        """An uploaded record and its features. No truth: a file's metadata may claim any flows (only a
+        sample this page simulated has one)."""
         record = read_record_bytes(content, filename, default_nodes=tuple(self.machine.center_nodes))
-        meta = record.metadata
-        truth = None
-        if "synthetic" in meta and "q1_mlmin" in meta and "q2_mlmin" in meta:  # a `lubeviz simulate` record
-            truth = {"q_mlmin": [float(meta["q1_mlmin"]), float(meta["q2_mlmin"])]}
-            if meta.get("effect"):
-                truth["effect"] = meta["effect"]
-        return record, measure(record), truth
+        return record, measure(record), None
 
     # --- the diagnosis ----------------------------------------------------------------------------------
     async def _on_run(self, event):
@@ -262,10 +277,10 @@ class DiagnosePage(pn.viewable.Viewer):
         except Cancelled:
             return
         except LubevizError as exc:
-            self._show_error(f"**No diagnosis.** {exc}")
+            self._show_error(f"**No diagnosis.** {plain(exc)}")
             return
         except Exception as exc:  # noqa: BLE001
-            self._show_error(f"**No diagnosis**: unexpected problem: {exc}")
+            self._show_error(f"**No diagnosis**: unexpected problem: {plain(exc)}")
             return
         finally:
             self._run.disabled = False
@@ -279,7 +294,7 @@ class DiagnosePage(pn.viewable.Viewer):
         chains, meas = inputs.chains, inputs.measured
         pool = None if len(chosen) == len(DIAGNOSABLE) else [EFFECTS[n] for n in chosen]
         d = diagnose(chains, meas, candidates=pool, progress=progress, truth=truth, budget=inputs.budget,
-                     lines=inputs.lines)
+                     lines=inputs.lines, findings=inputs.findings)
         maps = [("plain model", cost_map(chains, meas, n=MAP_POINTS), d.before)]
         if d.added is not None:
             maps.append((f"with {d.added.label}", cost_map(chains, meas, candidate=d.added, n=MAP_POINTS),
@@ -291,18 +306,20 @@ class DiagnosePage(pn.viewable.Viewer):
     def _show(self, r):
         d, s = r["diagnosis"], r["summary"]
         kind = "success" if d.explained and not d.ambiguous else ("warning" if d.explained or d.ambiguous else "danger")
-        added = f"**Effect added: {d.added.label}.** " if d.added is not None else (
+        added = f"**Effect added: {plain(d.added.label)}.** " if d.added is not None else (
             "**No effect needed.** " if d.explained else "**No effect explains the record.** ")
         # The flows first: the browser receives each change as its own message, and whoever reads the verdict
         # (a user, a test) should find the flows it speaks of already there.
         self._flows.object = self._flows_text(d, s, r["truth"], r["name"])
         self._verdict.alert_type = kind
         notes = r.get("notes", ())
-        self._verdict.object = added + d.verdict + ("".join(f"\n\n_Note: {n}_" for n in notes) if notes else "")
+        self._verdict.object = added + plain(d.verdict) + "".join(f"\n\n_Note: {plain(n)}_" for n in notes)
         self._verdict.visible = True
         self._residuals.object = self._residual_plot(d)
-        self._candidates.objects = [pn.widgets.Tabulator(self._candidates_table(d, s), disabled=True, show_index=False,
+        table = self._candidates_table(d, s)
+        self._candidates.objects = [pn.widgets.Tabulator(table, disabled=True, show_index=False,
                                                          sizing_mode="stretch_width",
+                                                         formatters=plain_text_formatters(table),
                                                          css_classes=["lubeviz-candidates"])]
         self._maps.objects = [pn.pane.HoloViews(self._map_plot(title, grid, fit, r["truth"]), linked_axes=False,
                                                 css_classes=["lubeviz-diagnose-map"]) for title, grid, fit in r["maps"]]
@@ -310,11 +327,11 @@ class DiagnosePage(pn.viewable.Viewer):
 
     def _flows_text(self, d, s, truth, record_name: str) -> str:
         qt = d.before.q_threshold
-        cols = [("plain model", d.before, s["before"])] + ([("with " + d.added.label, d.after, s["after"])]
+        cols = [("plain model", d.before, s["before"])] + ([("with " + plain(d.added.label), d.after, s["after"])]
                                                           if d.after is not None else [])
         head = "| bearing | " + " | ".join(f"{name}: flow (95 % interval) | verdict" for name, _, _ in cols) + \
                (" | truth |" if truth else " |")
-        lines = [f"### Supply flows of {record_name}, before and after", head,
+        lines = [f"### Supply flows of {plain(record_name)}, before and after", head,
                  "|---" * (1 + 2 * len(cols) + (1 if truth else 0)) + "|"]
         for k in range(2):
             cells = [f"{k + 1} (node {self.machine.bearings[k].node})"]
@@ -332,15 +349,15 @@ class DiagnosePage(pn.viewable.Viewer):
                                for name, _, fd in cols) + f". Q_T = {qt[0] / M3S_PER_MLMIN:.0f} / "
                      f"{qt[1] / M3S_PER_MLMIN:.0f} ml/min. Diagnosis in {d.seconds:.1f} s.")
         if d.ambiguous:
-            lines += ["", f"**Look-alikes**: {', '.join(d.ambiguous)} fit as well. To tell them apart: "
-                          f"{'; or '.join(d.separated_by)}."]
+            lines += ["", f"**Look-alikes**: {plain(', '.join(d.ambiguous))} fit as well. To tell them apart: "
+                          f"{plain('; or '.join(d.separated_by))}."]
             if d.set_intervals is not None:
                 words = " and ".join(f"Q{k + 1} in [{lo / M3S_PER_MLMIN:.0f}, "
                                      f"{'open' if hi is None else format(hi / M3S_PER_MLMIN, '.0f')}] ml/min"
                                      for k, (lo, hi) in enumerate(d.set_intervals))
                 lines += ["", f"**Flows over all the look-alikes** (until a measurement separates them): {words}."]
         elif d.separated_by:
-            lines += ["", f"To confirm it: {'; or '.join(d.separated_by)}."]
+            lines += ["", f"To confirm it: {plain('; or '.join(d.separated_by))}."]
         return "\n".join(lines)
 
     @staticmethod

@@ -31,7 +31,8 @@ from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .session import SessionState
-from .widgets import RecordDropper, not_loaded_message
+from .text import file_label, plain, plain_text_formatters, without_upload_dirs
+from .widgets import RecordDropper, not_loaded_message, record_warnings_markdown, refused_message
 
 hv.extension("bokeh", logo=False)
 
@@ -83,8 +84,10 @@ class IdentifyPage(pn.viewable.Viewer):
         self._record_name: str | None = None  # what the page calls the record on screen (file or sample)
         self._upload = RecordDropper(
             accepted_filetypes=[".csv", ".npz", ".mat", "text/csv", "application/octet-stream"],
-            max_file_size=f"{UPLOAD_LIMIT_MB}MB", sizing_mode="stretch_width", css_classes=["lubeviz-upload"])
+            max_file_size=f"{UPLOAD_LIMIT_MB}MB", limit_bytes=UPLOAD_LIMIT_MB * 1_000_000,
+            sizing_mode="stretch_width", css_classes=["lubeviz-upload"])
         self._upload.param.watch(self._on_upload, "upload")
+        self._upload.param.watch(self._on_refused, "refused")
         self._sample = pn.widgets.Button(name="Load the sample record", button_type="default",
                                          css_classes=["lubeviz-sample"])
         self._sample.on_click(self._on_sample)
@@ -95,6 +98,8 @@ class IdentifyPage(pn.viewable.Viewer):
                                              css_classes=["lubeviz-record-info"])
         self._message = pn.pane.Alert("", alert_type="danger", visible=False, sizing_mode="stretch_width",
                                       css_classes=["lubeviz-upload-error"])
+        self._record_warnings = pn.pane.Alert("", alert_type="warning", visible=False, sizing_mode="stretch_width",
+                                              css_classes=["lubeviz-record-warnings"])
         self._result = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["lubeviz-result"])
         self._warning = pn.pane.Alert("", alert_type="warning", visible=False, sizing_mode="stretch_width",
                                       css_classes=["lubeviz-model-warning"])
@@ -117,7 +122,7 @@ class IdentifyPage(pn.viewable.Viewer):
         controls = pn.Column("### Record", self._upload, self._sample, self._record_info, "### Identification",
                              settings, self._run, self.jobs, pn.Row(self._download_json, self._download_csv),
                              width=340)
-        results = pn.Column(self._message, self._result, self._warning, self._features,
+        results = pn.Column(self._message, self._record_warnings, self._result, self._warning, self._features,
                             sizing_mode="stretch_width")
         self._layout = pn.Column(
             # the results below the controls in a narrow window
@@ -149,10 +154,11 @@ class IdentifyPage(pn.viewable.Viewer):
         except Cancelled:
             return None
         except LubevizError as exc:
-            self._not_loaded(filename, str(exc))
+            self._not_loaded(filename, without_upload_dirs(exc))
             return False
         except Exception as exc:  # noqa: BLE001 - never let a bad upload stop the app
-            self._not_loaded(filename, f"{filename}: unexpected problem: {exc}")
+            self._not_loaded(filename, f"{filename}: unexpected problem ({type(exc).__name__}): "
+                                       f"{without_upload_dirs(exc)}")
             return False
         self._record_name = name or filename
         self.state.record, self.state.measured = record, measured
@@ -164,6 +170,8 @@ class IdentifyPage(pn.viewable.Viewer):
         self._download_json.disabled = self._download_csv.disabled = True
         self._run.disabled = False
         self._record_info.object = self._info(record, measured)
+        self._record_warnings.object = record_warnings_markdown(record, self.machine)
+        self._record_warnings.visible = bool(self._record_warnings.object)
         self._draw_record(record, measured)
         return True
 
@@ -175,6 +183,7 @@ class IdentifyPage(pn.viewable.Viewer):
         if event.new is None:
             return
         filename, content = event.new  # every drop, the same file again included
+        filename = file_label(filename)  # the base name, shortened: never a path on the page
         size = len(content) if content is not None else 0
         if size > MAX_RECORD_BYTES:
             self._not_loaded(filename, f"{filename}: {size / 1e6:.1f} MB is too large")
@@ -184,6 +193,10 @@ class IdentifyPage(pn.viewable.Viewer):
         if loaded is not None:
             self._upload.rejected = not loaded
 
+    def _on_refused(self, event):
+        if event.new is not None:
+            self._not_loaded(file_label(event.new[0]), refused_message(*event.new, UPLOAD_LIMIT_MB))
+
     async def _on_sample(self, event):
         await self._load(SAMPLE.read_bytes(), SAMPLE.name, name=f"sample record ({SAMPLE.name})")
 
@@ -192,7 +205,7 @@ class IdentifyPage(pn.viewable.Viewer):
         dur = n / record.sample_rate_hz
         snr = measured.line_snr
         return "\n".join([
-            f"**{self._record_name}**", "",
+            f"**{plain(self._record_name)}**", "",
             f"speed {record.speed_hz:g} Hz; {record.sample_rate_hz:g} samples/s; {dur:.2f} s "
             f"({dur * record.speed_hz:.0f} revolutions)", "",
             f"planes at nodes {record.nodes[0]} and {record.nodes[1]}; probes at "
@@ -214,10 +227,10 @@ class IdentifyPage(pn.viewable.Viewer):
         except Cancelled:
             return
         except LubevizError as exc:
-            self._show_error(f"**No identification.** {exc}")
+            self._show_error(f"**No identification.** {plain(exc)}")
             return
         except Exception as exc:  # noqa: BLE001
-            self._show_error(f"**No identification**: unexpected problem: {exc}")
+            self._show_error(f"**No identification**: unexpected problem: {plain(exc)}")
             return
         finally:
             self._run.disabled = False
@@ -238,7 +251,7 @@ class IdentifyPage(pn.viewable.Viewer):
         q = r.q / M3S_PER_MLMIN
         qt = r.q_threshold / M3S_PER_MLMIN
         std = None if r.q_std is None else r.q_std / M3S_PER_MLMIN
-        lines = [f"### Identified supply flows of {name}",
+        lines = [f"### Identified supply flows of {plain(name)}",
                  "| bearing | flow | 95 % interval (noise and model) | Q_T | Q / Q_T | verdict |",
                  "|---|---|---|---|---|---|"]
         for k in range(2):
@@ -264,12 +277,12 @@ class IdentifyPage(pn.viewable.Viewer):
                         "intervals are widened by it. The **Diagnose** page traces what is missing.")
         for w in r.warnings:
             if not w.startswith("the model does not explain") and not w.startswith("not unique"):
-                warn.append(w[0].upper() + w[1:] + ".")
+                warn.append(plain(w[0].upper() + w[1:] + "."))
         if not r.unique:
             alt = "; ".join(f"{a[0] / M3S_PER_MLMIN:.0f} / {a[1] / M3S_PER_MLMIN:.0f} ml/min" for a in r.alternatives)
             warn.append(f"**Not unique**: other flows fit as well ({alt}).")
         if not r.converged:
-            warn.append(f"The search did not converge: {r.message}")
+            warn.append(f"The search did not converge: {plain(r.message)}")
         self._warning.object = "\n\n".join(warn)
         self._warning.visible = bool(warn)
         names = list(r.features_names)
@@ -287,12 +300,13 @@ class IdentifyPage(pn.viewable.Viewer):
             "difference / σ": np.round(z, 2)})
         beyond = [n for n, v in zip(names, z) if abs(v) > 3]
         tab = pn.widgets.Tabulator(table, disabled=True, show_index=False, sizing_mode="stretch_width",
-                                   css_classes=["lubeviz-features"])
+                                   formatters=plain_text_formatters(table), css_classes=["lubeviz-features"])
         # a feature the model misses by more than 3 sigma (noise and model) is marked, and named below
         tab.style.apply(lambda row: ["background-color: #f8d7da; color: #58151c" if abs(row["difference / σ"]) > 3
                                      else "" for _ in row], axis=1)
         note = pn.pane.Markdown(
-            f"Beyond 3σ (noise and model): **{', '.join(beyond)}** — the **Diagnose** page looks for the cause."
+            f"Beyond 3σ (noise and model): **{plain(', '.join(beyond))}** — the **Diagnose** page looks for the "
+            "cause."
             if beyond else "Every feature is within 3σ of the model (noise and model uncertainty).",
             sizing_mode="stretch_width", css_classes=["lubeviz-beyond"])
         self._features.objects = [tab, note]

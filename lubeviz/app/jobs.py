@@ -24,6 +24,7 @@ import panel as pn
 import param
 
 from ..progress import Cancelled
+from .text import plain
 
 _WORKERS = max(2, min(8, (os.cpu_count() or 2) * 2))
 EXECUTOR = ThreadPoolExecutor(max_workers=_WORKERS, thread_name_prefix="lubeviz-job")
@@ -75,7 +76,8 @@ class JobPanel(pn.viewable.Viewer):
         self._cancel.on_click(lambda event: self.cancel())
         self._layout = pn.Row(self._bar, self._cancel, self._text, sizing_mode="stretch_width",
                               margin=(0, 5))
-        self.param.watch(lambda e: setattr(self._text, "object", e.new), "status")
+        # labels and statuses may quote a file's name or an error about it: shown as written (text.plain)
+        self.param.watch(lambda e: setattr(self._text, "object", plain(e.new)), "status")
 
     def __panel__(self):
         return self._layout
@@ -91,7 +93,7 @@ class JobPanel(pn.viewable.Viewer):
             self._bar.active = False
         else:
             self._bar.active = True
-        self._text.object = f"{label} …"
+        self._text.object = plain(f"{label} …")
 
     async def run(self, fn, *args, label: str = "working", quiet: bool = False, process: bool = False,
                   **kwargs):
@@ -120,7 +122,7 @@ class JobPanel(pn.viewable.Viewer):
                     break
                 if ticket.cancelled.is_set():
                     if self._ticket is ticket:  # a superseded job never writes over its successor's status
-                        self._text.object = f"{label}: cancelling …"
+                        self._text.object = plain(f"{label}: cancelling …")
                 elif not quiet or time.perf_counter() - ticket.started > 0.3:
                     if not shown:
                         self._bar.visible = self._cancel.visible = shown = True
@@ -142,5 +144,5 @@ class JobPanel(pn.viewable.Viewer):
                 self._ticket = None
                 self.busy = False
                 self._bar.visible = self._cancel.visible = False
-                self._text.object = self.status
+                self._text.object = plain(self.status)
 

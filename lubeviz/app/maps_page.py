@@ -28,6 +28,7 @@ from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .session import SessionState
+from .text import plain
 from .widgets import quantity_slider, selector
 
 hv.extension("bokeh", logo=False)
@@ -142,7 +143,7 @@ class MapsPage(pn.viewable.Viewer):
             model = await self.jobs.run(resources.forward_model, self.machine, self.record_point.speed,
                                         self._nodes(), label="forward model")
         except Exception as exc:  # noqa: BLE001 - shown on the page
-            self._error.object = f"**Maps not computed**: {exc}"
+            self._error.object = f"**Maps not computed**: {plain(exc)}"
             self._error.visible = True
             self._starting = False  # tried again when the page is shown again
             return
@@ -224,7 +225,7 @@ class MapsPage(pn.viewable.Viewer):
         except Cancelled:
             return
         except Exception as exc:  # noqa: BLE001 - shown on the page
-            self._error.object = f"**Maps not computed**: {exc}"
+            self._error.object = f"**Maps not computed**: {plain(exc)}"
             self._error.visible = True
             return
         self._error.visible = False

@@ -3,6 +3,9 @@ bearing frames of the Bearing page, forward models. All deterministic, so sharin
 second session, or a revisit, gets them instantly. Each is computed once (a per-key lock stops two
 sessions computing the same thing at once); the coefficient tables are also cached on disk by
 `identify.cache`. Nothing here is numeric: it calls the headless package and keeps what it returns.
+
+Every store keyed by a speed (which an uploaded record chooses freely) or by a flow keeps only its most
+recently used entries (`Recent`, a few each): records at a hundred speeds cannot fill the server's memory.
 """
 
 from __future__ import annotations
@@ -36,17 +39,53 @@ def import_numerics() -> None:
     from ..identify import cache, chain, forward  # noqa: F401
     from ..rotor import assembly, statics  # noqa: F401
 
+
+class Recent(OrderedDict):
+    """A dict that keeps its `size` most recently used entries (read with `[]` or `get`, or stored),
+    dropping the least recently used one. Thread-safe for single reads and stores."""
+
+    def __init__(self, size: int):
+        super().__init__()
+        self.size = int(size)
+        self._lock = threading.RLock()
+
+    def __getitem__(self, key):
+        with self._lock:
+            value = super().__getitem__(key)
+            self.move_to_end(key)
+            return value
+
+    def get(self, key, default=None):
+        with self._lock:
+            return self[key] if key in self else default
+
+    def __setitem__(self, key, value):
+        with self._lock:
+            super().__setitem__(key, value)
+            self.move_to_end(key)
+            while len(self) > self.size:
+                self.popitem(last=False)
+
+    def setdefault(self, key, default=None):
+        with self._lock:
+            if key not in self:
+                self[key] = default
+            return self[key]
+
+
 _LOCK = threading.Lock()
-_KEY_LOCKS: dict = {}
-_MACHINES: dict = {}
-_TABLES: dict = {}
-_MODELS: OrderedDict = OrderedDict()
-_ROTORS: dict = {}
-_THRESHOLDS: dict = {}
-_FRAMES: dict = {}
-_CHAINS: OrderedDict = OrderedDict()
-_VIEWS: dict = {}  # (machine source, speed, bearing index) -> {(viscosity factor, clearance): table}, all chains
-_MEMO: OrderedDict = OrderedDict()  # other deterministic results (Campbell diagrams, maps), least recent dropped  # (machine source, bearing index, speed) -> {q: SupplyFrame}
+# A lock per key being computed; a lock dropped while held only lets a second session compute the same
+# (deterministic) thing once more.
+_KEY_LOCKS = Recent(256)
+_MACHINES: dict = {}  # by the model file the server was started with: not chosen by a visitor
+_TABLES = Recent(8)  # (machine source, speed) -> both bearings' coefficient tables (also on disk)
+_MODELS = Recent(16)
+_ROTORS: dict = {}  # by machine only
+_THRESHOLDS = Recent(64)  # (machine source, bearing index, speed) -> Q_T (a float)
+_FRAMES = Recent(8)  # (machine source, bearing index, speed) -> {q: SupplyFrame} (q on the page's grid)
+_CHAINS = Recent(16)
+_VIEWS = Recent(16)  # (machine source, speed, bearing index) -> {(viscosity factor, clearance): table}, all chains
+_MEMO = Recent(16)  # other deterministic results (Campbell diagrams, maps), least recent dropped
 
 FRAME_STEP_MLMIN = 10.0  # the Bearing page's supply slider moves on this grid, so frames can be reused
 
@@ -77,22 +116,22 @@ def tables(m: Machine, speed_hz: float, progress: ProgressFn = silent):
     """Both bearings' coefficient tables at `speed_hz` (disk cache; built in parallel when missing)."""
     key = (m.source, round(float(speed_hz), 9))
     with _key_lock(("tables",) + key):
-        if key not in _TABLES:
+        found = _TABLES.get(key)  # kept in a local: another thread may drop the entry meanwhile
+        if found is None:
             from ..identify.cache import machine_tables
-            _TABLES[key] = machine_tables(m, 2.0 * math.pi * speed_hz, progress=progress)
-        return _TABLES[key]
+            found = _TABLES[key] = machine_tables(m, 2.0 * math.pi * speed_hz, progress=progress)
+        return found
 
 
 def forward_model(m: Machine, speed_hz: float, nodes, progress: ProgressFn = silent) -> ForwardModel:
     key = (m.source, round(float(speed_hz), 9), tuple(int(n) for n in nodes))
     t = tables(m, speed_hz, progress)
     with _key_lock(("model",) + key):
-        if key not in _MODELS:
+        found = _MODELS.get(key)
+        if found is None:
             from ..identify.forward import ForwardModel
-            _MODELS[key] = ForwardModel(m, t, key[2], rotor=rotor(m))
-            while len(_MODELS) > 16:
-                _MODELS.popitem(last=False)
-        return _MODELS[key]
+            found = _MODELS[key] = ForwardModel(m, t, key[2], rotor=rotor(m))
+        return found
 
 
 def chain(m: Machine, speed_hz: float, nodes, probe_angles_deg=None,
@@ -108,15 +147,13 @@ def chain(m: Machine, speed_hz: float, nodes, probe_angles_deg=None,
     key = (m.source, round(float(speed_hz), 9), tuple(int(n) for n in nodes), angles)
     t = tables(m, speed_hz, progress)
     with _key_lock(("chain",) + key):
-        if key not in _CHAINS:
-            c = ForwardChain(m, speed_hz, key[2], probe_angles_deg=angles, tables=t, rotor=rotor(m))
-            with _LOCK:
-                for k, src in enumerate(c.sources):
-                    src.share_views(_VIEWS.setdefault((m.source, key[1], k), {}))
-            _CHAINS[key] = c
-            while len(_CHAINS) > 32:
-                _CHAINS.popitem(last=False)
-        return _CHAINS[key]
+        found = _CHAINS.get(key)
+        if found is None:
+            found = ForwardChain(m, speed_hz, key[2], probe_angles_deg=angles, tables=t, rotor=rotor(m))
+            for k, src in enumerate(found.sources):
+                src.share_views(_VIEWS.setdefault((m.source, key[1], k), {}))
+            _CHAINS[key] = found
+        return found
 
 
 def bearing_changes(effects, k: int, declared_clearance: float) -> tuple[float, float]:
@@ -148,13 +185,14 @@ def flooded_flow(m: Machine, index: int, speed_hz: float, progress: ProgressFn =
     """Q_T (m^3/s) of bearing `index` at `speed_hz` under its static load."""
     key = (m.source, index, round(float(speed_hz), 9))
     with _key_lock(("qt",) + key):
-        if key not in _THRESHOLDS:
+        q = _THRESHOLDS.get(key)
+        if q is None:
             progress(0, 1, "flooded threshold Q_T")
             from ..film.equilibrium import flooded_threshold
             q, _ = flooded_threshold(m.bearings[index], 2.0 * math.pi * speed_hz, bearing_load(m, index))
             _THRESHOLDS[key] = q
             progress(1, 1, "flooded threshold Q_T")
-        return _THRESHOLDS[key]
+        return q
 
 
 def frame_grid(q_threshold: float, span=(0.25, 2.0)) -> np.ndarray:
@@ -172,8 +210,7 @@ def snap(q: float) -> float:
 
 def cached_frames(m: Machine, index: int, speed_hz: float) -> dict[float, SupplyFrame]:
     """The frames computed so far for this bearing and speed (a live dict: do not modify)."""
-    with _LOCK:
-        return _FRAMES.setdefault((m.source, index, round(float(speed_hz), 9)), {})
+    return _FRAMES.setdefault((m.source, index, round(float(speed_hz), 9)), {})
 
 
 def frames(m: Machine, index: int, speed_hz: float, flows, progress: ProgressFn = silent) -> dict[float, SupplyFrame]:
@@ -190,7 +227,7 @@ def frames(m: Machine, index: int, speed_hz: float, flows, progress: ProgressFn 
     return {q: store[q] for q in wanted}
 
 
-_FIRST_FILMS: dict = {}
+_FIRST_FILMS = Recent(16)
 
 
 def first_films(m: Machine, k: int, speed_hz: float, q: float) -> Future:
@@ -225,18 +262,12 @@ def _first_films(m: Machine, k: int, speed_hz: float, q: float) -> None:
 
 def memo_get(key):
     """A result stored by `memo_put` under `key` (a tuple of every input that affects it), or None."""
-    with _LOCK:
-        if key in _MEMO:
-            _MEMO.move_to_end(key)
-            return _MEMO[key]
-    return None
+    return _MEMO.get(key)
 
 
-def memo_put(key, value, *, keep: int = 64) -> None:
-    with _LOCK:
-        _MEMO[key] = value
-        while len(_MEMO) > keep:
-            _MEMO.popitem(last=False)
+def memo_put(key, value) -> None:
+    """Keep `value` under `key` (the _MEMO.size most recently used results are kept)."""
+    _MEMO[key] = value
 
 
 # --- work for the process pool (module-level, picklable; each worker loads the machine once) -----------

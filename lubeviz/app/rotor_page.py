@@ -49,6 +49,7 @@ from ..signals.synthesize import steady_signals
 from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
+from .text import plain
 from .widgets import quantity_slider, show_effect
 
 hv.extension("bokeh", logo=False)
@@ -317,7 +318,7 @@ class RotorPage(pn.viewable.Viewer):
             except Cancelled:
                 return
             except Exception as exc:  # noqa: BLE001 - shown beside the diagram (its job status says it too)
-                self._campbell_error.object = f"**Campbell diagram not computed**: {exc}"
+                self._campbell_error.object = f"**Campbell diagram not computed**: {plain(exc)}"
                 self._campbell_error.visible = True
                 return
             finally:
@@ -422,11 +423,11 @@ class RotorPage(pn.viewable.Viewer):
             return
         except ConvergenceError as exc:  # e.g. the orbit reaches the wall: a physical answer, not a crash
             self._large_orbit_error.object = (f"**No periodic orbit near the linear one** at unbalance "
-                                              f"×{scale:g}: {exc}. Try a smaller unbalance scale.")
+                                              f"×{scale:g}: {plain(exc)}. Try a smaller unbalance scale.")
             self._large_orbit_error.visible = True
             return
         except Exception as exc:  # noqa: BLE001 - shown beside the button (its job status says it too)
-            self._large_orbit_error.object = f"**Large orbit not computed**: {exc}"
+            self._large_orbit_error.object = f"**Large orbit not computed**: {plain(exc)}"
             self._large_orbit_error.visible = True
             return
         result, stability, orbit_stab = result
@@ -476,7 +477,7 @@ class RotorPage(pn.viewable.Viewer):
             self._large_orbit_drawn = drawn
 
     def _fail(self, exc: Exception):
-        self._error.object = f"**Could not compute the response**: {exc}"
+        self._error.object = f"**Could not compute the response**: {plain(exc)}"
         self._error.visible = True
 
     # --- plots -------------------------------------------------------------------------------------------

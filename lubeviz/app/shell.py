@@ -25,6 +25,7 @@ from . import resources
 from .glossary import GLOSSARY
 from .jobs import JobPanel
 from .session import SessionState
+from .text import plain
 
 ASSETS = Path(__file__).resolve().parents[2] / "assets"
 # The start page's pictures (assets/, drawn for it): file, kind (its CSS class), caption.
@@ -257,7 +258,7 @@ def build() -> pn.template.FastListTemplate:
             await asyncio.to_thread(importlib.import_module, PAGE_MODULES[name])
             build_page(name, index)
         except Exception as exc:  # noqa: BLE001 - shown in the tab; the other pages keep serving
-            tabs[index] = (name, pn.pane.Alert(f"The {name} page could not be built: {exc}", alert_type="danger",
+            tabs[index] = (name, pn.pane.Alert(f"The {name} page could not be built: {plain(exc)}", alert_type="danger",
                                                sizing_mode="stretch_width"))
 
     def show(index: int):

@@ -7,15 +7,20 @@ at the edge. Bounds the declaration leaves open (a flow has no upper bound) are 
 in SI, where it knows a sensible range (e.g. 25-200 % of Q_T).
 
 `RecordDropper` is the record upload of the Identify and Diagnose pages: one file at a time, every drop
-reported (the same file again too), a file the page rejects shown as failed.
+reported (the same file again too), a file the page rejects shown as failed, a file beyond its size limit
+refused by the server as its chunks arrive (the browser's own limit can be bypassed by a scripted client).
 """
 
 from __future__ import annotations
+
+import re
+from pathlib import Path
 
 import panel as pn
 import param
 
 from ..model.quantity import Quantity
+from .text import plain
 
 
 def show_effect(name: str, machine, story, widgets):
@@ -27,7 +32,7 @@ def show_effect(name: str, machine, story, widgets):
     try:
         effect = demo_effect(name, machine)
     except LubevizError as exc:  # e.g. an oil temperature on a machine that declares no oil
-        story.object = f"**{name}** is not available for this machine: {exc}"
+        story.object = f"**{plain(name)}** is not available for this machine: {plain(exc)}"
         widgets.objects = []
         return None
     story.object = f"**{effect.effect_name}**: {effect.describe()}"
@@ -55,10 +60,46 @@ def demo_effect(name: str, machine):
 
 
 def not_loaded_message(filename: str, problem: str, shown: str | None) -> str:
-    """What a page says when `filename` was rejected: why, and which record (named) it still shows."""
-    still = (f"The page still shows the previous record, **{shown}**." if shown is not None
+    """What a page says (Markdown) when `filename` was rejected: why, and which record (named) it still
+    shows. The three texts are shown as written (`text.plain`): they come from the user's file."""
+    still = (f"The page still shows the previous record, **{plain(shown)}**." if shown is not None
              else "No record is loaded.")
-    return f"**{filename} was not loaded.** {problem}\n\n{still}"
+    return f"**{plain(filename)} was not loaded.** {plain(problem)}\n\n{still}"
+
+
+def refused_message(name: str, received: int, limit_mb: float) -> str:
+    """Why the server refused an upload (plain text; `not_loaded_message` shows it)."""
+    return (f"The server stopped receiving it at {received / 1e6:.1f} MB: files up to {limit_mb:g} MB are "
+            "taken (a larger record can be read from disk with the command line).")
+
+
+def _model_file(name: str) -> str:
+    """'paper_machine.toml' and 'paper_machine' alike: the model file's name without '.toml'."""
+    name = str(name).strip()
+    return name[:-5] if name.lower().endswith(".toml") else name
+
+
+def record_warnings(record, machine) -> list[str]:
+    """What a page warns of after loading `record` (plain text): what the reader ignored in its file
+    (`Record.warnings`: unknown keys, ignored columns, lines beyond 1X) and, when the record's `machine:`
+    names another model file than the page's `machine`, that the page keeps its own machine."""
+    out = list(record.warnings)
+    named = getattr(record, "machine", None)
+    if named:
+        ours = Path(machine.source).name if machine.source else machine.name
+        if _model_file(named) != _model_file(ours):
+            out.append(f"the record names the machine {named!r}, but this page uses {ours} (the machine the "
+                       "dashboard was started with): the record is read and identified with the page's machine")
+    return out
+
+
+def record_warnings_markdown(record, machine) -> str:
+    """`record_warnings` as the Markdown of a page's warning box ('' when there is none), each shown as
+    written (`text.plain`)."""
+    lines = record_warnings(record, machine)
+    if not lines:
+        return ""
+    return "**Read with warnings:**\n\n" + "\n".join(f"- {plain(w)}" for w in lines)
 
 
 def _label(p: param.Parameter) -> str:
@@ -191,42 +232,105 @@ _REJECTED_CSS = f"""
 """
 
 
+# An upload crosses the websocket in chunks of UPLOAD_CHUNK_BYTES; the server takes no websocket message
+# larger than WEBSOCKET_MAX_MESSAGE_BYTES (`panel serve app.py --websocket-max-message-size 8388608`, the
+# README's command and the tests' server: bokeh's default is 20 MiB), room for a chunk even base64-encoded.
+UPLOAD_CHUNK_BYTES = 2_000_000
+WEBSOCKET_MAX_MESSAGE_BYTES = 8 * 1024 * 1024
+
+_SIZE = re.compile(r"^\s*([0-9.]+)\s*([KMG]?B)\s*$", re.IGNORECASE)
+_SIZE_UNITS = {"B": 1, "KB": 1_000, "MB": 1_000_000, "GB": 1_000_000_000}  # FilePond's units (base 1000)
+
+
+def size_bytes(text: str) -> int:
+    """'50MB', '750KB' (FileDropper's `max_file_size`) in bytes."""
+    match = _SIZE.match(str(text))
+    if match is None:
+        raise ValueError(f"file size {text!r}: expected a number and KB, MB or GB, e.g. '50MB'")
+    return int(float(match.group(1)) * _SIZE_UNITS[match.group(2).upper()])
+
+
 class RecordDropper(pn.widgets.FileDropper):
     """A file dropper for one record at a time that reports every upload, the same file again included.
 
     Watch `upload`: it is set to (name, content) each time a file has arrived, whether or not a file of
     that name and content came before in the session. (FileDropper's own `value` cannot tell: it keeps the
     files in a dict updated in place, so a second drop of the same file leaves it as it was, and a file
-    removed from the dropper triggers it too.) One file at a time: a new drop replaces the one shown.
+    removed from the dropper triggers it too.) One file at a time: a new drop replaces the one shown, and
+    the dropper keeps no other file nor the chunks of an earlier unfinished upload.
     The page sets `rejected` when it could not load the file dropped last; the dropper then shows that
     file as failed instead of FilePond's green "Upload complete". A new drop clears it.
+
+    The size limit (`limit_bytes`, default `max_file_size`) holds on the server too: the bytes of an upload
+    are counted as its chunks arrive, and the chunk that would pass the limit is not kept; the chunks held
+    so far are dropped, the rest of that upload is ignored, `refused` is set to (name, bytes received) and
+    the file shown as failed. A malformed chunk message (no name, a chunk number out of range, data that
+    are not bytes) is refused the same way.
     """
 
     upload = param.Parameter(default=None, doc="(name, content) of the file dropped last; set on every upload")
     rejected = param.Boolean(default=False, doc="The page could not load the file dropped last")
+    refused = param.Parameter(default=None, doc="(name, bytes received) of the upload the server refused "
+                                                "last (beyond `limit_bytes`, or malformed); set on every refusal")
+    limit_bytes = param.Integer(default=None, bounds=(1, None), allow_None=True,
+                                doc="The largest upload the server keeps (bytes); None: `max_file_size`")
 
-    _rename = {"upload": None, "rejected": None}
+    _rename = {"upload": None, "rejected": None, "refused": None, "limit_bytes": None}
 
     def __init__(self, **params):
         # Single file: a new drop reverts the last file (a delete event) and uploads itself; the dropper
         # shows just the file the page last took or refused.
         params.setdefault("multiple", False)
+        params.setdefault("chunk_size", UPLOAD_CHUNK_BYTES)
         params["stylesheets"] = [*params.get("stylesheets", []), _REJECTED_CSS]
         super().__init__(**params)
+        if self.limit_bytes is None and self.max_file_size:
+            self.limit_bytes = size_bytes(self.max_file_size)
+        self._received: dict[str, int] = {}  # bytes received so far of the upload under way, by name
         self.param.watch(self._show_rejected, "rejected")
 
     def _process_event(self, event):
-        data = event.data
-        if event.event_name == "upload_event" and data.get("chunk") == 1:
-            self.rejected = False  # a new file is arriving: the last one's verdict no longer applies
+        data = event.data if isinstance(event.data, dict) else {}
+        if event.event_name != "upload_event":
+            if isinstance(data.get("name"), str):
+                super()._process_event(event)  # a file removed from the dropper
+            return
+        name, chunk, total, payload = (data.get(k) for k in ("name", "chunk", "total_chunks", "data"))
+        if chunk == 1:  # a new file is arriving: forget any other, and the last one's verdict
+            self._file_buffer.clear()
+            self._received.clear()
+            self.value.clear()
+            self.mime_type.clear()
+            self.rejected = False
+        elif name not in self._file_buffer:
+            return  # the rest of a refused upload (or of one never started): not kept
+        well_formed = (isinstance(name, str) and isinstance(chunk, int) and isinstance(total, int)
+                       and 1 <= chunk <= total and isinstance(payload, (bytes, bytearray, memoryview))
+                       and isinstance(data.get("type", ""), str))
+        if not well_formed:
+            self._refuse(name, self._received.get(name, 0))
+            return
+        size = self._received.get(name, 0) + len(payload)
+        if self.limit_bytes is not None and size > self.limit_bytes:
+            self._refuse(name, size)
+            return
+        self._received[name] = size
+        data.setdefault("type", "")
         super()._process_event(event)
-        name = data.get("name")
-        if event.event_name == "upload_event" and data.get("chunk") == data.get("total_chunks") \
-                and name in self.value:
+        if chunk == total and name in self.value:
+            self._received.clear()
             # Set anew even when equal to the last upload: param calls watchers only on a change.
             with param.discard_events(self):
                 self.upload = None
             self.upload = (name, self.value[name])
+
+    def _refuse(self, name, size: int) -> None:
+        self._file_buffer.clear()
+        self._received.clear()
+        with param.discard_events(self):
+            self.refused = None
+        self.refused = (name if isinstance(name, str) else "upload", int(size))
+        self.rejected = True
 
     def _show_rejected(self, event):
         others = [c for c in self.css_classes if c != REJECTED_CLASS]

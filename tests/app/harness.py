@@ -72,8 +72,11 @@ def serve_app(script: Path = APP_SCRIPT, log_path: Path | None = None,
     script = Path(script).resolve()
     port = free_port()
     base_url = f"http://127.0.0.1:{port}"
+    from lubeviz.app.widgets import WEBSOCKET_MAX_MESSAGE_BYTES
+
     cmd = [sys.executable, "-m", "panel", "serve", script.name, "--address", "127.0.0.1", "--port", str(port),
-           "--allow-websocket-origin", f"127.0.0.1:{port}", "--liveness", "--warm", *extra_args]
+           "--allow-websocket-origin", f"127.0.0.1:{port}", "--liveness", "--warm",
+           "--websocket-max-message-size", str(WEBSOCKET_MAX_MESSAGE_BYTES), *extra_args]
     keep_log = log_path is not None
     if keep_log:
         log_path.parent.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,65 @@
+"""Text from a user's file on the pages: shown as typed, never as markup (issue 34, item 1).
+
+The pages render Markdown panes (`pn.pane.Markdown`, `pn.pane.Alert`) whose Markdown allows raw HTML, so
+a record's metadata value, a column or file name, a machine name or an error message quoting one of them
+could carry `<img src=x onerror=...>` or a Markdown link into the browser. Every such text passes through
+`plain` where the page puts it into its markup: each character that HTML or Markdown could read as syntax
+becomes a numeric character reference, which Markdown shows as that very character (CommonMark: entity
+references are literal text, never structure). Tables of such text use `plain_text_formatters`.
+
+`file_label` is what a page calls an uploaded file: its base name only (never a server path), printable,
+at most FILE_LABEL_CHARS characters. `without_upload_dirs` takes the server's temporary upload folder out
+of a message.
+"""
+
+from __future__ import annotations
+
+import re
+import tempfile
+from pathlib import PurePosixPath, PureWindowsPath
+
+FILE_LABEL_CHARS = 80
+_FILE_LABEL_BYTES = 200  # under the 255-byte name limit of common file systems, whatever the characters
+# Everything HTML or Markdown (with its tables, emphasis, links, code, math, footnotes, emoji) reads as syntax.
+_SYNTAX = "&<>\"'`*_[]()!#|\\$~{}:=+-^@"
+_REFERENCES = {ord(c): f"&#{ord(c)};" for c in _SYNTAX}
+_LINE_BREAKS = re.compile(r"[\r\n\t\f\v\u2028\u2029\x85]+")
+
+
+def plain(value) -> str:
+    """`value` as text for a Markdown pane: shown exactly as written (line breaks as spaces), nothing in it
+    read as HTML or Markdown."""
+    text = _LINE_BREAKS.sub(" ", str(value))
+    text = "".join(c if c.isprintable() else "\N{REPLACEMENT CHARACTER}" for c in text)
+    return text.translate(_REFERENCES)
+
+
+def file_label(filename) -> str:
+    """An uploaded file's name as the page shows it and passes it to the reader: the base name (a browser
+    may send a path), unprintable characters replaced, shortened in the middle to FILE_LABEL_CHARS
+    characters (and _FILE_LABEL_BYTES UTF-8 bytes) keeping its suffix. Not escaped: give it to `plain`."""
+    text = str(filename or "")
+    name = PureWindowsPath(PurePosixPath(text).name).name.strip() or "upload"
+    name = "".join(c if c.isprintable() else "?" for c in name)
+    if len(name) <= FILE_LABEL_CHARS and len(name.encode("utf-8")) <= _FILE_LABEL_BYTES:
+        return name
+    suffix = PurePosixPath(name).suffix
+    tail = suffix if len(suffix) <= 12 else ""
+    head = name[:len(name) - len(tail)]
+    keep = FILE_LABEL_CHARS - 1 - len(tail)
+    head = head[:keep]
+    while len((head + "…" + tail).encode("utf-8")) > _FILE_LABEL_BYTES:
+        head = head[:-1]
+    return head + "…" + tail
+
+
+def without_upload_dirs(message: str) -> str:
+    """`message` without the server's temporary upload folders (`<tmp>/lubeviz-upload-XXXX/`), leaving the
+    file's own name."""
+    tmp = re.escape(tempfile.gettempdir().rstrip("/\\"))
+    return re.sub(tmp + r"[/\\]lubeviz-upload-[^/\\\s'\"]*[/\\]", "", str(message))
+
+
+def plain_text_formatters(frame) -> dict:
+    """Tabulator `formatters` showing every text column of `frame` as plain text (HTML shown, not run)."""
+    return {str(c): {"type": "plaintext"} for c in frame.columns if frame[c].dtype.kind not in "biufcmM"}
