@@ -480,9 +480,9 @@ def read_record_bytes(content, filename: str, *, default_nodes=DEFAULT_NODES) ->
     if len(data) > MAX_RECORD_BYTES:
         raise _fail(name, "file", f"{len(data) / 1e6:.1f} MB is larger than the limit",
                     f"at most {MAX_RECORD_BYTES / 1e6:g} MB (lubeviz.signals.records.MAX_RECORD_BYTES)")
-    _suffix(Path(name))
+    suffix = _suffix(Path(name))
     with tempfile.TemporaryDirectory(prefix="lubeviz-upload-") as tmp:
-        path = Path(tmp) / name
+        path = Path(tmp) / ("upload" + suffix)  # the user's name may be longer than a file system allows
         path.write_bytes(data)
         try:
             rec = read_record(path, default_nodes=default_nodes)

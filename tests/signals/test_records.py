@@ -615,3 +615,18 @@ def test_an_npz_that_unpacks_beyond_the_limit_is_refused_before_unpacking(tmp_pa
 def test_a_temperature_key_points_to_the_oil_temperature(tmp_path):
     rec = read_record(write_csv(tmp_path / "r.csv", {**META, "temperature_c": "41"}))
     assert rec.oil_temperature_c is None and "did you mean 'oil_temperature_c'?" in rec.warnings[0]
+
+
+def test_an_upload_named_longer_than_a_file_system_allows_is_read_under_its_name(tmp_path):
+    """The bytes pass through a temporary file of the reader's own name; messages name the user's file."""
+    from lubeviz.signals.records import read_record_bytes, record_from_arrays, write_record
+
+    t = np.arange(2000) / 2000.0
+    rec = record_from_arrays(*(1e-5 * np.sin(2 * np.pi * 75.0 * t + p) for p in (0, 1, 2, 3)), speed_hz=75.0,
+                             sample_rate_hz=2000.0)
+    data = write_record(rec, tmp_path / "r.csv").read_bytes()
+    name = "x" * 400 + ".csv"  # beyond the 255-byte limit of a file name
+    assert read_record_bytes(data, name).source == name
+    with pytest.raises(DataFormatError) as err:
+        read_record_bytes(data.replace(b"units: m", b"units: furlong"), name)
+    assert str(err.value).startswith(name + ": units") and "lubeviz-upload" not in str(err.value)
