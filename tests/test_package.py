@@ -1,5 +1,6 @@
 """Package-level contracts: the numerics import without the UI stack; the app page builds."""
 
+import html
 import subprocess
 import sys
 import threading
@@ -94,4 +95,5 @@ def test_a_page_whose_module_fails_to_import_says_so_in_its_tab(monkeypatch):
         raise ImportError(f"no module named {name!r}")
 
     _, (_, settled) = _open_first_time(monkeypatch, broken)
-    assert "The Diagnose page could not be built" in settled.object and "diagnose_page" in settled.object
+    shown = html.unescape(settled.object)  # the error's text is shown as text (character references)
+    assert "The Diagnose page could not be built" in shown and "diagnose_page" in shown
