@@ -15,6 +15,7 @@ from .film.solver import solve, solve_sor
 from .film.sweep import sweep_supply
 from .model.machine import load_machine
 from .progress import ProgressFn, silent
+from .units import MLMIN_PER_M3S
 
 PAPER_LOAD = np.array([0.0, -3272.8])
 
@@ -39,7 +40,7 @@ def bench_film(machine_file=None, repeat: int = 5, progress: ProgressFn = silent
     problem = setup_problem(b, omega, eq.position, feed)
     results = {"mesh": f"{b.n_circumferential}x{b.n_axial}", "groove_refinement": b.groove_refinement,
                "columns_solved": problem.mesh.n_circ, "bearing": b.name,
-               "speed_hz": machine.operating_speed, "q_mlmin": 0.8 * q_t * 6e7, "repeat": repeat}
+               "speed_hz": machine.operating_speed, "q_mlmin": 0.8 * q_t * MLMIN_PER_M3S, "repeat": repeat}
     progress(1, 7, "film solve, cold")
     results["solve_cold_s"], sol = _median(lambda: solve(problem), repeat)
     results["solve_cold_linear_solves"] = sol.iterations
@@ -79,8 +80,8 @@ def bench_mesh(machine_file=None) -> dict:
     from .film.mesh_study import mesh_study
 
     machine = load_machine(machine_file)
-    feeds = {"starved 400": Feed.flow(400 / 6e7), "546": Feed.flow(546 / 6e7),
-             "over 700": Feed.flow(700 / 6e7), "flooded": Feed.flooded()}
+    feeds = {"starved 400": Feed.flow(400 / MLMIN_PER_M3S), "546": Feed.flow(546 / MLMIN_PER_M3S),
+             "over 700": Feed.flow(700 / MLMIN_PER_M3S), "flooded": Feed.flooded()}
     return {"rows": mesh_study(machine.bearings[0], 2.0 * math.pi * machine.operating_speed, PAPER_LOAD, feeds)}
 
 
@@ -98,7 +99,8 @@ def bench_smoothness(machine_file=None, secant_amplitude: float | None = None,
 
     machine = load_machine(machine_file)
     return supply_roughness(machine.bearings[0], 2.0 * math.pi * machine.operating_speed, PAPER_LOAD,
-                            273 / 6e7, 819 / 6e7, 1 / 6e7, progress=progress, secant_amplitude=secant_amplitude)
+                            273 / MLMIN_PER_M3S, 819 / MLMIN_PER_M3S, 1 / MLMIN_PER_M3S, progress=progress,
+                            secant_amplitude=secant_amplitude)
 
 
 def tuned_relaxation(problem, candidates=(1.5, 1.7, 1.8, 1.85, 1.9, 1.95, 1.97)) -> float:

@@ -24,6 +24,7 @@ from .rotor import (
     unbalance_response,
 )
 from .rotor.stability import Supply, machine_stability
+from .units import MLMIN_PER_M3S
 
 # Bearing 1 of the paper's machine at 75 Hz, 546 ml/min (~Q_T), 100x100 mesh (BENCHMARKS "Mesh study"):
 # K in N/m, C in N s/m, SPEC §1 sign. Representative values; the timings do not depend on them.
@@ -126,7 +127,7 @@ def bench_stability(machine_file=None, fractions=(0.5, 0.75, 1.0, 1.25, 1.5), fi
     op = machine.operating_speed
     supplies = [(f"{f:g} Q_T", Supply.threshold_fraction(f)) for f in fractions]
     if fixed_flow_mlmin is not None:
-        supplies.append((f"{fixed_flow_mlmin:g} ml/min", Supply.flow(fixed_flow_mlmin / 6e7)))
+        supplies.append((f"{fixed_flow_mlmin:g} ml/min", Supply.flow(fixed_flow_mlmin / MLMIN_PER_M3S)))
     cases = []
     for k, (name, supply) in enumerate(supplies):
         res = machine_stability(machine, 2.0 * math.pi * speeds_hz, supply)

@@ -7,6 +7,7 @@ and nowhere else.
 from __future__ import annotations
 
 M3S_PER_MLMIN = 1.0e-6 / 60.0  # 1 ml/min = 1e-6 m^3 / 60 s
+MLMIN_PER_M3S = 6.0e7  # its inverse, exact: a flow in m^3/s times this is in ml/min
 
 LENGTH_TO_M = {"m": 1.0, "mm": 1.0e-3, "um": 1.0e-6, "mils": 25.4e-6}
 

@@ -28,7 +28,7 @@ from ..effects import EFFECTS
 from ..errors import LubevizError
 from ..identify.chain import simulate
 from ..identify.measured import measure
-from ..identify.newton import lubrication_verdict
+from ..identify.result import lubrication_verdict
 from ..model.machine import Machine
 from ..model.operating import OperatingPoint
 from ..progress import Cancelled

@@ -21,6 +21,7 @@ import panel as pn
 from ..errors import LubevizError
 from ..identify.batch import (check_model_speed, feature_unit, identify_record, model_speed, result_csv,
                               result_dict)
+from ..identify.fit import Z95
 from ..identify.measured import measure
 from ..identify.settings import IdentificationSettings
 from ..model.machine import Machine
@@ -61,7 +62,7 @@ def verdict_text(r, k: int) -> str:
     """Bearing k's verdict as far as the record supports it: the verdict at both ends of the flow's 95 %
     interval (an open upper end counts as over-supplied); 'starved or normal' when the interval spans the
     band around Q_T; marked uncertain when the model does not explain the record."""
-    from ..identify.newton import verdict_over_interval
+    from ..identify.result import verdict_over_interval
 
     v = r.verdict(k)
     ends = verdict_over_interval(r.q[k], None if r.intervals is None else r.intervals[k], r.q_threshold[k])
@@ -260,7 +261,7 @@ class IdentifyPage(pn.viewable.Viewer):
                 hi = "open (flooded: more oil changes nothing measurable)" if iv[1] is None else f"{iv[1] / M3S_PER_MLMIN:.0f}"
                 interval = f"{iv[0] / M3S_PER_MLMIN:.0f} – {hi} ml/min"
             else:
-                interval = "—" if std is None else f"± {1.96 * std[k]:.1f} ml/min"
+                interval = "—" if std is None else f"± {Z95 * std[k]:.1f} ml/min"
             lines.append(f"| {k + 1} (node {self.machine.bearings[k].node}) | **Q{k + 1} = {q[k]:.1f} ml/min** | "
                          f"{interval} | {qt[k]:.0f} ml/min | {q[k] / qt[k]:.2f} | {verdict_text(r, k)} |")
         lines.append("")

@@ -98,6 +98,11 @@ WRAPPING = dict(sizing_mode="stretch_width", min_width=420, styles={"flex": "1 1
 HALF = dict(min_width=340, styles={"flex": "1 1 480px"})  # two in a row when each has 480 px, else one
 
 
+def effect_choices() -> list[str]:
+    """'none' and every registered effect the linear response carries (large_orbit has its own section)."""
+    return ["none", *(n for n, c in EFFECTS.items() if c.stage != "response")]
+
+
 class RotorPage(pn.viewable.Viewer):
     """The Rotor page of one session."""
 
@@ -105,8 +110,7 @@ class RotorPage(pn.viewable.Viewer):
     snr_db = param.Number(12.0, bounds=(-5.0, 60.0), doc="Signal-to-noise ratio of the simulated probes (dB)")
     revolutions = param.Integer(5, bounds=(1, 50), doc="Revolutions shown in the time signals")
     # large_orbit replaces the linear response (a harmonic balance, tens of seconds): its own section below
-    effect_name = param.Selector(default="none", objects=["none", *(n for n, c in EFFECTS.items()
-                                                                    if c.stage != "response")],
+    effect_name = param.Selector(default="none", objects=["none"],
                                  doc="An effect of a real machine, switched on to see what it does")
     unbalance_scale = param.Number(1.0, bounds=(0.25, 2.0), step=0.05,
                                    doc="Unbalance of the large orbit, relative to the machine's (-)")
@@ -118,6 +122,7 @@ class RotorPage(pn.viewable.Viewer):
         self.machine = machine
         self.op = operating
         self.param.node.bounds = (1, machine.n_nodes)
+        self.param.effect_name.objects = effect_choices()  # the library as registered now
         self.jobs = JobPanel()
         self.campbell_jobs = JobPanel()
         self._tables = None

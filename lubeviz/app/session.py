@@ -11,5 +11,5 @@ class SessionState(param.Parameterized):
 
     record = param.Parameter(None, doc="The uploaded record (signals.records.Record)")
     measured = param.Parameter(None, doc="Its measured features (identify.measured.MeasuredFeatures)")
-    identification = param.Parameter(None, doc="The last identification (identify.newton.Identification)")
+    identification = param.Parameter(None, doc="The last identification (identify.result.Identification)")
     settings = param.Parameter(None, doc="The IdentificationSettings it was run with")

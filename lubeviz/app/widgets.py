@@ -43,20 +43,11 @@ def show_effect(name: str, machine, story, widgets):
 
 def demo_effect(name: str, machine):
     """Effect `name` of the library bound to `machine`, at a strength a student sees (the Rotor page and the
-    Diagnose page's sample): oil 15 °C hotter, viscosity x0.7, a bearing worn by 25 %; others at their
-    defaults. Raises LubevizError when the machine lacks what the effect needs (an oil temperature
-    without an [oil])."""
+    Diagnose page's sample; `Effect.demo`). Raises LubevizError when the machine lacks what the effect needs
+    (an oil temperature without an [oil])."""
     from ..effects import EFFECTS
 
-    effect = EFFECTS[name]().bind(machine)
-    if name == "oil_temperature":
-        effect.temperature_c = round(machine.oil.temperature_c + 15.0, 1)
-    if name == "viscosity":
-        effect.factor = 0.7
-    if getattr(effect, "clearance_um", 0) is None:
-        k = 0 if effect.bearing in (1, "both") else 1
-        effect.clearance_um = round(1.25 * machine.bearings[k].clearance * 1e6, 1)
-    return effect
+    return EFFECTS[name]().demo(machine)
 
 
 def not_loaded_message(filename: str, problem: str, shown: str | None) -> str:

@@ -13,7 +13,7 @@ from ..errors import InputError
 from ..model.machine import load_machine
 from ..rotor import machine_unbalance, modal_analysis, rotor_from_machine, unbalance_response
 from ..rotor.film_bearings import film_bearings
-from ..units import mlmin_to_m3s
+from ..units import MLMIN_PER_M3S, mlmin_to_m3s
 from ..effects import parse_effects
 from ..progress import StderrBar
 from .common import add_common, finite_float
@@ -129,7 +129,7 @@ def run_response(args) -> dict:
     else:
         fb = film_bearings(machine, _flows(args), omega)
         coeffs = fb.coefficients
-        bearings_out = [{"q_mlmin": q * 6e7, "eccentricity_ratio": e.eccentricity_ratio,
+        bearings_out = [{"q_mlmin": q * MLMIN_PER_M3S, "eccentricity_ratio": e.eccentricity_ratio,
                          "attitude_deg": math.degrees(e.attitude_angle), "position_m": e.position,
                          "K": e.coefficients.K, "C": e.coefficients.C}
                         for q, e in zip(fb.flows, fb.equilibria)]

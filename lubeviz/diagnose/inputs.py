@@ -26,11 +26,6 @@ class DiagnosisInputs:
     notes: tuple[str, ...]  # warnings to show
     findings: tuple = ()  # identify.plausibility.Finding: what is impossible or suspicious in the records
 
-    def one_or_many(self):
-        """(chain, measured) of a single record, or the lists of a set: what `diagnose` takes."""
-        if len(self.chains) == 1:
-            return self.chains[0], self.measured[0]
-        return self.chains, self.measured
 
 
 def _plain_chain(machine, speed_hz, nodes, probe_angles_deg, progress):

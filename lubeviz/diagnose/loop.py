@@ -26,8 +26,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import LubevizError
-from ..identify.fit import Fit, fit
+from ..identify.fit import Z95, Fit, fit
 from ..progress import ProgressFn, silent
+from ..units import MLMIN_PER_M3S
 
 AMBIGUITY_AIC = 4.0
 REFITS = 3  # passing candidates refined in turn until one still explains the record
@@ -136,7 +137,8 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
     broken = [f for f in findings if f.fault]
     if broken:  # the orbit is not the shaft's: an effect fitted to it would describe the fault, not the machine
         verdict = ("Measurement fault: " + ". ".join(f.text for f in broken) + ". The plain fit (Q1, Q2 = "
-                   f"{before.values[0] * 6e7:.0f}, {before.values[1] * 6e7:.0f} ml/min, chi2 = {before.chi2:.1f} for "
+                   f"{before.values[0] * MLMIN_PER_M3S:.0f}, {before.values[1] * MLMIN_PER_M3S:.0f} ml/min, "
+                   f"chi2 = {before.chi2:.1f} for "
                    f"{before.dof} dof) describes the fault, not the machine, and no effect was fitted: correct the "
                    "record (or leave that plane out) and diagnose again.")
         return Diagnosis(before=before, candidates=(), added=None, after=None, explained=False, ambiguous=(),
@@ -152,7 +154,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
             continue
         if not e.diagnosed:  # not fitted by a diagnosis (oil_temperature: `viscosity` told in °C)
             continue
-        if oil_known and e.effect_name == "viscosity":  # an oil temperature reading settles the viscosity
+        if oil_known and e.oil_viscosity:  # an oil temperature reading settles the viscosity
             continue
         pool.extend(e.placements())
     tried = []
@@ -204,26 +206,30 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
             # one speed: a fitted 1X force stands for any 1X force, also one from an effect not in the library
             ambiguous = ambiguous + (OTHER_FORCE,)
             separated = separated + (FORCE_SEPARATION,)
-            flows = "; ".join(f"{c.label}: {c.fit.values[0] * 6e7:.0f}, {c.fit.values[1] * 6e7:.0f}"
+            flows = "; ".join(f"{c.label}: {c.fit.values[0] * MLMIN_PER_M3S:.0f}, {c.fit.values[1] * MLMIN_PER_M3S:.0f}"
                               for c in [best, *close])
             set_intervals = _set_intervals(after, close)
             verdict = (f"Ambiguous cause: a synchronous (1X) force on the rotor explains the record "
                        f"({', '.join(c.label for c in [best, *close])}), or an effect not in the library that acts "
                        f"as one ({OTHER_FORCE_EXAMPLES}). At one speed these are the same force, so the flows hardly "
-                       f"depend on which: Q1, Q2 = {flows} ml/min (plain model: {before.values[0] * 6e7:.0f}, "
-                       f"{before.values[1] * 6e7:.0f}). To tell the causes apart: {'; or '.join(separated)}.")
+                       f"depend on which: Q1, Q2 = {flows} ml/min (plain model: "
+                       f"{before.values[0] * MLMIN_PER_M3S:.0f}, "
+                       f"{before.values[1] * MLMIN_PER_M3S:.0f}). To tell the causes apart: {'; or '.join(separated)}.")
         elif close:
-            flows = "; ".join(f"{c.label}: Q1, Q2 = {c.fit.values[0] * 6e7:.0f}, {c.fit.values[1] * 6e7:.0f} ml/min"
+            flows = "; ".join(f"{c.label}: Q1, Q2 = {c.fit.values[0] * MLMIN_PER_M3S:.0f}, "
+                              f"{c.fit.values[1] * MLMIN_PER_M3S:.0f} ml/min"
                               for c in [best, *close])
             set_intervals = _set_intervals(after, close)
             verdict = (f"Ambiguous: {len(close) + 1} effects explain the record equally well ({flows}). "
                        f"Until a measurement tells them apart the flows are known only within "
                        f"{_interval_words(set_intervals)}. To tell them apart: {'; or '.join(separated)}.")
         else:
-            verdict = (f"{_story(best)}{_oil_words(chains, best)} explains the record (chi2 {before.chi2:.1f} -> {after.chi2:.1f} for "
-                       f"{after.dof} dof). Flows re-identified with it: Q1 = {after.values[0] * 6e7:.0f}, "
-                       f"Q2 = {after.values[1] * 6e7:.0f} ml/min (plain model: {before.values[0] * 6e7:.0f}, "
-                       f"{before.values[1] * 6e7:.0f})." + (ORBIT_REFINE if best.defect is not None else ""))
+            verdict = (f"{_story(best)}{_oil_words(chains, best)} explains the record (chi2 {before.chi2:.1f} -> "
+                       f"{after.chi2:.1f} for "
+                       f"{after.dof} dof). Flows re-identified with it: Q1 = {after.values[0] * MLMIN_PER_M3S:.0f}, "
+                       f"Q2 = {after.values[1] * MLMIN_PER_M3S:.0f} ml/min (plain model: "
+                       f"{before.values[0] * MLMIN_PER_M3S:.0f}, "
+                       f"{before.values[1] * MLMIN_PER_M3S:.0f})." + (ORBIT_REFINE if best.defect is not None else ""))
     else:
         closest = tried[0] if tried and tried[0].fit is not None else None
         added, after, explained, ambiguous = None, None, False, ()
@@ -315,17 +321,19 @@ def _set_intervals(after: Fit, others) -> tuple:
     """Per flow, the union of the winner's 95 % profile interval and the other candidates' +-1.96 sigma."""
     out = []
     for k, n in enumerate(("q1", "q2")):
-        low, high = after.intervals.get(n) or (after.values[k] - 1.96 * after.std[k], after.values[k] + 1.96 * after.std[k])
+        v, s = after.values[k], after.std[k]
+        low, high = after.intervals.get(n) or (v - Z95 * s, v + Z95 * s)
         for c in others:
             v, s = c.fit.values[k], c.fit.std[k]
-            low = min(low, v - 1.96 * s)
-            high = None if high is None else max(high, v + 1.96 * s)
+            low = min(low, v - Z95 * s)
+            high = None if high is None else max(high, v + Z95 * s)
         out.append((float(low), None if high is None else float(high)))
     return tuple(out)
 
 
 def _interval_words(iv) -> str:
-    return " and ".join(f"Q{k + 1} in [{lo * 6e7:.0f}, {'open' if hi is None else format(hi * 6e7, '.0f')}] ml/min"
+    return " and ".join(f"Q{k + 1} in [{lo * MLMIN_PER_M3S:.0f}, "
+                        f"{'open' if hi is None else format(hi * MLMIN_PER_M3S, '.0f')}] ml/min"
                         for k, (lo, hi) in enumerate(iv))
 
 
@@ -338,7 +346,7 @@ FORCE_SEPARATION = ("records at a second speed (an unbalance's force grows with 
 
 def _oil_declared(chains) -> bool:
     """Whether the chains already declare the oil (a record's temperature reading, or a viscosity effect)."""
-    return any(e.effect_name in ("viscosity", "oil_temperature") for c in chains for e in c.effects)
+    return any(e.oil_viscosity for c in chains for e in c.effects)
 
 
 def _oil_look_alike(chains, meas, before: Fit, names, budget, level):
@@ -361,7 +369,8 @@ def _oil_look_alike(chains, meas, before: Fit, names, budget, level):
         lo_n, hi_n = before.intervals[n]
         top = chains[0].bounds()[1][k]
         wider |= ((top if hi_w is None else hi_w) - lo_w) > 2 * ((top if hi_n is None else hi_n) - lo_n)
-        ranges.append(f"[{lo_w * 6e7:.0f}, {'open' if hi_w is None else format(hi_w * 6e7, '.0f')}]")
+        ranges.append(f"[{lo_w * MLMIN_PER_M3S:.0f}, "
+                      f"{'open' if hi_w is None else format(hi_w * MLMIN_PER_M3S, '.0f')}]")
     ivs = tuple(wide.intervals[n] for n in ("q1", "q2"))
     return ("viscosity[bearing=both]", oil, *ranges, ivs) if wider else None
 
@@ -400,8 +409,8 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
     def fit_dict(f: Fit | None):
         if f is None:
             return None
-        out = {"q1_mlmin": f.values[0] * 6e7, "q2_mlmin": f.values[1] * 6e7,
-               "q1_std_mlmin": f.std[0] * 6e7, "q2_std_mlmin": f.std[1] * 6e7,
+        out = {"q1_mlmin": f.values[0] * MLMIN_PER_M3S, "q2_mlmin": f.values[1] * MLMIN_PER_M3S,
+               "q1_std_mlmin": f.std[0] * MLMIN_PER_M3S, "q2_std_mlmin": f.std[1] * MLMIN_PER_M3S,
                "chi2": f.chi2, "dof": f.dof, "p_value": f.p_value, "model_explains_data": f.explained,
                "aic": f.aic, "features": list(f.features_names),
                "residual_sigma": f.residual.tolist(),
@@ -410,7 +419,8 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
                "warnings": list(f.warnings)}
         for k, n in enumerate(("q1", "q2")):
             iv = f.intervals.get(n)
-            out[f"{n}_interval_mlmin"] = None if iv is None else [iv[0] * 6e7, None if iv[1] is None else iv[1] * 6e7]
+            out[f"{n}_interval_mlmin"] = None if iv is None else [iv[0] * MLMIN_PER_M3S,
+                                                                  None if iv[1] is None else iv[1] * MLMIN_PER_M3S]
         return out
 
     effects = [{"name": c.effect.effect_name, "label": c.label, "parameters": c.parameters(),
@@ -418,8 +428,8 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
                 "evidence": None if c.fit is None else {"aic": c.fit.aic, "delta_aic": c.aic - d.candidates[0].aic,
                                                          "dof": c.fit.dof, "p_value": c.fit.p_value,
                                                          "passes": c.passes,
-                                                         "q1_mlmin": c.fit.values[0] * 6e7,
-                                                         "q2_mlmin": c.fit.values[1] * 6e7},
+                                                         "q1_mlmin": c.fit.values[0] * MLMIN_PER_M3S,
+                                                         "q2_mlmin": c.fit.values[1] * MLMIN_PER_M3S},
                 "error": c.error or None} for c in d.candidates]
     out = {"before": fit_dict(d.before), "effects": effects,
            "added": None if d.added is None else d.added.label,
@@ -433,15 +443,16 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
                "damping_ratio": d.stability.damping_ratio}}
     for k, n in enumerate(("q1", "q2")):  # an ambiguity: the flows over the whole set (None: not ambiguous)
         iv = None if d.set_intervals is None else d.set_intervals[k]
-        out[f"{n}_interval_set_mlmin"] = None if iv is None else [iv[0] * 6e7, None if iv[1] is None else iv[1] * 6e7]
+        out[f"{n}_interval_set_mlmin"] = None if iv is None else [iv[0] * MLMIN_PER_M3S,
+                                                                  None if iv[1] is None else iv[1] * MLMIN_PER_M3S]
     if file is not None:
         out["file"] = file
     if d.truth:
         out["truth"] = d.truth
         q = d.truth.get("q_mlmin")
         if q is not None:
-            out["flow_error_pct_before"] = [100 * (d.before.values[k] * 6e7 / q[k] - 1) for k in range(2)]
-            out["flow_error_pct_after"] = [100 * (d.final.values[k] * 6e7 / q[k] - 1) for k in range(2)]
+            out["flow_error_pct_before"] = [100 * (d.before.values[k] * MLMIN_PER_M3S / q[k] - 1) for k in range(2)]
+            out["flow_error_pct_after"] = [100 * (d.final.values[k] * MLMIN_PER_M3S / q[k] - 1) for k in range(2)]
     return out
 
 

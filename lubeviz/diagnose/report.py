@@ -26,9 +26,9 @@ import numpy as np
 
 from .. import __version__
 from ..identify.budget import ModelBudget
-from ..identify.newton import lubrication_verdict
+from ..identify.result import VERDICT_BAND as BAND, lubrication_verdict
 from ..model.quantity import Quantity
-from ..units import M3S_PER_MLMIN
+from ..units import M3S_PER_MLMIN, MLMIN_PER_M3S
 
 BEFORE_COLOUR = "#9a9a9a"
 AFTER_COLOUR = "#2c5f8a"
@@ -64,7 +64,8 @@ def _flow(fit, k: int) -> str:
 
 
 def _set_words(iv) -> str:
-    return " and ".join(f"Q{k + 1} in [{lo * 6e7:.0f}, {'open' if hi is None else format(hi * 6e7, '.0f')}] ml/min"
+    return " and ".join(f"Q{k + 1} in [{lo * MLMIN_PER_M3S:.0f}, "
+                        f"{'open' if hi is None else format(hi * MLMIN_PER_M3S, '.0f')}] ml/min"
                         for k, (lo, hi) in enumerate(iv))
 
 
@@ -95,7 +96,7 @@ def _effect_parameters(c) -> str:
     fitted = [n.rpartition(".")[2] for n in c.fit.names[2:]]
     parts = []
     for n in fitted:
-        unit = c.effect.unit(n) if hasattr(c.effect, "unit") else ""
+        unit = c.effect.unit(n)
         parts.append(f"<b>{escape(n)}</b> = {p[n]:.4g} ± {p.get(n + '_std', float('nan')):.2g} {escape(unit)}")
     if getattr(c, "unbalance_scale", None) is not None:  # large orbits: read from the record's 1X, not fitted
         parts.append(f"unbalance {c.unbalance_scale:.2f} × the declared one (the orbit's size, from the 1X)")
@@ -117,7 +118,7 @@ def _story(effect) -> str:
         if name in effect.placement:  # "plane 1", but "Bearing 1" where the text already names it
             before = m.string[:m.start()].rstrip().rsplit(" ", 1)[-1].lower()
             return str(v) if before == name else f"{name} {v}"
-        unit = effect.unit(name) if hasattr(effect, "unit") else ""
+        unit = effect.unit(name)
         return f"{_fmt(v)} {unit}".strip() if v is not None else f"(declared {name})"
 
     return re.sub(r"`(\w+)`", value, first)
@@ -257,7 +258,7 @@ def flows_svg(before, after, q_threshold, *, truth_mlmin=None, width: int = 760,
     body = []
     rows = [(k, 45 + 70 * k) for k in range(2)]
     for k, yc in rows:
-        for a, b, v in ((lo, 0.95, "starved"), (0.95, 1.05, "normal"), (1.05, hi, "over-supplied")):
+        for a, b, v in ((lo, BAND[0], "starved"), (BAND[0], BAND[1], "normal"), (BAND[1], hi, "over-supplied")):
             body.append(f'<rect x="{x(a):.1f}" y="{yc - 22}" width="{x(b) - x(a):.1f}" height="44" '
                         f'fill="{VERDICT_COLOURS[v]}"/>')
         body.append(_text(left - 8, yc + 4, f"bearing {k + 1}", anchor="end"))
@@ -287,7 +288,8 @@ def flows_svg(before, after, q_threshold, *, truth_mlmin=None, width: int = 760,
         body.append(f'<line x1="{x(r):.1f}" x2="{x(r):.1f}" y1="{base}" y2="{base + 4}" stroke="#555"/>')
         body.append(_text(x(r), base + 15, f"{r:g}"))
     body.append(_text(left + pw / 2, base + 30, "supply flow / flooded threshold Q_T"))
-    for j, (v, a, b) in enumerate((("starved", lo, 0.95), ("normal", 0.95, 1.05), ("over-supplied", 1.05, hi))):
+    bands = (("starved", lo, BAND[0]), ("normal", BAND[0], BAND[1]), ("over-supplied", BAND[1], hi))
+    for j, (v, a, b) in enumerate(bands):
         body.append(_text((x(a) + x(b)) / 2, 14, v, size=10, colour="#555"))
     legend = [("plain fit", BEFORE_COLOUR), ("with the effect", AFTER_COLOUR)] if after is not None else \
         [("plain fit", BEFORE_COLOUR)]
@@ -370,7 +372,8 @@ def _flows_table(d, nodes, truth) -> str:
                      + (" (explains the record)" if f.explained else " (does <b>not</b> explain the record)")
                      for w, f in stats)
     qt_text = "" if qt is None else (f" Flooded thresholds of the declared bearings: Q_T = {_mlmin(qt[0]):.0f} and "
-                                     f"{_mlmin(qt[1]):.0f} ml/min; starved below 0.95 Q_T, over-supplied above 1.05 Q_T.")
+                                     f"{_mlmin(qt[1]):.0f} ml/min; starved below {BAND[0]:g} Q_T, over-supplied "
+                                     f"above {BAND[1]:g} Q_T.")
     return ("<table><tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr>" + "".join(rows) + "</table>"
             + f"<p class='small'>{foot}.{qt_text} “unbounded”: the record does not limit the flow from above "
               "(a flooded bearing changes little as more oil arrives).</p>")

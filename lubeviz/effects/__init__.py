@@ -1,30 +1,28 @@
 """The effect library: what a real machine or measurement adds to the model (SPEC §7 names).
 
-Each effect is a small `param.Parameterized` class in its own module (`base.Effect`); the registry
-`EFFECTS` parses SPEC §7's `NAME:key=value,...` (`parse_effect`, `parse_effects`) and names the closest
-name or key when one is mistyped. The forward chain (`lubeviz.identify.chain.ForwardChain`) applies them
-in `response`, `simulate` and the fit, so an effect added here shows up everywhere.
+Each effect is a small `param.Parameterized` class in its own module (`base.Effect`), registered where it is
+written by `@register`; the registry `EFFECTS` parses SPEC §7's `NAME:key=value,...` (`parse_effect`,
+`parse_effects`) and names the closest name or key when one is mistyped. The forward chain
+(`lubeviz.identify.chain.ForwardChain`) calls the hooks of each effect's stage in `response`, `simulate` and
+the fit, so an effect added in one module shows up everywhere. The modules are imported below in the order
+the library lists its effects (oil and bearings, rotor, probes, the measurement, the response model).
 """
 
 from __future__ import annotations
 
 from typing import Iterable
 
-from .base import STAGES, Effect, Registry
-from .bow import Bow, bow_shape
-from .clearance import Clearance
-from .large_orbit import LargeOrbit
-from .oil_temperature import OilTemperature
-from .pedestals import Pedestals
-from .probe_gain import ProbeGain
-from .probe_rotation import ProbeRotation
-from .unbalance2 import Unbalance2
+from .base import EFFECTS, STAGES, Effect, Registry, register
 from .viscosity import Viscosity
+from .oil_temperature import OilTemperature
+from .clearance import Clearance
+from .unbalance2 import Unbalance2
+from .pedestals import Pedestals
+from .probe_rotation import ProbeRotation
+from .probe_gain import ProbeGain
+from .bow import Bow, bow_shape
 from .wiring import Wiring
-
-EFFECTS = Registry()
-for _cls in (Viscosity, OilTemperature, Clearance, Unbalance2, Pedestals, ProbeRotation, ProbeGain, Bow, Wiring, LargeOrbit):
-    EFFECTS.register(_cls)
+from .large_orbit import LargeOrbit
 
 
 def parse_effect(text: str) -> Effect:
@@ -36,5 +34,6 @@ def parse_effects(texts: Iterable[str]) -> tuple[Effect, ...]:
     return tuple(parse_effect(t) for t in texts)
 
 
-__all__ = ["EFFECTS", "STAGES", "Bow", "Clearance", "Effect", "LargeOrbit", "OilTemperature", "Pedestals", "ProbeGain", "ProbeRotation",
-           "Unbalance2", "Viscosity", "Wiring", "bow_shape", "parse_effect", "parse_effects"]
+__all__ = ["EFFECTS", "STAGES", "Bow", "Clearance", "Effect", "LargeOrbit", "OilTemperature", "Pedestals", "ProbeGain",
+           "ProbeRotation", "Registry", "Unbalance2", "Viscosity", "Wiring", "bow_shape", "parse_effect",
+           "parse_effects", "register"]

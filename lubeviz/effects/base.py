@@ -7,8 +7,8 @@ The forward chain (`lubeviz.identify.chain.ForwardChain`) has fixed, named stage
 
 An effect declares its `effect_name` (SPEC §7), the `stage` it changes, its parameters once (bounds, unit, doc),
 which of them are *placement* (discrete: which bearing, plane, channel or node; always held) and which
-are *continuous* (a fit may free them), and one hook for its stage (see `lubeviz.effects.hooks`). The
-chain calls the hooks with arrays of parameter values, so one call evaluates a whole batch of trial
+are *continuous* (a fit may free them), and the hooks of its stage (declared on `Effect` with what "no
+change" is). The chain calls the hooks with arrays of parameter values, so one call evaluates a whole batch of trial
 points (a Jacobian, a map). An effect never reaches into a kernel: it transforms what a stage hands it.
 """
 
@@ -27,7 +27,8 @@ STAGES = ("bearings", "rotor", "probes", "response")  # response: replaces the l
 
 
 class Effect(param.Parameterized):
-    """Base of the effect library. Subclasses set `effect_name`, `stage`, `continuous`, `placement`, `story`."""
+    """Base of the effect library. Subclasses set `effect_name`, `stage`, `continuous`, `placement`, override
+    the hooks of their stage (declared below with what "no change" is) and register with `@register`."""
 
     effect_name: ClassVar[str] = ""  # SPEC §7 name (param reserves `name`)
     stage: ClassVar[str] = ""
@@ -41,6 +42,8 @@ class Effect(param.Parameterized):
     # True for an effect that acts as a synchronous (1X) force on the rotor with a free magnitude and
     # phase: at one speed it can stand for any other such force, including effects not in the library
     forcing: ClassVar[bool] = False
+    # True for an effect that is the oil's viscosity (an oil temperature reading settles it)
+    oil_viscosity: ClassVar[bool] = False
 
     def __init__(self, **params):
         super().__init__(**params)
@@ -53,12 +56,55 @@ class Effect(param.Parameterized):
         Raises InputError when the machine lacks what the effect needs."""
         return self
 
+    def shown(self, **values) -> "Effect":
+        """The same effect at other `values`, the same parameters free (unlike `copy`, which holds them)."""
+        new = self.copy(**values)
+        new._free = self._free
+        return new
+
+    def demo(self, machine) -> "Effect":
+        """This effect bound to `machine` at a strength a student sees on the pages (default: its defaults)."""
+        return self.bind(machine)
+
     def declared(self, pname: str, machine) -> float:
         """The value of continuous parameter `pname` at which the machine is as declared (a fit's start
         when the parameter is None)."""
         return float(self.neutral.get(pname, 0.0))
 
-    # --- the probes stage (effects of other stages leave these as they are) ---------------------------
+    # --- the stages' hooks: each declared here with "no change"; an effect overrides those of its stage ----
+    # `values`: trial values of the free continuous parameters ({name: array of the batch `shape`}; see
+    # `as_array`), so one call evaluates a whole batch of trial points.
+
+    # bearings stage
+    def bearing_change(self, k: int, values: dict, shape) -> dict:
+        """What this effect changes of bearing `k` (0-based): {'viscosity_factor': x, 'clearance': m}, or {}."""
+        return {}
+
+    # rotor stage: extra synchronous forcing
+    def forcing_shapes(self, rotor, omega: float, machine) -> list:
+        """Force vectors (rotor DOFs) whose weighted sum this effect adds to the unbalance's; [] for none."""
+        return []
+
+    def forcing_weights(self, values: dict, shape):
+        """(..., n) complex weights of `forcing_shapes`."""
+        raise NotImplementedError(f"{type(self).__name__} declares forcing shapes but no weights")
+
+    # rotor stage: a support in series with a bearing's film
+    def applies(self, k: int) -> bool:
+        """Whether this effect puts a support under bearing `k` (0-based)."""
+        return False
+
+    def support(self, k: int, B, omega: float, values: dict, shape):
+        """(B_eff, T) for bearing `k`: the film's dynamic stiffness B in series with the support, and the
+        housing's motion per journal motion (the probes read the shaft relative to it); None: no support."""
+        return None
+
+    def housing(self, values: dict) -> tuple[float, float, float]:
+        """(mass kg, stiffness N/m, damping N s/m) of the support's housing at `values`, for the direct check
+        of the assembled system (`ForwardChain.direct_output`)."""
+        raise NotImplementedError(f"{type(self).__name__} puts a support under a bearing but declares no housing")
+
+    # probes stage
     def probe_matrix(self, plane: int, angles_deg, values: dict, shape):
         """(..., 2, 2) matrix taking plane `plane`'s (0-based) displacement to what its probes, resolved with
         the declared angles, read; None when this effect does not change that plane."""
@@ -153,7 +199,8 @@ def _fmt(v) -> str:
 
 
 class Registry(dict):
-    """{name: Effect subclass}; parses SPEC §7's NAME:key=value,... and names the closest key on a typo."""
+    """{name: Effect subclass}; parses SPEC §7's NAME:key=value,... and names the closest key on a typo.
+    `register` is a class decorator: an effect module registers its class where it is written."""
 
     def register(self, cls):
         if not cls.effect_name or cls.stage not in STAGES:
@@ -217,3 +264,7 @@ def as_array(values: dict, effect: Effect, pname: str, shape) -> np.ndarray:
     """A continuous parameter as an array broadcast to the batch `shape` (its value, or the trial values)."""
     v = values.get(pname, getattr(effect, pname))
     return np.broadcast_to(np.asarray(v, dtype=float), shape)
+
+
+EFFECTS = Registry()  # the library: every registered effect, by SPEC §7 name
+register = EFFECTS.register

@@ -9,7 +9,7 @@ import param
 
 from ..errors import InputError
 from ..rotor.elements import THETA_X, THETA_Y, X, Y, node_dofs
-from .base import Effect, as_array
+from .base import Effect, as_array, register
 
 
 def bow_shape(rotor, node: int) -> np.ndarray:
@@ -37,6 +37,7 @@ def bow_shape(rotor, node: int) -> np.ndarray:
     return q / s_node
 
 
+@register
 class Bow(Effect):
     """A residual bow of `amplitude_um` at `node`, turning with the shaft at `phase_deg` from the unbalance.
 

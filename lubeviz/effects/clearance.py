@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import param
 
-from .base import Effect, as_array
+from .base import Effect, as_array, register
 
 
+@register
 class Clearance(Effect):
     """Bearing `bearing` has radial clearance `clearance_um` instead of the declared one.
 
@@ -44,3 +45,7 @@ class Clearance(Effect):
 
     def placements(self):
         return [self.copy(bearing=b) for b in (1, 2)]
+
+    def demo(self, machine) -> "Clearance":
+        k = 0 if self.bearing in (1, "both") else 1
+        return self.shown(clearance_um=round(1.25 * machine.bearings[k].clearance * 1e6, 1))  # worn by 25 %

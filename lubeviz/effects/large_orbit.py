@@ -5,9 +5,10 @@ from __future__ import annotations
 from typing import ClassVar
 
 from ..rotor.orbit_balance import HARMONICS, POINTS
-from .base import Effect
+from .base import Effect, register
 
 
+@register
 class LargeOrbit(Effect):
     """The films' force along the orbit (nonlinear), not their tangent K, C at the static equilibrium.
 

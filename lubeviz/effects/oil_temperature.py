@@ -7,10 +7,11 @@ import param
 
 from ..errors import InputError
 from ..model.oil import Oil
-from .base import Effect, as_array
+from .base import Effect, as_array, register
 from .viscosity import BEARINGS
 
 
+@register
 class OilTemperature(Effect):
     """The oil in the film is at `temperature_c` instead of the model file's declared temperature.
 
@@ -30,6 +31,7 @@ class OilTemperature(Effect):
     step = {"temperature_c": 0.01}
     diagnose_free = ()
     diagnosed = False  # a diagnosis fits `viscosity` (the same effect) and converts
+    oil_viscosity = True
     separated_by = Effect.separated_by
 
     bearing = param.Selector(default="both", objects=BEARINGS, doc="Bearing(s) whose oil is at this temperature")
@@ -67,3 +69,7 @@ class OilTemperature(Effect):
 
     def placements(self):
         return [self.copy(bearing=b) for b in BEARINGS]
+
+    def demo(self, machine) -> "OilTemperature":
+        bound = self.bind(machine)  # raises for a machine without an [oil]
+        return bound.shown(temperature_c=round(bound.oil.temperature_c + 15.0, 1))  # oil 15 °C hotter

@@ -5,11 +5,12 @@ from __future__ import annotations
 import numpy as np
 import param
 
-from .base import Effect, as_array
+from .base import Effect, as_array, register
 
 BEARINGS = ["both", 1, 2]
 
 
+@register
 class Pedestals(Effect):
     """Each chosen bearing housing is a mass on a spring and damper to ground (isotropic).
 
@@ -48,6 +49,9 @@ class Pedestals(Effect):
         h = (s - omega**2 * m + 1j * omega * c)[..., None, None] * np.eye(2)
         inv = np.linalg.inv(h + B)
         return B @ inv @ h, inv @ B
+
+    def housing(self, values: dict) -> tuple[float, float, float]:
+        return tuple(float(values.get(p, getattr(self, p))) for p in ("mass_kg", "stiffness_n_m", "damping_ns_m"))
 
     def unit(self, pname):
         return {"mass_kg": "kg", "stiffness_n_m": "N/m", "damping_ns_m": "N*s/m"}[pname]

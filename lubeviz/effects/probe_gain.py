@@ -5,11 +5,12 @@ from __future__ import annotations
 import numpy as np
 import param
 
-from .base import Effect, as_array
+from .base import Effect, as_array, register
 
 CHANNELS = ["x1", "y1", "x2", "y2"]
 
 
+@register
 class ProbeGain(Effect):
     """Probe `channel` reads `gain` x the displacement along its direction.
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import param
 
-from .base import Effect, as_array
+from .base import Effect, as_array, register
 
 
 def rotation(angle_rad) -> np.ndarray:
@@ -13,6 +13,7 @@ def rotation(angle_rad) -> np.ndarray:
     return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
 
 
+@register
 class ProbeRotation(Effect):
     """The probe pair of `plane` sits `angle_deg` (from +X towards +Y) away from its declared angles.
 

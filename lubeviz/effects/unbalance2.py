@@ -6,9 +6,10 @@ import numpy as np
 import param
 
 from ..rotor.response import Unbalance, unbalance_force
-from .base import Effect, as_array
+from .base import Effect, as_array, register
 
 
+@register
 class Unbalance2(Effect):
     """An unbalance at `node` of `ratio` x the main moment, at `phase_deg` from the main one.
 

@@ -5,11 +5,12 @@ from __future__ import annotations
 import param
 
 from ..model.quantity import Quantity
-from .base import Effect, as_array
+from .base import Effect, as_array, register
 
 BEARINGS = ["both", 1, 2]
 
 
+@register
 class Viscosity(Effect):
     """The oil in the film is `factor` x as viscous as the model file declares.
 
@@ -29,6 +30,7 @@ class Viscosity(Effect):
     neutral = {"factor": 1.0}
     step = {"factor": 1e-3}
     diagnose_free = ("factor",)
+    oil_viscosity = True
     separated_by = "the static shaft position, a record at a second speed, or an oil temperature reading"
 
     bearing = param.Selector(default="both", objects=BEARINGS, doc="Bearing(s) whose oil differs: both, 1 or 2")
@@ -41,3 +43,6 @@ class Viscosity(Effect):
 
     def placements(self):
         return [self.copy(bearing=b) for b in BEARINGS]
+
+    def demo(self, machine) -> "Viscosity":
+        return self.shown(factor=0.7).bind(machine)  # oil 30 % thinner: what a hot day does

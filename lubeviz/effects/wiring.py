@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import param
 
-from .base import Effect
+from .base import Effect, register
 
 # each fault as a permutation and signs of the four channels x1, y1, x2, y2 (probe a and b of each plane):
 # column i of the record holds sign[i] x channel source[i]
@@ -42,6 +42,7 @@ def wiring_matrix(fault: str) -> np.ndarray:
     return W
 
 
+@register
 class Wiring(Effect):
     """The record's columns are not the channels they are declared to be: `fault` names the mix-up.
 

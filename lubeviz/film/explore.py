@@ -21,6 +21,7 @@ from .derived import FilmSummary, summarize
 from .equilibrium import Equilibrium, find_equilibrium
 from .feed import Feed
 from .sommerfeld import sommerfeld_film
+from ..units import MLMIN_PER_M3S
 
 
 @dataclass(frozen=True)
@@ -103,7 +104,7 @@ def supply_frame(bearing: Bearing, omega: float, load, q_supply: float | None, *
                           start=None if warm is None else warm.position,
                           warm=None if warm is None else warm.film)
     if not eq.converged:
-        what = "flooded groove" if q_supply is None else f"supply {q_supply * 6e7:.4g} ml/min"
+        what = "flooded groove" if q_supply is None else f"supply {q_supply * MLMIN_PER_M3S:.4g} ml/min"
         raise ConvergenceError(f"equilibrium at {what}: {eq.message}")
     return frame_from_equilibrium(eq), eq
 
@@ -122,5 +123,5 @@ def supply_frames(bearing: Bearing, omega: float, load, flows, *, progress: Prog
     for n, q in enumerate(seq):
         frame, prev = supply_frame(bearing, omega, load, q, warm=prev)
         out[q] = frame
-        progress(n + 1, len(seq), f"{q * 6e7:.0f} ml/min")
+        progress(n + 1, len(seq), f"{q * MLMIN_PER_M3S:.0f} ml/min")
     return out

@@ -22,6 +22,7 @@ from ..errors import InputError
 from ..model.bearing import Bearing
 from .mesh import FilmMesh, groove_aligned_offset, groove_cells, refined_split
 from .operator import FilmProblem, build_problem, max_film_angle
+from ..units import MLMIN_PER_M3S
 
 
 @dataclass(frozen=True)
@@ -46,7 +47,7 @@ class Feed:
 
     def describe(self) -> str:
         if self.kind == "flow":
-            return f"supply {self.q_supply * 6e7:.4g} ml/min"
+            return f"supply {self.q_supply * MLMIN_PER_M3S:.4g} ml/min"
         return {"flooded": "flooded groove", "plain": "plain bearing (no groove)"}[self.kind]
 
 

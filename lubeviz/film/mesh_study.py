@@ -7,6 +7,7 @@ import numpy as np
 from ..model.bearing import Bearing
 from .equilibrium import find_equilibrium
 from .feed import Feed
+from ..units import MLMIN_PER_M3S
 
 
 def mesh_study(bearing: Bearing, omega: float, load, feeds: dict[str, Feed],
@@ -20,7 +21,7 @@ def mesh_study(bearing: Bearing, omega: float, load, feeds: dict[str, Feed],
             rows.append({
                 "feed": name, "mesh": f"{n_circ}x{n_axial}", "converged": eq.converged,
                 "eccentricity_ratio": eq.eccentricity_ratio, "attitude_deg": float(np.degrees(eq.attitude_angle)),
-                "side_leakage_mlmin": eq.film.side_leakage * 6e7,
+                "side_leakage_mlmin": eq.film.side_leakage * MLMIN_PER_M3S,
                 "K": eq.coefficients.K.tolist(), "C": eq.coefficients.C.tolist(), "seconds": eq.seconds,
             })
     return rows

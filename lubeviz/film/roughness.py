@@ -38,10 +38,11 @@ from .linearize import finite_difference_coefficients
 from .smoothed import DEFAULT_SMOOTHING, smoothed_coefficients
 from .subcell import subcell_coefficients
 from .sweep import sweep_supply
+from ..units import MLMIN_PER_M3S
 
 WINDOW = 31
 SHORT_WINDOW = 15
-THRESHOLD_BAND = (-5 / 6e7, 25 / 6e7)  # m^3/s around Q_T where the groove pressurizes
+THRESHOLD_BAND = (-5 / MLMIN_PER_M3S, 25 / MLMIN_PER_M3S)  # m^3/s around Q_T where the groove pressurizes
 METHODS = ("fixed-pattern", "smoothed", "subcell")
 
 
@@ -117,7 +118,7 @@ def supply_roughness(bearing, omega, load, q_min, q_max, step, progress=None, se
     outside = (flows < q_t + THRESHOLD_BAND[0]) | (flows > q_t + THRESHOLD_BAND[1])
     eps = s.eccentricity_ratio
     att = np.arctan2(s.position[:, 0], -s.position[:, 1])
-    out = {"samples": int(flows.size), "q_threshold_mlmin": q_t * 6e7,
+    out = {"samples": int(flows.size), "q_threshold_mlmin": q_t * MLMIN_PER_M3S,
            "eccentricity": roughness(eps, eps), "attitude": roughness(att, att),
            "eccentricity_split_at_threshold": float(deviation(eps, eps, breaks=breaks).max()),
            "attitude_split_at_threshold": float(deviation(att, att, breaks=breaks).max()),

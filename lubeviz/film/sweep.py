@@ -20,6 +20,7 @@ from ..model.bearing import Bearing
 from ..progress import ProgressFn, silent
 from .equilibrium import DEFAULT_COEFFICIENTS, Equilibrium, find_equilibrium
 from .feed import Feed
+from ..units import MLMIN_PER_M3S
 
 PREDICT_MAX_ECCENTRICITY = 0.9  # a predicted position beyond this (of the clearance) is not used; the equilibrium
 # then starts from the last position and the last film's pattern
@@ -96,10 +97,10 @@ def sweep_supply(bearing: Bearing, omega: float, load, flows, *, progress: Progr
                               warm=None if prev is None else prev.film, pattern=pattern, tol=tol,
                               coefficients=coefficients, smoothing=smoothing)
         if not eq.converged:
-            raise ConvergenceError(f"equilibrium at supply {flows[k] * 6e7:.4g} ml/min: {eq.message}")
+            raise ConvergenceError(f"equilibrium at supply {flows[k] * MLMIN_PER_M3S:.4g} ml/min: {eq.message}")
         out[k] = eq
         done.append((float(flows[k]), eq))
-        progress(n + 1, flows.size, f"{flows[k] * 6e7:.0f} ml/min")
+        progress(n + 1, flows.size, f"{flows[k] * MLMIN_PER_M3S:.0f} ml/min")
     if keep is not None:
         keep.extend(out)
     return SupplySweep(

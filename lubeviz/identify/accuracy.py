@@ -56,6 +56,7 @@ from ..rotor.assembly import rotor_from_machine
 from ..rotor.response import machine_unbalance, unbalance_response
 from ..rotor.statics import bearing_static_loads
 from .tables import CoefficientTable
+from ..units import MLMIN_PER_M3S
 
 # The paper's reference flows (SPEC §5), ml/min.
 REFERENCE_FLOWS_MLMIN = (409.5, 448.5, 487.5, 526.5, 565.5, 604.5, 643.5, 682.5)
@@ -114,7 +115,7 @@ class InterpolationError:
     def regions(self, q_threshold: float, band_mlmin=GROOVE_BAND_MLMIN) -> dict:
         """Median, 90th percentile and max of the fb (%) and phi (deg) errors below, across and above
         the band Q_T + band_mlmin (ml/min) where the groove pressurizes; None for an empty region."""
-        dq = (self.flows - q_threshold) * 6e7
+        dq = (self.flows - q_threshold) * MLMIN_PER_M3S
         lo, hi = band_mlmin
         out = {}
         for name, sel in (("below", dq < lo), ("band", (dq >= lo) & (dq <= hi)), ("above", dq > hi)):
@@ -143,7 +144,7 @@ def midpoint_flows(table: CoefficientTable) -> np.ndarray:
 
 def default_flows(table: CoefficientTable) -> np.ndarray:
     """Midpoints plus the paper's reference flows that lie inside the table (m^3/s), ascending."""
-    ref = np.array(REFERENCE_FLOWS_MLMIN) / 6e7
+    ref = np.array(REFERENCE_FLOWS_MLMIN) / MLMIN_PER_M3S
     ref = ref[(ref >= table.q_min) & (ref <= table.q_max)]
     return np.unique(np.concatenate([midpoint_flows(table), ref]))
 

@@ -18,9 +18,11 @@ from ..signals.records import read_record
 from .cache import machine_tables
 from .forward import ALL_FEATURES, ForwardModel
 from .measured import measure
-from .newton import Identification, identify
+from .newton import identify
+from .result import Identification
 from .oil_reading import budget_with_reading, oil_reading
 from .settings import IdentificationSettings
+from ..units import MLMIN_PER_M3S
 
 
 @dataclass(frozen=True)
@@ -127,7 +129,7 @@ def beyond_1x(records) -> tuple[tuple, tuple[str, ...]]:
 def _fit_record(record, machine, speed, measured, settings, effects, budget, progress, model) -> Identification:
     from .chain import ForwardChain
     from .fit import fit, to_identification
-    from .newton import check_record
+    from .result import check_record
 
     from .budget import ModelBudget
 
@@ -160,7 +162,7 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
     if oil_notes:
         out = dataclasses.replace(out, warnings=out.warnings + oil_notes)
     if settings.oil_check != "never" and not measured.static_names and not any(
-            getattr(e, "effect_name", "") in ("viscosity", "oil_temperature", "clearance") for e in effects):
+            e.stage == "bearings" for e in effects):  # the film's scale declared
         # Whether it runs depends on the setting only, never on what the cache holds: the same command gives
         # the same answer on a cold or a warm cache.
         if settings.oil_check == "always":
@@ -197,8 +199,8 @@ def _oil_check(out: Identification, res, chain, measured, settings, budget) -> I
     narrow = [(b if b is not None else chain.bounds(settings.lower, settings.upper)[1][k]) - a
               for k, (a, b) in enumerate(out.intervals)]
     if any(w > 2 * n for w, n in zip(width, narrow)):
-        lo = [a * 6e7 for a, _ in iv]
-        hi = ["open" if b is None else f"{b * 6e7:.0f}" for _, b in iv]
+        lo = [a * MLMIN_PER_M3S for a, _ in iv]
+        hi = ["open" if b is None else f"{b * MLMIN_PER_M3S:.0f}" for _, b in iv]
         warnings = warnings + (
             "the flows are tied to the oil viscosity in this record (correlation "
             f"{corr[0]:+.2f}, {corr[1]:+.2f}): if the oil may be x{OIL_RANGE[0]:g}-{OIL_RANGE[1]:.2f} as viscous as "
@@ -211,7 +213,7 @@ def _oil_check(out: Identification, res, chain, measured, settings, budget) -> I
 
 
 class _NodesSpeed:
-    """What `newton.check_record` reads of a model: its speed and planes."""
+    """What `result.check_record` reads of a model: its speed and planes."""
 
     def __init__(self, chain):
         self.omega, self.nodes = chain.omega, chain.nodes
@@ -241,7 +243,7 @@ def identify_group(records, machine=None, settings: IdentificationSettings | Non
     from ..signals.records import check_set
     from .chain import ForwardChain
     from .fit import fit, to_identification
-    from .newton import check_record
+    from .result import check_record
 
     records = check_set(list(records))
     machine = load_machine() if machine is None else machine
@@ -297,21 +299,21 @@ def result_dict(item: RecordIdentification) -> dict:
     r = item.result
     names = list(r.features_names)
     return {
-        "file": item.file, "q1_mlmin": r.q[0] * 6e7, "q2_mlmin": r.q[1] * 6e7,
-        "q1_std_mlmin": None if r.q_std is None else r.q_std[0] * 6e7,
-        "q2_std_mlmin": None if r.q_std is None else r.q_std[1] * 6e7,
-        "q_threshold_mlmin": (r.q_threshold * 6e7).tolist(),
+        "file": item.file, "q1_mlmin": r.q[0] * MLMIN_PER_M3S, "q2_mlmin": r.q[1] * MLMIN_PER_M3S,
+        "q1_std_mlmin": None if r.q_std is None else r.q_std[0] * MLMIN_PER_M3S,
+        "q2_std_mlmin": None if r.q_std is None else r.q_std[1] * MLMIN_PER_M3S,
+        "q_threshold_mlmin": (r.q_threshold * MLMIN_PER_M3S).tolist(),
         "verdict": [r.verdict(0), r.verdict(1)],
         "converged": r.converged, "iterations": r.iterations, "starts_tried": r.starts_tried,
-        "path": (r.path * 6e7).tolist(), "paths": [(p * 6e7).tolist() for p in r.paths],
+        "path": (r.path * MLMIN_PER_M3S).tolist(), "paths": [(p * MLMIN_PER_M3S).tolist() for p in r.paths],
         "features_measured": dict(zip(names, r.features_measured.tolist())),
         "features_model": dict(zip(names, r.features_model.tolist())),
         "features_sigma": None if r.features_sigma is None else dict(zip(names, r.features_sigma.tolist())),
         "residual": r.residual.tolist(), "total_error": r.total_error, "mode": r.mode,
         "model_evaluations": r.evaluations, "nodes": list(item.nodes), "speed_hz": item.speed_hz,
         "set": item.set_name, "speeds_hz": list(item.speeds_hz) or [item.speed_hz],
-        "unique": r.unique, "alternatives_mlmin": [(a * 6e7).tolist() for a in r.alternatives],
-        "alternatives": [{"q1_mlmin": a[0] * 6e7, "q2_mlmin": a[1] * 6e7,
+        "unique": r.unique, "alternatives_mlmin": [(a * MLMIN_PER_M3S).tolist() for a in r.alternatives],
+        "alternatives": [{"q1_mlmin": a[0] * MLMIN_PER_M3S, "q2_mlmin": a[1] * MLMIN_PER_M3S,
                           "chi2": r.alternatives_chi2[j] if j < len(r.alternatives_chi2) else None}
                          for j, a in enumerate(r.alternatives)],
         "q1_interval_mlmin": _interval(r, 0), "q2_interval_mlmin": _interval(r, 1),
@@ -332,13 +334,13 @@ def _interval(r, k, intervals=None):
     if intervals is None or intervals[k] is None:
         return None
     low, high = intervals[k]
-    return [low * 6e7, None if high is None else high * 6e7]
+    return [low * MLMIN_PER_M3S, None if high is None else high * MLMIN_PER_M3S]
 
 
 def result_text(d: dict) -> list[str]:
     """The identification as a person reads it (the CLI without --json): each flow with its 95 % interval
     (never a +- from noise alone), Q_T and the verdict, the test's outcome, alternatives and lines."""
-    from .newton import verdict_over_interval
+    from .result import verdict_over_interval
 
     if "error" in d:
         return [f"{d['file']}: not identified: {d['error']}"]

@@ -16,6 +16,7 @@ from .forward import ALL_FEATURES, ForwardModel
 from .measured import measure
 from .newton import identify
 from .settings import IdentificationSettings
+from ..units import MLMIN_PER_M3S
 
 
 def bench_identify(machine_path=None, *, repeat: int = 5, reproduce_all: bool = False, accuracy: bool = False,
@@ -41,13 +42,13 @@ def bench_identify(machine_path=None, *, repeat: int = 5, reproduce_all: bool = 
         out["forward_model_setup_s"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         for _ in range(1000):
-            model.features(450 / 6e7, 600 / 6e7, ALL_FEATURES)
+            model.features(450 / MLMIN_PER_M3S, 600 / MLMIN_PER_M3S, ALL_FEATURES)
         out["one_model_evaluation_s"] = (time.perf_counter() - t0) / 1000
         g = np.linspace(0.25, 2.0, 100)
         t0 = time.perf_counter()
         model.features(g[:, None] * model.q_threshold[0], g[None, :] * model.q_threshold[1], ALL_FEATURES)
         out["map_100x100_s"] = time.perf_counter() - t0
-        rec = synthesize_record(machine, (448.5 / 6e7, 604.5 / 6e7), rng=np.random.default_rng(0))
+        rec = synthesize_record(machine, (448.5 / MLMIN_PER_M3S, 604.5 / MLMIN_PER_M3S), rng=np.random.default_rng(0))
         for mode in ("paper", "best"):
             times = []
             for _ in range(repeat):

@@ -41,6 +41,7 @@ from ..rotor.response import dynamic_stiffness, machine_unbalance, unbalance_for
 from ..rotor.statics import bearing_static_loads
 from .forward import feature_vector
 from .tables import CoefficientTable
+from ..units import MLMIN_PER_M3S
 
 STATIC_FEATURES = ("sx1", "sy1", "sx2", "sy2")  # static journal offset from the rest reading, m (SPEC §6)
 DEFAULT_PROBE_ANGLES = ((0.0, 90.0), (0.0, 90.0))
@@ -89,10 +90,12 @@ class BearingSource:
                 view = scaled_view(self._table, self.bearing, self.load, self.omega, float(factor), clearance,
                                    index=self.index)
             if view is None:
+                from .cache import bearing_view
+
                 if changed:
                     bearing = self.bearing.copy(viscosity=self.bearing.viscosity * float(factor), clearance=clearance)
-                view = bearing_table_view(bearing, self.load, self.omega, index=self.index,
-                                          progress=self.progress if progress is None else progress)
+                view = bearing_view(bearing, self.load, self.omega,
+                                    progress=self.progress if progress is None else progress)
                 if changed:
                     self._remember_slices(bearing)
             self._views.setdefault(key, view)
@@ -110,9 +113,6 @@ class BearingSource:
             self._table = table
         else:
             self._table.slices.update(table.slices)
-
-    def has_view(self, factor: float = 1.0, clearance: float | None = None) -> bool:
-        return self._key(factor, self.bearing.clearance if clearance is None else clearance) in self._views
 
     def share_views(self, store: dict) -> None:
         """Keep this bearing's views in `store` (a dict shared with other sources of the same bearing, load
@@ -150,18 +150,6 @@ class BearingSource:
             Kf[sel], Cf[sel] = t.coefficients(qq)
             Pf[sel] = t.journal_position(qq)
         return K, C, pos
-
-
-def bearing_table_view(bearing, load, omega: float, *, index: int = 0, progress: ProgressFn = silent):
-    """The coefficient table of a (possibly changed) bearing: from the dimensionless tables when the
-    package has them (`cache.bearing_view`), else a direct build over the flows."""
-    from . import cache
-
-    if hasattr(cache, "bearing_view"):
-        return cache.bearing_view(bearing, load, omega, progress=progress)
-    from .tables import bearing_table
-
-    return bearing_table(bearing, load, omega, index=index, progress=progress)
 
 
 def bearing_changes(effects, k: int, declared_clearance: float, values=lambda e: {}, shape=()) -> tuple:
@@ -258,7 +246,7 @@ class ForwardChain:
                 raise InputError(f"{e!r} is not an effect (no stage)")
         self.effects = tuple(e.bind(machine) for e in effects)
         for k in range(2):  # supports act in series with one film: one pedestal per bearing
-            on_k = [e.label() for e in self.effects if hasattr(e, "support") and e.applies(k)]
+            on_k = [e.label() for e in self.effects if e.applies(k)]
             if len(on_k) > 1:
                 raise InputError(f"bearing {k + 1} is given a pedestal twice ({', '.join(on_k)}); "
                                  "one pedestals effect per bearing")
@@ -353,8 +341,8 @@ class ForwardChain:
         shapes = [unbalance_force(rotor, omega, machine_unbalance(self.machine))]
         self._forcing = []  # (effect, first column, n columns)
         for e in self.effects:
-            if hasattr(e, "forcing_shapes"):
-                cols = e.forcing_shapes(rotor, omega, self.machine)
+            cols = e.forcing_shapes(rotor, omega, self.machine)
+            if cols:
                 self._forcing.append((e, len(shapes), len(cols)))
                 shapes.extend(cols)
         self._U = np.concatenate([node_dofs(n)[[X, Y]] for n in rotor.bearing_nodes])
@@ -397,7 +385,7 @@ class ForwardChain:
             K, C, pos = src.evaluate(theta[..., k], factor, clearance)
             B = K + 1j * omega * C
             for e in self.effects:
-                if hasattr(e, "support"):
+                if e.applies(k):
                     r = e.support(k, B, omega, self._values(theta, e), shape)
                     if r is not None:
                         B, T = r
@@ -462,7 +450,7 @@ class ForwardChain:
             for j, col in enumerate(e.forcing_shapes(rotor, omega, self.machine)):
                 F = F + wts[..., j] * col
         n0 = rotor.n_dof
-        extra = [k for k in range(2) if any(hasattr(e, "support") and e.applies(k) for e in self.effects)]
+        extra = [k for k in range(2) if any(e.applies(k) for e in self.effects)]
         n = n0 + 2 * len(extra)
         D = np.zeros((n, n), dtype=complex)
         D[:n0, :n0] = dynamic_stiffness(rotor, omega, rotor.K, rotor.C)
@@ -479,9 +467,8 @@ class ForwardChain:
             other = hdofs.get(k)
             D[np.ix_(jd, jd)] += B
             if other is not None:
-                e = next(e for e in self.effects if hasattr(e, "support") and e.applies(k))
-                vals = self._values(theta, e)
-                m, s, c = (float(vals.get(p, getattr(e, p))) for p in ("mass_kg", "stiffness_n_m", "damping_ns_m"))
+                e = next(e for e in self.effects if e.applies(k))
+                m, s, c = e.housing(self._values(theta, e))
                 D[np.ix_(other, other)] += B + (s - omega**2 * m + 1j * omega * c) * np.eye(2)
                 D[np.ix_(jd, other)] -= B
                 D[np.ix_(other, jd)] -= B
@@ -550,7 +537,7 @@ def simulate(chain: ForwardChain, theta, *, snr_db: float | None = 12.0, rng: np
         probes[k, 1] = ub[0] * xy[k, 0] + ub[1] * xy[k, 1]
     if snr_db is not None:
         probes = add_noise(probes, snr_db, rng)
-    meta = {"q1_mlmin": f"{theta[0] * 6e7:.6g}", "q2_mlmin": f"{theta[1] * 6e7:.6g}",
+    meta = {"q1_mlmin": f"{theta[0] * MLMIN_PER_M3S:.6g}", "q2_mlmin": f"{theta[1] * MLMIN_PER_M3S:.6g}",
             "snr_db": "none" if snr_db is None else f"{snr_db:g}", "synthetic": "lubeviz simulate"}
     meta.update(metadata or {})
     return Record(speed_hz=chain.speed_hz, sample_rate_hz=sample_rate_hz, displacement=probes, nodes=chain.nodes,

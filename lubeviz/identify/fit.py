@@ -33,6 +33,7 @@ from scipy import stats
 from ..errors import InputError
 from .budget import ModelBudget, model_sensitivity
 from .forward import wrap_difference
+from ..units import MLMIN_PER_M3S
 
 STATUS = {
     0: "converged: the step fell below the tolerance",
@@ -107,9 +108,10 @@ class Fit:
             v, s = self.values[j], self.std[j]
             if n in ("q1", "q2"):
                 iv = self.intervals.get(n)
-                ivs = "" if iv is None else (f"  95 %: [{iv[0] * 6e7:.1f}, "
-                                             f"{'open' if iv[1] is None else format(iv[1] * 6e7, '.1f')}] ml/min")
-                lines.append(f"    {n}: {v * 6e7:.2f} +/- {s * 6e7:.2f} ml/min{ivs}")
+                ivs = "" if iv is None else (f"  95 %: [{iv[0] * MLMIN_PER_M3S:.1f}, "
+                                             f"{'open' if iv[1] is None else format(iv[1] * MLMIN_PER_M3S, '.1f')}]"
+                                             " ml/min")
+                lines.append(f"    {n}: {v * MLMIN_PER_M3S:.2f} +/- {s * MLMIN_PER_M3S:.2f} ml/min{ivs}")
             else:
                 lines.append(f"    {n}: {v:.6g} +/- {s:.3g}")
         lines.append("[[Correlations]] (|r| > 0.1)")
@@ -340,7 +342,7 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
         if sep and not dup and (c2 <= crit or c2 - chi2 < CHI2_95_1DOF * inflation):
             alternatives.append((th, c2))
     if alternatives:
-        alt = alternatives[0][0][:2] * 6e7
+        alt = alternatives[0][0][:2] * MLMIN_PER_M3S
         warnings.append(f"not unique: another fit passes as well at Q1, Q2 = {alt[0]:.0f}, {alt[1]:.0f} ml/min; "
                         "a record at another speed or the static shaft position would tell them apart")
     # 4. profile intervals of the flows
@@ -481,7 +483,7 @@ def _profile(problem: _Problem, theta, chi2_min, k, lo, hi, scale, sigma, thresh
 
 def to_identification(res: Fit, chain) -> "Identification":
     """The `Identification` (the app's and the JSON's shape) of a `Fit` of `chain`."""
-    from .newton import Identification
+    from .result import Identification
 
     q = res.values[:2]
     effect_values = {}
@@ -510,7 +512,7 @@ def identify_features(model, measured, settings=None) -> "Identification":
     """Best mode on measured features and a `ForwardModel` (its tables, rotor and planes; no record, so
     the declared probe angles and no effects): the same fit as a record's (`batch.identify_record`)."""
     from .chain import ForwardChain
-    from .newton import check_record
+    from .result import check_record
     from .settings import IdentificationSettings
 
     settings = settings or IdentificationSettings()

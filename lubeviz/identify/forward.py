@@ -113,7 +113,6 @@ class ForwardModel:
         self._x0_out, self._x0_U = sol[out, 0], sol[self._U, 0]
         self._Z_out, self._W = sol[out, 1:], sol[self._U, 1:]
         self.evaluations = 0
-        self._model_error: dict = {}
 
     def response(self, q1, q2) -> Response:
         """x, y complex amplitudes at the two nodes; q1, q2 broadcast (m^3/s)."""
@@ -169,61 +168,6 @@ class ForwardModel:
     def features(self, q1, q2, names: Sequence[str] = PAPER_FEATURES) -> np.ndarray:
         r = self.response(q1, q2)
         return feature_vector(r.x, r.y, names)
-
-    def model_error_cov(self, names: Sequence[str] = PAPER_FEATURES, *, span=(0.5, 1.5),
-                        kink: float = 0.1) -> np.ndarray:
-        """Covariance of the features' model error from the tables' own scatter (leave-one-out).
-
-        Each table node is predicted by the spline through the other nodes; the features computed with
-        the predicted vs the solved coefficients (the other bearing at its Q_T) differ by the table's
-        interpolation error plus the film model's discretization staircase in Q (single mesh cells
-        switching). Their mean square over nodes within `span` x Q_T, summed over the two bearings, is
-        added to the measurement covariance in best mode, so the reported uncertainty covers the
-        model's own resolution and not only the record's noise. It vanishes as the tables get smooth.
-        Nodes within `kink` x Q_T of Q_T are left out: the coefficients turn sharply there (the groove
-        starts to pressurize), which a leave-one-out spline cannot follow, although the full table does.
-        """
-        names = tuple(names)
-        cache_key = (names, tuple(span), kink)
-        if cache_key in self._model_error:
-            return self._model_error[cache_key]
-        cov = np.zeros((len(names), len(names)))
-        for k, t in enumerate(self.tables):
-            r = t.q / t.q_threshold
-            sel = np.flatnonzero((r > span[0]) & (r < span[1]) & (np.abs(r - 1.0) > kink))
-            sel = sel[(sel > 0) & (sel < t.q.size - 1)]
-            if sel.size == 0:
-                continue
-            devs = []
-            for j in sel:
-                keep = np.ones(t.q.size, dtype=bool)
-                keep[j] = False
-                loo = CoefficientTable(bearing=t.bearing, omega=t.omega, q_threshold=t.q_threshold, q=t.q[keep],
-                                       K=t.K[keep], C=t.C[keep], position=t.position[keep])
-                q = [self.q_ref[0], self.q_ref[1]]
-                q[k] = t.q[j]
-                exact = self._with_coefficients(k, t.K[j], t.C[j], q)
-                pred = self._with_coefficients(k, *loo.coefficients(t.q[j]), q)
-                devs.append(wrap_difference(feature_vector(pred.x, pred.y, names)
-                                            - feature_vector(exact.x, exact.y, names), names))
-            d = np.array(devs)
-            # robust scale (MAD): a few nodes where the curvature is large would otherwise dominate,
-            # and leave-one-out doubles the node spacing there, unlike the full table
-            s = 1.4826 * np.median(np.abs(d), axis=0)
-            corr = np.corrcoef(d.T) if len(devs) > 2 else np.eye(len(names))
-            cov += np.nan_to_num(corr) * np.outer(s, s)
-        self._model_error[cache_key] = cov
-        return cov
-
-    def _with_coefficients(self, k: int, K: np.ndarray, C: np.ndarray, q) -> Response:
-        """Response with bearing k's coefficients given directly and the other read from its table."""
-        dB = np.zeros((4, 4), dtype=complex)
-        for j, t in enumerate(self.tables):
-            Kj, Cj = (K, C) if j == k else t.coefficients(q[j])
-            dB[2 * j:2 * j + 2, 2 * j:2 * j + 2] = Kj + 1j * self.omega * Cj - self._B0[j]
-        c = np.linalg.solve(np.eye(4) + dB @ self._W, dB @ self._x0_U)
-        x_out = self._x0_out - self._Z_out @ c
-        return Response(x=x_out[0::2], y=x_out[1::2])
 
     @property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:

@@ -40,6 +40,7 @@ from .forward import ALL_FEATURES, ANGULAR, PAPER_FEATURES, ForwardModel, featur
 from .measured import MeasuredFeatures
 from .newton import _bounds, _paper_errors
 from .settings import IdentificationSettings
+from ..units import MLMIN_PER_M3S
 
 # Sec. 3.1: the sweeps run from 50 to 150 % of the paper's Q_T = 546 ml/min.
 PAPER_SWEEP_MLMIN = (273.0, 819.0)
@@ -332,7 +333,7 @@ def _case_features(machine, model: ForwardModel, q_mlmin, snr_db: float, rng: np
     from ..signals.synthesize import synthesize_record
     from .measured import measure
 
-    flows = tuple(q / 6e7 for q in q_mlmin)
+    flows = tuple(q / MLMIN_PER_M3S for q in q_mlmin)
     rec = synthesize_record(machine, flows, nodes=model.nodes, snr_db=snr_db, rng=rng, method="steady",
                             bearings=film_bearings(machine, flows), rotor=model.rotor)
     return measure(rec, ALL_FEATURES)
@@ -363,7 +364,7 @@ def identification_map(model: ForwardModel, measured: MeasuredFeatures, settings
 def _identification_map(machine, model, q_mlmin, axes, settings, snr_db, rng, title) -> dict:
     meas = _case_features(machine, model, q_mlmin, snr_db, rng)
     out = identification_map(model, meas, settings, axes, title=title)
-    out["q_ref"] = np.array(q_mlmin) / 6e7
+    out["q_ref"] = np.array(q_mlmin) / MLMIN_PER_M3S
     del out["identification"]
     return out
 
@@ -372,7 +373,7 @@ def simulated_measurement(machine, model: ForwardModel, flows, *, snr_db: float 
                           rng: np.random.Generator) -> MeasuredFeatures:
     """Features of a record simulated as the paper does (direct film solves, 5 s at 10 kHz, noise) at
     supply flows `flows` (m^3/s), at the model's nodes."""
-    return _case_features(machine, model, tuple(q * 6e7 for q in flows), snr_db, rng)
+    return _case_features(machine, model, tuple(q * MLMIN_PER_M3S for q in flows), snr_db, rng)
 
 
 def paper_figures(machine, *, grid: int = 101, sweep_points: int | None = None, tables=None, seed: int = 2024,
@@ -417,7 +418,7 @@ def paper_figures(machine, *, grid: int = 101, sweep_points: int | None = None, 
     out: dict = {}
 
     t0 = time.perf_counter()
-    q = np.linspace(*PAPER_SWEEP_MLMIN, int(sweep_points)) / 6e7
+    q = np.linspace(*PAPER_SWEEP_MLMIN, int(sweep_points)) / MLMIN_PER_M3S
     sweeps = {loc: flow_sweep(m, q) for loc, m in models.items()}
 
     def per_node(attr):
@@ -435,7 +436,7 @@ def paper_figures(machine, *, grid: int = 101, sweep_points: int | None = None, 
     progress(1, steps, "Figs. 4-6: sweeps")
 
     t0 = time.perf_counter()
-    axis = np.linspace(*PAPER_SWEEP_MLMIN, grid) / 6e7
+    axis = np.linspace(*PAPER_SWEEP_MLMIN, grid) / MLMIN_PER_M3S
     fg = feature_grid(models["center"], axis, axis, PAPER_FEATURES)
     out["fig7"] = {"title": "fb and phi at the bearing centres over Q1 x Q2 (Fig. 7); fields [i_q2, j_q1]",
                    "nodes": centre, "q1": fg.q1, "q2": fg.q2, **{n: fg[n] for n in PAPER_FEATURES},
@@ -445,7 +446,7 @@ def paper_figures(machine, *, grid: int = 101, sweep_points: int | None = None, 
     t0 = time.perf_counter()
     from ..rotor.film_bearings import film_bearings
 
-    flows8 = tuple(v / 6e7 for v in FIG8_CASE_MLMIN)
+    flows8 = tuple(v / MLMIN_PER_M3S for v in FIG8_CASE_MLMIN)
     clean = synthesize_record(machine, flows8, nodes=centre, snr_db=None, method="steady", duration_s=0.2,
                               bearings=film_bearings(machine, flows8), rotor=models["center"].rotor)
     noisy = add_noise(clean.displacement, snr_db, np.random.default_rng([seed, 8]))

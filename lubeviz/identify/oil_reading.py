@@ -15,7 +15,6 @@ import numpy as np
 # 1 sigma of "the oil temperature in the film" from a reading: an RTD in the drain reads the film's
 # mean temperature to about +-2 K (95 %); the film's effective temperature is a modelling choice.
 READING_STD_K = 1.0
-OIL_EFFECTS = ("viscosity", "oil_temperature")
 
 
 def oil_reading(record, machine, effects=()) -> tuple[tuple, float, tuple[str, ...]]:
@@ -24,7 +23,7 @@ def oil_reading(record, machine, effects=()) -> tuple[tuple, float, tuple[str, .
     if t is None:
         return (), 0.0, ()
     where = str(getattr(record, "source", None) or "record")
-    if any(getattr(e, "effect_name", "") in OIL_EFFECTS for e in effects):
+    if any(e.oil_viscosity for e in effects):
         return (), 0.0, (f"{where}: oil_temperature_c = {t:g} °C not used: an effect declares the oil",)
     oil = getattr(machine, "oil", None)
     if oil is None:

@@ -70,6 +70,7 @@ from ..rotor.whirl import Stability, equilibrium_stability
 from .budget import ModelBudget, truncation_factor
 from .chain import ForwardChain, ResponseDefect
 from .fit import Z95, Fit, fit, sandwich_cov, std_within
+from ..units import MLMIN_PER_M3S
 
 
 SIGMA_TOL = 0.2  # the rounds also stop when the flows move by less than this fraction of their standard deviation
@@ -648,7 +649,8 @@ def _with_std_of(final: Fit, intervals: dict) -> Fit:
 
 
 def _time_round(r: TimeRound) -> dict:
-    return {"flows_at_mlmin": (r.flows_at * 6e7).tolist(), "flows_after_mlmin": (r.flows_after * 6e7).tolist(),
+    return {"flows_at_mlmin": (r.flows_at * MLMIN_PER_M3S).tolist(),
+            "flows_after_mlmin": (r.flows_after * MLMIN_PER_M3S).tolist(),
             "gap_1x_percent": r.gap_percent.tolist(), "settled_percent": r.settled_percent, "chi2": r.chi2,
             "consistent": r.consistent}
 
@@ -662,7 +664,7 @@ def orbit_summary(of: OrbitFit) -> dict:
             "one_x_over_linear": [float(abs(ob.x[1, k]) / abs(ob.linear_x[k])) for k in range(len(ob.nodes))],
             "static_shift_um": (1e6 * np.stack([ob.x[0].real, ob.y[0].real], axis=-1)).tolist(),
             "max_eccentricity": ob.max_eccentricity,
-            "plain_q_mlmin": (of.plain.values[:2] * 6e7).tolist(), "plain_chi2": of.plain.chi2,
+            "plain_q_mlmin": (of.plain.values[:2] * MLMIN_PER_M3S).tolist(), "plain_chi2": of.plain.chi2,
             **({} if of.stability is None else {
                 "stability": of.stability.describe(), "unstable": of.stability.unstable,
                 "least_stable_mode_hz": of.stability.frequency_hz, "growth_per_s": of.stability.growth}),
@@ -670,5 +672,6 @@ def orbit_summary(of: OrbitFit) -> dict:
             "time_rounds": [{**_time_round(r), "seconds": r.seconds,
                              "not_kept": [_time_round(o) for o in r.others]} for r in of.time_rounds],
             **({} if of.time_round_intervals is None else {"time_round_intervals_mlmin": [
-                [lo * 6e7, None if hi is None else hi * 6e7] for lo, hi in of.time_round_intervals.values()]}),
+                [lo * MLMIN_PER_M3S, None if hi is None else hi * MLMIN_PER_M3S]
+                for lo, hi in of.time_round_intervals.values()]}),
             "seconds": of.seconds}

@@ -23,6 +23,7 @@ from .forward import ALL_FEATURES, ForwardModel
 from .measured import measure
 from .newton import identify
 from .settings import IdentificationSettings
+from ..units import MLMIN_PER_M3S
 
 REFERENCE_FLOWS_MLMIN = (409.5, 448.5, 487.5, 526.5, 565.5, 604.5, 643.5, 682.5)
 PAPER_RESULTS = {
@@ -66,7 +67,7 @@ def reference_records(machine, nodes, *, flows_mlmin=REFERENCE_FLOWS_MLMIN, snr_
     for k in range(2):
         prev = None
         for q in flows_mlmin:
-            fb = film_bearings(machine, (q / 6e7, q / 6e7), omega, previous=prev)
+            fb = film_bearings(machine, (q / MLMIN_PER_M3S, q / MLMIN_PER_M3S), omega, previous=prev)
             single[(k, q)] = fb.equilibria[k]
             prev = fb
     records = {}
@@ -74,7 +75,8 @@ def reference_records(machine, nodes, *, flows_mlmin=REFERENCE_FLOWS_MLMIN, snr_
     n = 0
     for i, q1 in enumerate(flows_mlmin):
         for j, q2 in enumerate(flows_mlmin):
-            fb = FilmBearings(omega=omega, flows=(q1 / 6e7, q2 / 6e7), equilibria=(single[(0, q1)], single[(1, q2)]))
+            fb = FilmBearings(omega=omega, flows=(q1 / MLMIN_PER_M3S, q2 / MLMIN_PER_M3S),
+                              equilibria=(single[(0, q1)], single[(1, q2)]))
             rng = np.random.default_rng([seed, i, j, nodes[0]])
             records[(q1, q2)] = synthesize_record(machine, fb.flows, nodes=nodes, snr_db=snr_db, rng=rng,
                                                   bearings=fb, rotor=rotor, method=method)
@@ -89,8 +91,8 @@ def run_cases(model: ForwardModel, records: dict, settings: IdentificationSettin
     for n, ((q1, q2), rec) in enumerate(records.items(), start=1):
         meas = measure(rec, ALL_FEATURES)
         r = identify(model, meas, settings)
-        out.append(CaseResult(q_ref=(q1, q2), q_id=tuple(r.q * 6e7), q_std=None if r.q_std is None else
-                              tuple(r.q_std * 6e7), iterations=r.iterations, evaluations=r.evaluations,
+        out.append(CaseResult(q_ref=(q1, q2), q_id=tuple(r.q * MLMIN_PER_M3S), q_std=None if r.q_std is None else
+                              tuple(r.q_std * MLMIN_PER_M3S), iterations=r.iterations, evaluations=r.evaluations,
                               converged=r.converged, unique=r.unique, seconds=r.seconds))
         progress(n, len(records), f"{settings.mode} {q1:g}/{q2:g}")
     return out

@@ -39,6 +39,7 @@ from ..film.sweep import sweep_supply
 from ..model.bearing import Bearing
 from ..progress import ProgressFn, silent
 from ..rotor.statics import bearing_static_loads
+from ..units import MLMIN_PER_M3S
 
 DEFAULT_SPAN = (0.25, 2.0)
 # The band where the groove pressurizes, relative to Q_T, and its step (1.1 ml/min at Q_T =
@@ -103,7 +104,7 @@ class CoefficientTable:
         q = np.asarray(q, dtype=float)
         if np.any(~np.isfinite(q)) or np.any(q < self.q_min * (1 - 1e-9)) or np.any(q > self.q_max * (1 + 1e-9)):
             raise InputError(f"supply flow outside the table of bearing {self.bearing + 1}: "
-                             f"{self.q_min * 6e7:.1f}-{self.q_max * 6e7:.1f} ml/min")
+                             f"{self.q_min * MLMIN_PER_M3S:.1f}-{self.q_max * MLMIN_PER_M3S:.1f} ml/min")
         return self._eval(q)
 
     def coefficients(self, q):

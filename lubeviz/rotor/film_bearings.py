@@ -22,6 +22,7 @@ from ..film.feed import Feed
 from .assembly import Rotor, rotor_from_machine
 from .response import UnbalanceResponse, machine_unbalance, unbalance_response
 from .statics import bearing_static_loads
+from ..units import MLMIN_PER_M3S
 
 
 @dataclass(frozen=True)
@@ -67,7 +68,7 @@ def film_bearings(machine, flows: Sequence[float], omega: float | None = None, *
         eq = find_equilibrium(b, omega, load, Feed.flow(q), start=None if prev is None else prev.position,
                               warm=None if prev is None else prev.film, coefficients=coefficients)
         if not eq.converged:
-            raise ConvergenceError(f"bearing {k + 1} at {q * 6e7:.1f} ml/min, {omega / 2 / math.pi:g} Hz: "
+            raise ConvergenceError(f"bearing {k + 1} at {q * MLMIN_PER_M3S:.1f} ml/min, {omega / 2 / math.pi:g} Hz: "
                                    f"{eq.message}")
         eqs.append(eq)
     return FilmBearings(omega=omega, flows=flows, equilibria=tuple(eqs))
@@ -94,7 +95,7 @@ def equilibrium_flow_slopes(machine, fb: FilmBearings, thresholds=None, *, rel: 
             eq = find_equilibrium(b, fb.omega, load, Feed.flow(q + hs), start=e0.position, warm=e0.film,
                                   coefficients=coefficients)
             if not eq.converged:
-                raise ConvergenceError(f"bearing {k + 1} at {(q + hs) * 6e7:.1f} ml/min: {eq.message}")
+                raise ConvergenceError(f"bearing {k + 1} at {(q + hs) * MLMIN_PER_M3S:.1f} ml/min: {eq.message}")
             got.append((hs, np.asarray(eq.position, float), eq.coefficients.K, eq.coefficients.C))
         if len(got) == 1:
             got.append((0.0, np.asarray(e0.position, float), e0.coefficients.K, e0.coefficients.C))

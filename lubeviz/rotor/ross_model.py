@@ -62,14 +62,6 @@ def import_ross():
     return ross
 
 
-def ross_available() -> bool:
-    try:
-        import_ross()
-    except RossUnavailable:
-        return False
-    return True
-
-
 def ross_rotor(machine, bearings, *, shaft_damping_beta: float | None = None):
     """ROSS `Rotor` of a `Machine` on linear bearings: one (K, C) pair (2x2, SPEC §1) per machine bearing."""
     rs = import_ross()

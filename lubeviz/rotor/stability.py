@@ -42,6 +42,7 @@ from ..progress import ProgressFn, silent
 from .assembly import Rotor, rotor_from_machine
 from .modal import modal_analysis
 from .statics import bearing_static_loads
+from ..units import MLMIN_PER_M3S
 
 TWO_PI = 2.0 * math.pi
 
@@ -78,7 +79,7 @@ class Supply:
     def describe(self) -> str:
         v = self.value if isinstance(self.value, tuple) else (self.value,)
         if self.kind == "flow":
-            return "fixed flow " + "/".join(f"{x * 6e7:.4g}" for x in v) + " ml/min"
+            return "fixed flow " + "/".join(f"{x * MLMIN_PER_M3S:.4g}" for x in v) + " ml/min"
         return "/".join(f"{x:.4g}" for x in v) + " x Q_T(speed)"
 
 

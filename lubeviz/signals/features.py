@@ -55,14 +55,6 @@ class PlaneFeatures:
     cov: np.ndarray  # covariance of (fb, phi)
     noise_std: tuple[float, float]  # per-sample noise of x and y (m)
 
-    @property
-    def backward_snr(self) -> float:
-        """|Zb| in units of its own noise standard deviation."""
-        return abs(self.zb) / self.zb_std if self.zb_std > 0 else math.inf
-
-    @property
-    def forward_snr(self) -> float:
-        return abs(self.zf) / self.zf_std if self.zf_std > 0 else math.inf
 
 
 def _design(t: np.ndarray, omega: float, harmonics: int) -> np.ndarray:

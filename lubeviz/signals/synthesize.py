@@ -32,6 +32,7 @@ from ..rotor.response import machine_unbalance, unbalance_response
 from ..rotor.transient import unbalance_time_response
 from .noise import add_noise
 from .records import Record
+from ..units import MLMIN_PER_M3S
 
 
 def synthesize_record(machine, flows: Sequence[float], *, nodes: Sequence[int] | None = None,
@@ -111,7 +112,8 @@ def synthesize_record(machine, flows: Sequence[float], *, nodes: Sequence[int] |
     return Record(speed_hz=speed_hz, sample_rate_hz=sample_rate_hz, displacement=xy, nodes=nodes,
                   probe_angles_deg=((0.0, 90.0), (0.0, 90.0)), t0=float(t[0]),
                   machine=Path(machine.source).name if machine.source else None,
-                  metadata={"q1_mlmin": f"{flows[0] * 6e7:.6g}", "q2_mlmin": f"{flows[1] * 6e7:.6g}",
+                  metadata={"q1_mlmin": f"{flows[0] * MLMIN_PER_M3S:.6g}",
+                            "q2_mlmin": f"{flows[1] * MLMIN_PER_M3S:.6g}",
                             "snr_db": "none" if snr_db is None else f"{snr_db:g}", "synthetic": "lubeviz simulate",
                             **extra})
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import ConvergenceError
 from ..progress import ProgressFn, silent
+from ..units import MLMIN_PER_M3S
 
 
 def wilson(k: int, n: int, z: float = 1.959964) -> list[float]:
@@ -64,14 +65,14 @@ def _inside(low, high, value) -> bool:
 
 def _flow_row(speed_hz: float, q, r) -> dict:
     """One record's row of a rate bench: true flows `q` (ml/min) against the identification `r`."""
-    qi = r.q * 6e7
-    holds = [_inside(low * 6e7, None if high is None else high * 6e7, q[k]) for k, (low, high) in
+    qi = r.q * MLMIN_PER_M3S
+    holds = [_inside(low * MLMIN_PER_M3S, None if high is None else high * MLMIN_PER_M3S, q[k]) for k, (low, high) in
              enumerate(r.intervals[:2])]
     return {"speed_hz": speed_hz, "q_mlmin": q.tolist(), "q_id_mlmin": qi.tolist(),
             "max_abs_error_pct": float(np.max(np.abs(qi / q - 1)) * 100), "holds": holds,
-            "above_qt": [bool(q[k] > r.q_threshold[k] * 6e7) for k in range(2)],
+            "above_qt": [bool(q[k] > r.q_threshold[k] * MLMIN_PER_M3S) for k in range(2)],
             "explained": bool(r.model_explains_data), "chi2": r.chi2, "seconds": r.seconds,
-            "truth_in_alt": any(np.all(np.abs(a * 6e7 / q - 1) < 0.05) for a in r.alternatives)}
+            "truth_in_alt": any(np.all(np.abs(a * MLMIN_PER_M3S / q - 1) < 0.05) for a in r.alternatives)}
 
 
 def bench_coverage(machine_path=None, *, n: int = 120, seed: int = 2026, calibrations=(), budgets=(),
@@ -191,7 +192,7 @@ def _orbit_rows(machine_path, spec, scale, source, harmonics, time_rounds) -> di
         lo = r.effects["large_orbit"]
         out[h] = {**_flow_row(spec.speed_hz, q, r), "unbalance_scale": scale,
                   "ratio_2x": list(made.truth["ratio_2x"]), "half_order": made.truth.get("half_order"),
-                  "signed_error_pct": _pct(r.q * 6e7, q),
+                  "signed_error_pct": _pct(r.q * MLMIN_PER_M3S, q),
                   "sigma_pct": (np.asarray(r.q_std) / r.q * 100).tolist(),
                   **({"time_rounds": [{"signed_error_pct_after": _pct(t["flows_after_mlmin"], q),
                                        "gap_1x_percent": t["gap_1x_percent"], "settled_percent": t["settled_percent"],
@@ -339,9 +340,9 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
         named = d.added.effect.effect_name if (d.added is not None and not d.ambiguous) else None
         in_set = truth in ([] if d.added is None else [d.added.effect.effect_name]) + [
             lab.split("[")[0] for lab in d.ambiguous]
-        err_b = np.abs(d.before.values[:2] * 6e7 / q - 1) * 100
-        err_a = np.abs(d.final.values[:2] * 6e7 / q - 1) * 100
-        held = _held(d, q / 6e7)
+        err_b = np.abs(d.before.values[:2] * MLMIN_PER_M3S / q - 1) * 100
+        err_a = np.abs(d.final.values[:2] * MLMIN_PER_M3S / q - 1) * 100
+        held = _held(d, q / MLMIN_PER_M3S)
         rows.append({"effect": name, "strength": level, "spec": text, "q_mlmin": q.tolist(),
                      "plain_chi2": d.before.chi2, "plain_explained": bool(d.before.explained),
                      "named": named, "added": None if d.added is None else d.added.label,
@@ -414,7 +415,7 @@ def bench_budget(machine_path=None, *, n: int = 120, seed: int = 2026, progress:
         chain = chains[key]
         xy = steady_truth(spec)["steady_xy_m"]
         f_true = feature_vector(xy[:, 0], xy[:, 1], ALL_FEATURES)
-        theta = np.array([spec.q1_mlmin, spec.q2_mlmin]) / 6e7
+        theta = np.array([spec.q1_mlmin, spec.q2_mlmin]) / MLMIN_PER_M3S
         sigma = np.sqrt(np.diag(model_covariance(chain, theta, ALL_FEATURES)))
         d = wrap_difference(f_true - chain.features(theta, ALL_FEATURES), ALL_FEATURES)
         z = d / sigma

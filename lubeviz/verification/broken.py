@@ -22,6 +22,7 @@ import time
 import numpy as np
 
 from ..progress import ProgressFn, silent
+from ..units import MLMIN_PER_M3S
 
 # column operations on (x1, y1, x2, y2), by hand: what each mix-up does to the columns a record holds
 _MIXUPS = {
@@ -94,7 +95,7 @@ def judge(d, expect: dict, q_mlmin) -> dict:
         faults = {lab.split("fault=")[1].rstrip("]") for lab in named if lab.startswith("wiring[")}
         right = bool(faults & ok) and d.explained
         wrong_alone = alone is not None and not (alone.startswith("wiring[") and faults <= ok)
-        held = _held(d, np.asarray(q_mlmin) / 6e7) if right else None
+        held = _held(d, np.asarray(q_mlmin) / MLMIN_PER_M3S) if right else None
     elif "finding" in expect:
         texts = " ".join(f.text for f in d.findings)
         if expect["finding"] == "units":
@@ -102,17 +103,17 @@ def judge(d, expect: dict, q_mlmin) -> dict:
         else:
             right = expect["finding"] in kinds and expect["text"] in texts and d.added is None and not d.explained
         wrong_alone = alone is not None
-        held = _held(d, np.asarray(q_mlmin) / 6e7) if expect["finding"] == "units" else None
+        held = _held(d, np.asarray(q_mlmin) / MLMIN_PER_M3S) if expect["finding"] == "units" else None
     elif "pickup" in expect:
         right = (any(line.kind == "mains" and abs(line.frequency_hz - expect["pickup"]) < 1.0 for line in d.lines)
                  and not any(line.kind == "sub" and line.relative_to_1x > 0.05 for line in d.lines)
                  and d.stability is None)
         wrong_alone = alone is not None
-        held = _held(d, np.asarray(q_mlmin) / 6e7)
+        held = _held(d, np.asarray(q_mlmin) / MLMIN_PER_M3S)
     else:
         right = d.explained and d.added is None and not d.findings
         wrong_alone = alone is not None
-        held = _held(d, np.asarray(q_mlmin) / 6e7)
+        held = _held(d, np.asarray(q_mlmin) / MLMIN_PER_M3S)
     return {"right": bool(right), "wrong_alone": bool(wrong_alone), "held": held, "findings": kinds,
             "added": None if d.added is None else d.added.label, "ambiguous": list(d.ambiguous),
             "explained": bool(d.explained)}

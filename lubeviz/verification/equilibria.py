@@ -35,6 +35,7 @@ from ..film.equilibrium import find_equilibrium, flooded_threshold
 from ..film.feed import Feed
 from ..identify.cache import cache_dir
 from ..model.bearing import Bearing
+from ..units import MLMIN_PER_M3S
 
 FORMAT_VERSION = 1
 FINE_MESH = (200, 200)
@@ -150,12 +151,12 @@ def film_point(bearing: Bearing, omega: float, load, q_supply: float, *, use_cac
     eq = find_equilibrium(bearing, omega, np.asarray(load, dtype=float), Feed.flow(q_supply),
                           coefficients=COEFFICIENTS)
     if not eq.converged:
-        raise ConvergenceError(f"independent film: no equilibrium at {q_supply * 6e7:.1f} ml/min, "
+        raise ConvergenceError(f"independent film: no equilibrium at {q_supply * MLMIN_PER_M3S:.1f} ml/min, "
                                f"{omega / 2 / math.pi:g} Hz: {eq.message}")
     arrays = {"position": np.asarray(eq.position, float), "K": np.asarray(eq.coefficients.K, float),
               "C": np.asarray(eq.coefficients.C, float), "side_leakage": np.float64(eq.film.side_leakage)}
     if not all(np.all(np.isfinite(a)) for a in arrays.values()):
-        raise ConvergenceError(f"independent film: non-finite coefficients at {q_supply * 6e7:.1f} ml/min")
+        raise ConvergenceError(f"independent film: non-finite coefficients at {q_supply * MLMIN_PER_M3S:.1f} ml/min")
     if use_cache:
         _store(path, key, arrays)
     return FilmPoint(position=arrays["position"], K=arrays["K"], C=arrays["C"],

@@ -59,6 +59,7 @@ from ..signals.records import Record, record_from_arrays, write_record
 from . import equilibria
 from .effects import bearings_of, normalize_effects
 from .newmark import amplification, integrate_harmonic
+from ..units import MLMIN_PER_M3S
 
 SHAFT_DAMPING_BETA = 3e-5  # s; the model's is 2e-5
 GAP = 1.0e-3  # m, the probes' DC gap reading with the shaft at the bearing centre
@@ -276,7 +277,7 @@ def _films(spec: IndependentSpec, machine, rotor: Rotor, omega: float, use_cache
                 changes[k]["viscosity"] *= p["factor"]
             else:
                 changes[k]["clearance"] = 1e-6 * p["clearance_um"]
-    flows = (spec.q1_mlmin / 6e7, spec.q2_mlmin / 6e7)
+    flows = (spec.q1_mlmin / MLMIN_PER_M3S, spec.q2_mlmin / MLMIN_PER_M3S)
     films = [equilibria.film_point(equilibria.fine_bearing(b, **ch), omega, (0.0, -w), q, use_cache=use_cache)
              for b, ch, w, q in zip(machine.bearings, changes, reactions, flows)]
     return films, changes, reactions
@@ -355,7 +356,7 @@ def _truth(spec: IndependentSpec, prepared) -> dict:
         "clearance_m": clear, "viscosity_pa_s": [ch["viscosity"] for ch in changes],
         "bearing_loads_n": np.asarray(reactions, float),
         "K": np.array([f.K for f in films]), "C": np.array([f.C for f in films]),
-        "side_leakage_mlmin": [f.side_leakage * 6e7 for f in films],
+        "side_leakage_mlmin": [f.side_leakage * MLMIN_PER_M3S for f in films],
         "steady_xy_m": xy, "steady_true_xy_m": D, "zf": zf, "zb": zb, "fb": np.abs(zf) / np.abs(zb),
         "phi_rad": phi, "max_growth_rate": float(lam.real.max()),
         "film_cached": [f.cached for f in films],
@@ -469,7 +470,7 @@ def thresholds_mlmin(speed_hz: float, machine: str | None = None) -> np.ndarray:
     m = _machine(machine)
     loads = bearing_static_loads(m)
     omega = 2.0 * math.pi * float(speed_hz)
-    return np.array([equilibria.threshold(b, omega, w) * 6e7 for b, w in zip(m.bearings, loads)])
+    return np.array([equilibria.threshold(b, omega, w) * MLMIN_PER_M3S for b, w in zip(m.bearings, loads)])
 
 
 def clean_corpus(n: int, rng: np.random.Generator, *, machine: str | None = None, speed_step_hz: float = 2.5,

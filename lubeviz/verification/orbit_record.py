@@ -61,6 +61,7 @@ from ..rotor.orbit_balance import OrbitBalance
 from . import equilibria
 from .equilibria import fine_bearing
 from .independent import IndependentRecord, IndependentSpec, _machine, fine_node, split_rotor
+from ..units import MLMIN_PER_M3S
 
 HARMONICS, POINTS = 6, 28
 METHODS = ("balance", "time")
@@ -194,12 +195,13 @@ def make_orbit_record(spec: IndependentSpec, *, unbalance_scale: float = 1.0, me
         def films(on_mesh):
             eqs = []
             for k, (b, w, q) in enumerate(zip(machine.bearings, reactions, (spec.q1_mlmin, spec.q2_mlmin))):
-                eq = find_equilibrium(on_mesh(b), omega, (0.0, -w), Feed.flow(q / 6e7),
+                eq = find_equilibrium(on_mesh(b), omega, (0.0, -w), Feed.flow(q / MLMIN_PER_M3S),
                                       coefficients="fixed-pattern")
                 if not eq.converged:
                     raise InputError(f"bearing {k + 1}: no equilibrium at {q:g} ml/min ({eq.message})")
                 eqs.append(eq)
-            return FilmBearings(omega=omega, flows=(spec.q1_mlmin / 6e7, spec.q2_mlmin / 6e7), equilibria=tuple(eqs))
+            return FilmBearings(omega=omega, flows=(spec.q1_mlmin / MLMIN_PER_M3S, spec.q2_mlmin / MLMIN_PER_M3S),
+                                equilibria=tuple(eqs))
 
         unbalances = [Unbalance(fine_node(u.node), u.moment * unbalance_scale, u.phase)
                       for u in machine_unbalance(machine)]

@@ -162,7 +162,7 @@ def test_a_t_column_too_large_for_its_step_is_refused_naming_t(tmp_path):
 
 
 def test_no_usable_1x_message_names_the_file_the_speed_and_the_strongest_line():
-    from lubeviz.identify.newton import check_record
+    from lubeviz.identify.result import check_record
     from lubeviz.identify.settings import IdentificationSettings
 
     # a tone at 60 Hz in a record labelled 75 Hz, built in memory (the reader would refuse the file)
