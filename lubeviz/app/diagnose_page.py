@@ -306,8 +306,9 @@ class DiagnosePage(pn.viewable.Viewer):
     def _show(self, r):
         d, s = r["diagnosis"], r["summary"]
         kind = "success" if d.explained and not d.ambiguous else ("warning" if d.explained or d.ambiguous else "danger")
-        added = f"**Effect added: {plain(d.added.label)}.** " if d.added is not None else (
-            "**No effect needed.** " if d.explained else "**No effect explains the record.** ")
+        added = {"explained": "**No effect needed.** ", "unexplained": "**No effect explains the record.** ",
+                 "measurement fault": "**The measurement is broken: no effect was fitted.** "}.get(
+            d.outcome, "" if d.added is None else f"**Effect added: {plain(d.added.label)}.** ")
         # The flows first: the browser receives each change as its own message, and whoever reads the verdict
         # (a user, a test) should find the flows it speaks of already there.
         self._flows.object = self._flows_text(d, s, r["truth"], r["name"])

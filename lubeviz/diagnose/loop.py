@@ -31,6 +31,8 @@ from ..progress import ProgressFn, silent
 from ..units import MLMIN_PER_M3S
 
 AMBIGUITY_AIC = 4.0
+OUTCOMES = ("explained", "effect added", "ambiguous", "unexplained", "effect added, still not explained",
+            "measurement fault")
 REFITS = 3  # passing candidates refined in turn until one still explains the record
 
 
@@ -91,6 +93,19 @@ class Diagnosis:
     @property
     def final(self) -> Fit:
         return self.after if self.after is not None else self.before
+
+    @property
+    def outcome(self) -> str:
+        """The diagnosis in one of OUTCOMES: what the verdict, the report and the page each say, derived here once."""
+        if any(f.fault for f in self.findings):
+            return "measurement fault"
+        if self.explained and self.added is None:
+            return "explained"
+        if self.added is not None and self.ambiguous:
+            return "ambiguous"
+        if self.added is not None:
+            return "effect added" if self.explained else "effect added, still not explained"
+        return "unexplained"
 
 
 def _fit_candidate(base_chain, measured, effect, names, budget, level, starts_phase) -> Candidate:

@@ -126,22 +126,10 @@ def _story(effect) -> str:
 
 # --- what to do --------------------------------------------------------------------------------------
 
-def _outcome(d) -> str:
-    if any(f.fault for f in d.findings):
-        return "measurement fault"
-    if d.explained and d.added is None:
-        return "explained"
-    if d.added is not None and d.ambiguous:
-        return "ambiguous"
-    if d.added is not None:
-        return "effect added" if d.explained else "effect added, still not explained"
-    return "unexplained"
-
-
 def _actions(d, nodes) -> list[str]:
     """One sentence per thing to do, in the order to do them (HTML, escaped)."""
     out = []
-    outcome = _outcome(d)
+    outcome = d.outcome
     if outcome == "measurement fault":
         return [f"<b>Correct the record first</b>: {escape('. '.join(f.text for f in d.findings if f.fault))}. "
                 "Its features describe the fault, not the machine: no effect was fitted and the flows mean nothing."]
@@ -450,7 +438,7 @@ def report_html(diagnosis, *, record=None, title: str = "Lubrication diagnosis",
     generated = generated or _dt.datetime.now().astimezone()
     nodes = tuple(bearing_nodes) if bearing_nodes else None
     truth = d.truth.get("q_mlmin") if d.truth else None
-    outcome = _outcome(d)
+    outcome = d.outcome
     cls = {"explained": "", "effect added": "", "ambiguous": "warn"}.get(outcome, "bad")
     qt = _q_threshold(d)
     parts = [f"<h1>{escape(title)}</h1>",

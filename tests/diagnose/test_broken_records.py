@@ -69,6 +69,7 @@ def test_a_channel_mix_up_is_named_and_the_flows_come_back(machine, columns, mix
     assert not d.before.explained  # the mix-up shows
     assert d.added is not None and d.added.label == f"wiring[fault={fault}]" and not d.ambiguous
     assert d.explained and _errors(d.after).max() < 1.0
+    assert d.outcome == "effect added"
 
 
 def test_a_reversed_probe_is_named(machine, columns):
@@ -88,6 +89,7 @@ def test_a_copied_channel_is_a_measurement_fault_not_an_explained_effect(machine
     d = _diagnose(machine, _record(copied, speed, rate))
     _consistent(d)
     assert not d.explained and d.added is None and not d.candidates
+    assert d.outcome == "measurement fault"
     assert d.verdict.startswith("Measurement fault") and "x1 and y1" in d.verdict
     assert [f["kind"] for f in diagnosis_dict(d)["record_findings"]] == ["copied_channels"]
 
@@ -132,7 +134,7 @@ def test_a_clean_record_has_no_finding_and_a_consistent_verdict(machine, columns
     cols, speed, rate = columns
     d = _diagnose(machine, _record(cols, speed, rate))
     _consistent(d)
-    assert d.explained and not d.findings
+    assert d.explained and not d.findings and d.outcome == "explained"
 
 
 def test_mains_hum_is_named_as_pickup_not_oil_whirl(machine, columns):
