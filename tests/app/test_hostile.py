@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import html
 import re
+import threading
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -29,6 +30,25 @@ PAYLOADS = (IMG, SCRIPT, MARKDOWN, "a\n# heading\n- item\n<img src=x\nonerror=al
 TAGS = re.compile(r"<\s*(img|script|a|code|em|h1|li|svg|iframe)\b", re.IGNORECASE)  # in text shown as written
 # on a page, whose own text has headings, code and links: a tag a payload could bring, or an event handler
 HOSTILE = re.compile(r"<\s*(img|script|svg|iframe|object|embed)\b|<[^>]*\son\w+\s*=", re.IGNORECASE)
+
+
+def _run(coro):
+    """Run `coro` to its end on a thread of its own: a browser test before this file in the same worker leaves
+    Playwright's event loop running in the main thread, where asyncio.run refuses to start."""
+    out = {}
+
+    def target():
+        try:
+            out["value"] = asyncio.run(coro)
+        except BaseException as exc:  # re-raised in the test's thread
+            out["error"] = exc
+
+    thread = threading.Thread(target=target)
+    thread.start()
+    thread.join()
+    if "error" in out:
+        raise out["error"]
+    return out.get("value")
 
 
 def rendered(markdown: str) -> str:
@@ -117,7 +137,7 @@ def test_a_refused_record_quoting_html_shows_it_as_text(kind, good_csv):
     page = build(kind)
     filename = f"{IMG}.csv"
     for field, content in hostile_variants(good_csv).items():
-        asyncio.run(page._on_upload(SimpleNamespace(new=(filename, content))))
+        _run(page._on_upload(SimpleNamespace(new=(filename, content))))
         assert page._message.visible, field
         out = page_html(page)
         assert not any(HOSTILE.search(h) for h in out), (field, [h for h in out if HOSTILE.search(h)])
@@ -128,7 +148,7 @@ def test_a_refused_record_quoting_html_shows_it_as_text(kind, good_csv):
 @pytest.mark.parametrize("kind", ["identify", "diagnose"])
 def test_a_loaded_record_shows_its_reader_warnings_as_text(kind, good_csv):
     page = build(kind)
-    asyncio.run(page._on_upload(SimpleNamespace(new=(f"{IMG}.csv", loaded_with_payload_key(good_csv)))))
+    _run(page._on_upload(SimpleNamespace(new=(f"{IMG}.csv", loaded_with_payload_key(good_csv)))))
     assert not page._message.visible, page._message.object
     warnings = page._record_warnings
     assert warnings.visible
@@ -143,12 +163,12 @@ def test_a_loaded_record_shows_its_reader_warnings_as_text(kind, good_csv):
 def test_a_record_naming_another_machine_is_warned_and_the_page_keeps_its_own(kind, good_csv):
     page = build(kind)
     other = good_csv.replace("# machine: paper_machine.toml", "# machine: test_rig.toml")
-    asyncio.run(page._on_upload(SimpleNamespace(new=("rig.csv", other))))
+    _run(page._on_upload(SimpleNamespace(new=("rig.csv", other))))
     shown = visible(rendered(page._record_warnings.object))
     assert page._record_warnings.visible and "test_rig.toml" in shown and "paper_machine.toml" in shown, shown
     assert Path(page.machine.source).name == "paper_machine.toml"  # not switched
     # the record's own machine, named either way, is no warning
-    asyncio.run(page._on_upload(SimpleNamespace(new=("same.csv", good_csv.replace(
+    _run(page._on_upload(SimpleNamespace(new=("same.csv", good_csv.replace(
         "# machine: paper_machine.toml", "# machine: paper_machine")))))
     assert not page._record_warnings.visible, page._record_warnings.object
 
@@ -157,7 +177,7 @@ def test_diagnose_page_shows_no_truth_from_an_uploaded_file(good_csv):
     page = build("diagnose")
     claimed = good_csv.replace("# q1_mlmin: 400", "# q1_mlmin: 999")
     assert "q1_mlmin: 999" in claimed and "synthetic" in claimed  # the metadata claims a truth
-    asyncio.run(page._on_upload(SimpleNamespace(new=("claims.csv", claimed))))
+    _run(page._on_upload(SimpleNamespace(new=("claims.csv", claimed))))
     shown = visible(rendered(info(page).object))
     assert "claims.csv" in shown and "Truth" not in shown and "999" not in shown, shown
     assert page._truth is None
@@ -169,12 +189,12 @@ def test_an_over_long_file_name_is_shown_short_and_never_as_a_server_path(kind, 
 
     page = build(kind)
     name = "run-" + "9" * 400 + ".csv"  # longer than a file system takes
-    asyncio.run(page._on_upload(SimpleNamespace(new=(name, good_csv.replace("# units: m", "# units: furlong")))))
+    _run(page._on_upload(SimpleNamespace(new=(name, good_csv.replace("# units: m", "# units: furlong")))))
     shown = visible(rendered(page._message.object))
     assert tempfile.gettempdir() not in shown and "lubeviz-upload" not in shown, shown
     assert "furlong" in shown, shown  # the reader's own message, not an OSError about the name
     assert file_label(name) in shown and len(file_label(name)) == FILE_LABEL_CHARS
-    asyncio.run(page._on_upload(SimpleNamespace(new=(name, good_csv))))
+    _run(page._on_upload(SimpleNamespace(new=(name, good_csv))))
     assert file_label(name) in visible(rendered(info(page).object)) and name not in info(page).object
 
 
