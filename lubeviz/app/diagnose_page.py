@@ -3,8 +3,8 @@ an effect the plain model lacks), run the diagnosis in the background (one progr
 effect, Cancel), and see the residual of every feature before and after, the ranked candidates with
 their evidence, the chi^2 map over Q1 x Q2 with the searches, the verdict, and a report to download.
 
-Display only: the sample comes from `identify.chain.simulate`, the diagnosis from `diagnose.diagnose`,
-its figures from `diagnose.loop.cost_map` and `diagnose.diagnosis_dict`, the report from
+Display only: the sample comes from `identify.chain.simulate`, the diagnosis and its maps from
+`diagnose.run_diagnosis` (the CLI's one pipeline), its summary from `diagnose.diagnosis_dict`, the report from
 `diagnose.report.report_html`.
 """
 
@@ -20,10 +20,8 @@ import pandas as pd
 import panel as pn
 import param
 
-from ..diagnose import diagnose, diagnosis_dict
-from ..diagnose.inputs import diagnosis_inputs
-from ..diagnose.loop import cost_map
-from ..diagnose.report import report_html
+from ..diagnose import diagnosis_dict, run_diagnosis
+from ..diagnose.report import AFTER_COLOUR as AFTER, BEFORE_COLOUR as BEFORE, report_html, report_maps
 from ..effects import EFFECTS
 from ..errors import LubevizError
 from ..identify.chain import simulate
@@ -46,7 +44,6 @@ hv.extension("bokeh", logo=False)
 UPLOAD_LIMIT_MB = 50
 MAP_POINTS = 50
 SAMPLE_FLOWS_MLMIN = (420.0, 600.0)
-BEFORE, AFTER = "#9a9a9a", "#2c5f8a"
 
 EXPLAIN = """
 ### The residual loop
@@ -288,19 +285,14 @@ class DiagnosePage(pn.viewable.Viewer):
         self._show(self._result)
 
     def _diagnose(self, record, measured, truth, chosen, progress):
-        inputs = diagnosis_inputs([record], self.machine, measured=[measured], progress=progress,
-                                  chain_for=lambda m, speed, nodes, angles, p: resources.chain(m, speed, nodes, angles,
-                                                                                               progress=p))
-        chains, meas = inputs.chains, inputs.measured
         pool = None if len(chosen) == len(DIAGNOSABLE) else [EFFECTS[n] for n in chosen]
-        d = diagnose(chains, meas, candidates=pool, progress=progress, truth=truth, budget=inputs.budget,
-                     lines=inputs.lines, findings=inputs.findings)
-        maps = [("plain model", cost_map(chains, meas, n=MAP_POINTS), d.before)]
-        if d.added is not None:
-            maps.append((f"with {d.added.label}", cost_map(chains, meas, candidate=d.added, n=MAP_POINTS),
-                         d.after))
-        return dict(diagnosis=d, summary=diagnosis_dict(d), record=record, maps=maps, truth=truth,
-                    notes=inputs.notes)
+        run = run_diagnosis([record], self.machine, candidates=pool, measured=[measured], truth=truth,
+                            chain_for=lambda m, speed, nodes, angles, p: resources.chain(m, speed, nodes, angles,
+                                                                                         progress=p),
+                            map_points=MAP_POINTS, progress=progress)
+        d = run.diagnosis
+        return dict(diagnosis=d, summary=diagnosis_dict(d), record=record, maps=list(run.maps), truth=truth,
+                    notes=run.inputs.notes)
 
     # --- showing ----------------------------------------------------------------------------------------
     def _show(self, r):
@@ -420,8 +412,7 @@ class DiagnosePage(pn.viewable.Viewer):
         r = self._result
         if r is None:
             return io.StringIO("")
-        maps = [(title, grid, [(title, fit.paths[-1], BEFORE if fit is r["diagnosis"].before else AFTER)]
-                 if fit.paths else []) for title, grid, fit in r["maps"]]
         html = report_html(r["diagnosis"], record=r["record"], machine_name=self.machine.name,
-                           bearing_nodes=[b.node for b in self.machine.bearings], maps=maps)
+                           bearing_nodes=[b.node for b in self.machine.bearings],
+                           maps=report_maps(r["maps"], r["diagnosis"]))
         return io.StringIO(html)

@@ -10,6 +10,9 @@ from ..progress import StderrBar
 from .common import add_common
 
 
+MAP_POINTS = 50  # the report's chi^2 maps, points a side
+
+
 def register(sub) -> None:
     p = sub.add_parser("diagnose", help="find what the model lacks: residual -> candidate effects -> flows again")
     add_common(p)
@@ -40,8 +43,7 @@ def _candidates(text):
 
 
 def run_diagnose(args) -> dict | list:
-    from ..diagnose import diagnose, diagnosis_dict
-    from ..diagnose.inputs import diagnosis_inputs
+    from ..diagnose import diagnosis_dict, run_diagnosis
     from ..identify.batch import machine_for
     from ..signals.records import check_set, group_records, read_record
 
@@ -57,23 +59,18 @@ def run_diagnose(args) -> dict | list:
         if len(group) > 1:
             check_set(group)
         machine, notes = machine_for(group[0], args.machine)
-        inputs = diagnosis_inputs(group, machine, progress=bar)
-        chains, meas = inputs.chains, inputs.measured
-        d = diagnose(chains, meas, candidates=candidates, level=args.level, progress=bar, budget=inputs.budget,
-                     lines=inputs.lines, findings=inputs.findings)
+        run = run_diagnosis(group, machine, candidates=candidates, level=args.level,
+                            map_points=MAP_POINTS if args.report else 0, progress=bar)
+        d, inputs = run.diagnosis, run.inputs
         label = "+".join(str(r.source) for r in group)
         item = diagnosis_dict(d, file=label)
         item["warnings"] = list(notes) + list(inputs.notes)
         for w in item["warnings"]:
             sys.stderr.write(f"lubeviz diagnose: warning: {w}\n")
         if args.report:
-            from ..diagnose.loop import cost_map
-            from ..diagnose.report import write_report
+            from ..diagnose.report import report_maps, write_report
 
-            maps = [("plain model", cost_map(chains, meas, n=50), [("plain fit", d.before.paths[-1], "#1f77b4")])]
-            if d.added is not None and d.after is not None:
-                maps.append((f"with {d.added.label}", cost_map(chains, meas, candidate=d.added, n=50),
-                             [("with the effect", d.after.paths[-1], "#d62728")]))
+            maps = report_maps(run.maps, d)
             path = args.report if len(groups) == 1 else args.report.replace(".html", f"-{g}.html")
             write_report(d, path, record=group[0], machine_name=machine.name,
                          bearing_nodes=[b.node for b in machine.bearings], maps=maps)

@@ -3,5 +3,6 @@ report the error before and after. `loop.diagnose` is the headless entry point; 
 self-contained HTML report an engineer attaches to a work order."""
 
 from .loop import Candidate, Diagnosis, diagnose, diagnosis_dict
+from .pipeline import DiagnosisRun, run_diagnosis
 
-__all__ = ["Candidate", "Diagnosis", "diagnose", "diagnosis_dict"]
+__all__ = ["Candidate", "Diagnosis", "DiagnosisRun", "diagnose", "diagnosis_dict", "run_diagnosis"]

@@ -488,6 +488,13 @@ def report_html(diagnosis, *, record=None, title: str = "Lubrication diagnosis",
             + "\n</body></html>\n")
 
 
+def report_maps(maps, diagnosis) -> list:
+    """A run's maps [(title, grid, fit)] (`pipeline.run_diagnosis`) as `report_html` draws them: each with
+    its fit's search path, the plain model's in BEFORE_COLOUR, the one with the effect in AFTER_COLOUR."""
+    return [(title, grid, [(title, fit.paths[-1], BEFORE_COLOUR if fit is diagnosis.before else AFTER_COLOUR)]
+             if fit.paths else []) for title, grid, fit in maps]
+
+
 def write_report(diagnosis, path, **kwargs) -> Path:
     """Write `report_html(diagnosis, **kwargs)` to `path` (UTF-8); returns the path."""
     path = Path(path)

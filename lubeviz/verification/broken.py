@@ -4,7 +4,7 @@ Each record is the independent source's (`independent.make_record`, flows 75-125
 the way a cable, a channel map or a spreadsheet breaks a measurement: columns exchanged or negated, a column
 copied onto another, a plane (or the whole record) in other units than declared, mains pickup added; or left
 clean (the control). The breaks are column operations written here by hand, not the effect library's tables.
-Each is diagnosed through `diagnose.inputs.diagnosis_inputs` (findings and lines as the CLI passes them).
+Each is diagnosed by `diagnose.run_diagnosis`, the CLI's and the page's one pipeline.
 
 Per kind: right (the mix-up named first or in the ambiguity set; a copied channel or a plane in other units
 reported as a measurement fault with no effect fitted; a units slip named with the right units; pickup
@@ -122,8 +122,7 @@ def judge(d, expect: dict, q_mlmin) -> dict:
 def bench_broken(machine_path=None, *, n: int = 112, seed: int = 2026, speed_hz: float = 75.0,
                  progress: ProgressFn = silent) -> dict:
     """`n` independent records, each broken as KINDS[i % len(KINDS)] (every kind alike), diagnosed."""
-    from ..diagnose import diagnose
-    from ..diagnose.inputs import diagnosis_inputs
+    from ..diagnose import run_diagnosis
     from ..model.machine import load_machine
     from .bench import wilson
     from .independent import IndependentSpec, make_record, thresholds_mlmin
@@ -140,9 +139,7 @@ def bench_broken(machine_path=None, *, n: int = 112, seed: int = 2026, speed_hz:
         clean = make_record(spec).record
         rec, expect = broken_record(clean.displacement.reshape(4, -1), clean.speed_hz, clean.sample_rate_hz, kind,
                                     rng)
-        inputs = diagnosis_inputs([rec], machine)
-        d = diagnose(inputs.chains, inputs.measured, budget=inputs.budget, lines=inputs.lines,
-                     findings=inputs.findings)
+        d = run_diagnosis([rec], machine).diagnosis
         rows.append({"kind": kind, "q_mlmin": q.tolist(), "seconds": d.seconds, "verdict": d.verdict,
                      **judge(d, expect, q)})
         progress(i + 1, n, kind)

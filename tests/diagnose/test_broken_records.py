@@ -10,8 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from lubeviz.diagnose import diagnose, diagnosis_dict
-from lubeviz.diagnose.inputs import diagnosis_inputs
+from lubeviz.diagnose import diagnosis_dict, run_diagnosis
 from lubeviz.identify.batch import identify_record
 from lubeviz.signals.records import record_from_arrays
 from lubeviz.verification import IndependentSpec, make_record
@@ -38,9 +37,7 @@ def _record(cols, speed, rate, *, units="m", scale=1.0, source="broken.csv"):
 
 
 def _diagnose(machine, rec):
-    inputs = diagnosis_inputs([rec], machine)
-    return diagnose(inputs.chains, inputs.measured, budget=inputs.budget, lines=inputs.lines,
-                    findings=inputs.findings)
+    return run_diagnosis([rec], machine).diagnosis  # the CLI's and the page's pipeline
 
 
 def _consistent(d):

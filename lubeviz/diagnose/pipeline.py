@@ -1,0 +1,39 @@
+"""One diagnosis from records to what is shown: the CLI's `diagnose` and the Diagnose page run this alone.
+
+Records -> their inputs (`inputs.diagnosis_inputs`: chains with the oil reading held, features, budget, lines,
+findings) -> the residual loop (`loop.diagnose`) -> optionally the chi^2 maps over Q1 x Q2, the plain model's
+and the one with the effect added, each with the fit that searched it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Sequence
+
+from ..progress import ProgressFn, silent
+from .inputs import DiagnosisInputs, diagnosis_inputs
+from .loop import Diagnosis, cost_map, diagnose
+
+
+@dataclass(frozen=True)
+class DiagnosisRun:
+    diagnosis: Diagnosis
+    inputs: DiagnosisInputs
+    maps: tuple = ()  # (title, (q1, q2, chi2), fit) per map: the plain model's, then with the effect added
+
+
+def run_diagnosis(records: Sequence, machine, *, candidates=None, level: float = 0.01, measured=None,
+                  chain_for: Callable | None = None, truth: dict | None = None, map_points: int = 0,
+                  progress: ProgressFn = silent) -> DiagnosisRun:
+    """Diagnose `records` (one record, or the records of one set, already checked) of `machine`.
+    `map_points` > 0: also the chi^2 maps on that many points a side (the report's and the page's)."""
+    inputs = diagnosis_inputs(records, machine, measured=measured, chain_for=chain_for, progress=progress)
+    chains, meas = inputs.chains, inputs.measured
+    d = diagnose(chains, meas, candidates=candidates, level=level, progress=progress, truth=truth,
+                 budget=inputs.budget, lines=inputs.lines, findings=inputs.findings)
+    maps = []
+    if map_points > 0:
+        maps.append(("plain model", cost_map(chains, meas, n=map_points), d.before))
+        if d.added is not None and d.after is not None:
+            maps.append((f"with {d.added.label}", cost_map(chains, meas, candidate=d.added, n=map_points), d.after))
+    return DiagnosisRun(diagnosis=d, inputs=inputs, maps=tuple(maps))
