@@ -63,12 +63,13 @@ def record_findings(record, measured, chain) -> tuple[Finding, ...]:
 
 def channel_findings(record) -> list[Finding]:
     """Channels of `record` that are one signal: a copy (up to sign or a scale) of another channel."""
-    names = ("x1", "y1", "x2", "y2")
-    d = np.asarray(record.displacement, dtype=float).reshape(4, -1)
+    d = np.asarray(record.displacement, dtype=float)
+    names = [f"{axis}{k + 1}" for k in range(d.shape[0]) for axis in "xy"]  # the record's columns, plane by plane
+    d = d.reshape(len(names), -1)
     d = d - d.mean(axis=1, keepdims=True)
     out = []
-    for i in range(4):
-        for j in range(i + 1, 4):
+    for i in range(len(names)):
+        for j in range(i + 1, len(names)):
             a, b = d[i], d[j]
             bb = float(b @ b)
             if bb <= 0.0 or float(a @ a) <= 0.0:
