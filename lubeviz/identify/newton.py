@@ -15,7 +15,6 @@ record has one best-mode answer whichever page or command asks.
 
 from __future__ import annotations
 
-import math
 import time
 import numpy as np
 
