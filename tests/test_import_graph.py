@@ -83,7 +83,7 @@ def _cycles(edges) -> list[list[str]]:
 
 def test_the_walk_sees_an_import_inside_a_function():
     edges = graph()
-    assert "lubeviz.identify.chain" in edges["lubeviz.identify.batch"]  # `from .chain import ...` in a function
+    assert "lubeviz.identify.forward.chain" in edges["lubeviz.identify.batch"]  # `from .chain import ...` in a function
     assert "lubeviz.effects" in edges["lubeviz.diagnose.loop"]
 
 

@@ -10,9 +10,9 @@ import pytest
 
 def test_numerics_import_without_the_ui_stack():
     code = ("import sys, lubeviz, lubeviz.film.equilibrium, lubeviz.film.sweep, lubeviz.film.explore, "
-            "lubeviz.cli.main, lubeviz.bench, lubeviz.identify.maps, lubeviz.identify.batch, "
+            "lubeviz.cli.main, lubeviz.bench.film, lubeviz.identify.paper.maps, lubeviz.identify.batch, "
             "lubeviz.signals.records, lubeviz.signals.synthesize, lubeviz.rotor.stability, lubeviz.effects, "
-            "lubeviz.identify.chain, lubeviz.identify.fit, lubeviz.diagnose, lubeviz.diagnose.report, "
+            "lubeviz.identify.forward.chain, lubeviz.identify.fit.least_squares, lubeviz.diagnose, lubeviz.diagnose.report, "
             "lubeviz.verification, lubeviz.cli.diagnose_cmd; "
             "bad = [m for m in ('panel', 'bokeh', 'holoviews') if m in sys.modules]; "
             "assert not bad, bad")

@@ -21,7 +21,7 @@ import panel as pn
 import param
 
 from ..film.explore import SupplyFrame
-from ..identify.result import lubrication_verdict
+from ..identify.fit.result import lubrication_verdict
 from ..model.machine import Machine
 from ..model.operating import OperatingPoint
 from ..progress import Cancelled

@@ -3,7 +3,7 @@ an effect the plain model lacks), run the diagnosis in the background (one progr
 effect, Cancel), and see the residual of every feature before and after, the ranked candidates with
 their evidence, the chi^2 map over Q1 x Q2 with the searches, the verdict, and a report to download.
 
-Display only: the sample comes from `identify.chain.simulate`, the diagnosis and its maps from
+Display only: the sample comes from `identify.forward.chain.simulate`, the diagnosis and its maps from
 `diagnose.run_diagnosis` (the CLI's one pipeline), its summary from `diagnose.diagnosis_dict`, the report from
 `diagnose.report.report_html`.
 """
@@ -24,9 +24,9 @@ from ..diagnose import diagnosis_dict, run_diagnosis
 from ..diagnose.report import AFTER_COLOUR as AFTER, BEFORE_COLOUR as BEFORE, report_html, report_maps
 from ..effects import EFFECTS
 from ..errors import LubevizError
-from ..identify.chain import simulate
-from ..identify.measured import measure
-from ..identify.result import lubrication_verdict
+from ..identify.forward.chain import simulate
+from ..identify.forward.measured import measure
+from ..identify.fit.result import lubrication_verdict
 from ..model.machine import Machine
 from ..model.operating import OperatingPoint
 from ..progress import Cancelled

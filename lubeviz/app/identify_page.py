@@ -1,7 +1,7 @@
 """Identify page: upload a measured record, see its signals, orbits and full spectra, identify Q1 and Q2
 with their uncertainty and a verdict, compare model and measured features, export the result.
 
-Display only: reading (`signals.records.read_record_bytes`), features (`identify.measured.measure`),
+Display only: reading (`signals.records.read_record_bytes`), features (`identify.forward.measured.measure`),
 the search (`identify.batch.identify_record`) and the export (`identify.batch.result_dict`/`result_csv`)
 are the headless package's.
 """
@@ -21,9 +21,9 @@ import panel as pn
 from ..errors import LubevizError
 from ..identify.batch import (check_model_speed, feature_unit, identify_record, model_speed, result_csv,
                               result_dict)
-from ..identify.fit import Z95
-from ..identify.measured import measure
-from ..identify.settings import IdentificationSettings
+from ..identify.fit.least_squares import Z95
+from ..identify.forward.measured import measure
+from ..identify.fit.settings import IdentificationSettings
 from ..model.machine import Machine
 from ..progress import Cancelled
 from ..signals.records import MAX_RECORD_BYTES, read_record_bytes
@@ -62,7 +62,7 @@ def verdict_text(r, k: int) -> str:
     """Bearing k's verdict as far as the record supports it: the verdict at both ends of the flow's 95 %
     interval (an open upper end counts as over-supplied); 'starved or normal' when the interval spans the
     band around Q_T; marked uncertain when the model does not explain the record."""
-    from ..identify.result import verdict_over_interval
+    from ..identify.fit.result import verdict_over_interval
 
     v = r.verdict(k)
     ends = verdict_over_interval(r.q[k], None if r.intervals is None else r.intervals[k], r.q_threshold[k])

@@ -1,7 +1,7 @@
 """Maps page: the orbit features over Q1 x Q2 (the paper's Fig. 7), the error functions' root curves
 and eps_T (Figs. 9-11), and the identification's search drawn on them, start by start.
 
-Display only: grids, errors and root curves come from `identify.maps`, the search from `identify.newton`.
+Display only: grids, errors and root curves come from `identify.paper.maps`, the search from `identify.paper.newton`.
 
 The simulated record has its own operating point (`MapsPage.record_point`, an `OperatingPoint` like the
 session's), not the Rotor page's: the maps teach most where the two bearings differ, one starved and one
@@ -19,8 +19,8 @@ import panel as pn
 import param
 
 from ..identify.batch import model_speed
-from ..identify.maps import domain_axes, feature_grid, identification_map, simulated_measurement
-from ..identify.settings import IdentificationSettings
+from ..identify.paper.maps import domain_axes, feature_grid, identification_map, simulated_measurement
+from ..identify.fit.settings import IdentificationSettings
 from ..model.machine import Machine
 from ..model.operating import OperatingPoint
 from ..progress import Cancelled

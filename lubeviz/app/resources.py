@@ -2,7 +2,7 @@
 bearing frames of the Bearing page, forward models. All deterministic, so sharing them is safe: a
 second session, or a revisit, gets them instantly. Each is computed once (a per-key lock stops two
 sessions computing the same thing at once); the coefficient tables are also cached on disk by
-`identify.cache`. Nothing here is numeric: it calls the headless package and keeps what it returns.
+`identify.tables.cache`. Nothing here is numeric: it calls the headless package and keeps what it returns.
 
 Every store keyed by a speed (which an uploaded record chooses freely) or by a flow keeps only its most
 recently used entries (`Recent`, a few each): records at a hundred speeds cannot fill the server's memory.
@@ -28,15 +28,16 @@ from ..units import M3S_PER_MLMIN
 # for them. `import_numerics` imports them ahead of use (the shell calls it in the background).
 if TYPE_CHECKING:
     from ..film.explore import SupplyFrame
-    from ..identify.chain import ForwardChain
-    from ..identify.forward import ForwardModel
+    from ..identify.forward.chain import ForwardChain
+    from ..identify.forward.model import ForwardModel
     from ..rotor.assembly import Rotor
 
 
 def import_numerics() -> None:
     """Import the numerical modules this module's functions use (idempotent; cheap once done)."""
     from ..film import equilibrium, explore  # noqa: F401
-    from ..identify import cache, chain, forward  # noqa: F401
+    from ..identify.forward import chain, model  # noqa: F401
+    from ..identify.tables import cache  # noqa: F401
     from ..rotor import assembly, statics  # noqa: F401
 
 
@@ -118,7 +119,7 @@ def tables(m: Machine, speed_hz: float, progress: ProgressFn = silent):
     with _key_lock(("tables",) + key):
         found = _TABLES.get(key)  # kept in a local: another thread may drop the entry meanwhile
         if found is None:
-            from ..identify.cache import machine_tables
+            from ..identify.tables.cache import machine_tables
             found = _TABLES[key] = machine_tables(m, 2.0 * math.pi * speed_hz, progress=progress)
         return found
 
@@ -129,7 +130,7 @@ def forward_model(m: Machine, speed_hz: float, nodes, progress: ProgressFn = sil
     with _key_lock(("model",) + key):
         found = _MODELS.get(key)
         if found is None:
-            from ..identify.forward import ForwardModel
+            from ..identify.forward.model import ForwardModel
             found = _MODELS[key] = ForwardModel(m, t, key[2], rotor=rotor(m))
         return found
 
@@ -139,7 +140,7 @@ def chain(m: Machine, speed_hz: float, nodes, probe_angles_deg=None,
     """The plain forward chain (no effects) at `speed_hz` and planes `nodes`; add effects with
     `.with_effects(...)`. Every chain of one machine and speed shares its bearings' coefficient views (a
     viscosity or clearance change is built once per server, whatever the planes)."""
-    from ..identify.chain import DEFAULT_PROBE_ANGLES, ForwardChain
+    from ..identify.forward.chain import DEFAULT_PROBE_ANGLES, ForwardChain
 
     if probe_angles_deg is None:
         probe_angles_deg = DEFAULT_PROBE_ANGLES
@@ -159,7 +160,7 @@ def chain(m: Machine, speed_hz: float, nodes, probe_angles_deg=None,
 def bearing_changes(effects, k: int, declared_clearance: float) -> tuple[float, float]:
     """(viscosity factor, clearance m) of bearing k (0-based) after the bearings-stage `effects`, at their
     current values: the chain's own rule."""
-    from ..identify.chain import bearing_changes as chain_bearing_changes
+    from ..identify.forward.chain import bearing_changes as chain_bearing_changes
 
     factor, clearance = chain_bearing_changes(effects, k, declared_clearance)
     return float(factor), float(clearance)

@@ -6,8 +6,8 @@ second unbalance, soft pedestals, probe errors, a bow), set with widgets made fr
 parameter declarations, and watches the orbit, the full spectrum and the shaft centreline (the static
 journal position in its clearance circle) move against the machine without it.
 
-Display only: responses come from `identify.forward.tabled_response` (bearing K, C from the cached
-coefficient tables) and, with an effect, from `identify.chain.ForwardChain` (the same chain the
+Display only: responses come from `identify.forward.model.tabled_response` (bearing K, C from the cached
+coefficient tables) and, with an effect, from `identify.forward.chain.ForwardChain` (the same chain the
 identification fits); modes from `rotor.modal`, the Campbell diagram from `rotor.stability`.
 
 The Campbell diagram takes seconds, so it is computed on request, for the flows of that moment; when the
@@ -31,7 +31,7 @@ import param
 
 from ..effects import EFFECTS
 from ..errors import ConvergenceError
-from ..identify.forward import tabled_response
+from ..identify.forward.model import tabled_response
 from ..model.machine import Machine
 from ..model.operating import OperatingPoint
 from ..progress import Cancelled

@@ -10,6 +10,6 @@ class SessionState(param.Parameterized):
     """The Identify page writes these; the Maps page draws the last identification's search."""
 
     record = param.Parameter(None, doc="The uploaded record (signals.records.Record)")
-    measured = param.Parameter(None, doc="Its measured features (identify.measured.MeasuredFeatures)")
-    identification = param.Parameter(None, doc="The last identification (identify.result.Identification)")
+    measured = param.Parameter(None, doc="Its measured features (identify.forward.measured.MeasuredFeatures)")
+    identification = param.Parameter(None, doc="The last identification (identify.fit.result.Identification)")
     settings = param.Parameter(None, doc="The IdentificationSettings it was run with")

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..bench import bench_film, bench_mesh, bench_smoothness
+from ..bench.film import bench_film, bench_mesh, bench_smoothness
 from ..progress import StderrBar
 from .common import add_common, finite_float
 
@@ -75,7 +75,7 @@ def run_bench(args) -> dict:
     if args.repeat < 1:
         raise ValueError(f"--repeat {args.repeat}: expected at least 1")
     if args.what == "read":
-        from ..signals.bench_read import bench_read
+        from ..bench.read import bench_read
 
         return bench_read()
     if args.what == "mesh":
@@ -86,15 +86,15 @@ def run_bench(args) -> dict:
             raise ValueError(f"--secant-amplitude-um {amp:g}: expected a positive amplitude")
         return bench_smoothness(args.machine, None if amp is None else amp * 1e-6, progress=StderrBar())
     if args.what == "rotor":
-        from ..bench_rotor import bench_rotor
+        from ..bench.rotor import bench_rotor
 
         return bench_rotor(args.machine, repeat=args.repeat, include_ross=not args.no_ross, progress=StderrBar())
     if args.what == "stability":
-        from ..bench_rotor import bench_stability
+        from ..bench.rotor import bench_stability
 
         return bench_stability(args.machine, progress=StderrBar())
     if args.what == "identify":
-        from ..identify.bench import bench_identify
+        from ..bench.identify import bench_identify
 
         return bench_identify(args.machine, repeat=args.repeat, reproduce_all=args.reproduce, accuracy=args.accuracy,
                               progress=StderrBar())
@@ -102,7 +102,7 @@ def run_bench(args) -> dict:
         from pathlib import Path
 
         import lubeviz
-        from ..identify.accuracy import bench_table
+        from ..identify.tables.accuracy import bench_table
 
         if args.points < 1:
             raise ValueError(f"--points {args.points}: expected at least 1")
@@ -116,7 +116,7 @@ def run_bench(args) -> dict:
             raise ValueError(f"--records {args.records}: expected at least 1")
         return bench_broken(args.machine, n=args.records, seed=args.seed, progress=StderrBar())
     if args.what in ("coverage", "budget", "diagnose"):
-        from ..verification import bench as vb
+        from ..bench import records as vb
 
         if args.what == "coverage":
             if args.records < 1:
@@ -170,7 +170,7 @@ def run_bench(args) -> dict:
 
 def _budgets(text: str) -> list[dict]:
     """--budgets: 'name=value,name=value;name=value' -> one dict of ModelBudget values per budget."""
-    from ..identify.budget import ModelBudget
+    from ..identify.forward.budget import ModelBudget
 
     out = []
     for part in (p.strip() for p in text.split(";")):

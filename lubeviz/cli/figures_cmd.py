@@ -160,7 +160,7 @@ def write_figure(path: Path, fid: str, fig: dict, fmt: str) -> None:
 
 
 def run_figures(args) -> dict:
-    from ..identify.maps import paper_figures
+    from ..identify.paper.maps import paper_figures
     from ..model.machine import load_machine
 
     t_start = time.perf_counter()

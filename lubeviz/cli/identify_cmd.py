@@ -87,7 +87,7 @@ def _text(args, records) -> None:
 
 
 def run_reproduce(args) -> dict:
-    from ..identify.reproduce import PAPER_RESULTS, report_lines, reproduce
+    from ..identify.paper.reproduce import PAPER_RESULTS, report_lines, reproduce
     from ..model.machine import load_machine
 
     machine = load_machine(args.machine)

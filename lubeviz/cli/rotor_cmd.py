@@ -184,7 +184,7 @@ def run_simulate(args) -> dict:
 
         rec = dataclasses.replace(rec, metadata={**rec.metadata, "effects": "large_orbit", "seed": str(args.seed)})
     elif effects:
-        from ..identify.chain import ForwardChain, simulate
+        from ..identify.forward.chain import ForwardChain, simulate
 
         held = tuple(e.hold() for e in effects)
         chain = ForwardChain(machine, speed_hz, nodes, held, progress=StderrBar())

@@ -1,7 +1,7 @@
 """What a diagnosis starts from, read off its records: one rule for the CLI and the Diagnose page.
 
 For a record (or the records of one `set:`): the forward chain at its speed, planes and probe angles,
-with the record's oil temperature reading held (`identify.oil_reading`); its measured features; the model
+with the record's oil temperature reading held (`identify.fit.oil_reading`); its measured features; the model
 budget widened by the reading's tolerance; the lines beyond 1X the record holds (named in the verdict);
 and the notes a user must see (a reading not used, a record's own warnings).
 """
@@ -12,8 +12,8 @@ from dataclasses import dataclass
 from typing import Callable, Sequence
 
 from ..identify.batch import beyond_1x, check_model_speed, model_speed, record_checks
-from ..identify.measured import measure
-from ..identify.oil_reading import budget_with_reading, oil_reading
+from ..identify.forward.measured import measure
+from ..identify.fit.oil_reading import budget_with_reading, oil_reading
 from ..progress import ProgressFn, silent
 
 
@@ -24,12 +24,12 @@ class DiagnosisInputs:
     budget: object  # ModelBudget or None (the default)
     lines: tuple  # signals.lines.Line beyond 1X, all records
     notes: tuple[str, ...]  # warnings to show
-    findings: tuple = ()  # identify.plausibility.Finding: what is impossible or suspicious in the records
+    findings: tuple = ()  # identify.fit.plausibility.Finding: what is impossible or suspicious in the records
 
 
 
 def _plain_chain(machine, speed_hz, nodes, probe_angles_deg, progress):
-    from ..identify.chain import ForwardChain
+    from ..identify.forward.chain import ForwardChain
 
     return ForwardChain(machine, speed_hz, nodes, probe_angles_deg=probe_angles_deg, progress=progress)
 

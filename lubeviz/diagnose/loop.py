@@ -1,7 +1,7 @@
 """Residual -> candidate effects -> the effect added -> the flows re-identified, with honest outcomes.
 
 1. Residual and its significance: the plain fit (flows only) on every feature the record(s) hold,
-   whitened by noise + the model budget (`identify.budget`); chi^2 at the stated `level` (1 %) decides
+   whitened by noise + the model budget (`identify.forward.budget`); chi^2 at the stated `level` (1 %) decides
    "explained" or "something is missing".
 2. Trace: every candidate effect in every placement (`Effect.placements`) is fitted jointly with the
    flows (`Effect.candidate`: its main parameters free, the rest at typical values; phases from three
@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import LubevizError
-from ..identify.fit import Z95, Fit, fit
+from ..identify.fit.least_squares import Z95, Fit, fit
 from ..progress import ProgressFn, silent
 from ..units import MLMIN_PER_M3S
 
@@ -44,7 +44,7 @@ class Candidate:
     effect: object  # the Effect, its fitted values set
     fit: Fit | None
     error: str = ""
-    defect: object = None  # large orbits: the balance's correction its fit used (`identify.chain.ResponseDefect`)
+    defect: object = None  # large orbits: the balance's correction its fit used (`identify.forward.chain.ResponseDefect`)
     unbalance_scale: float | None = None  # large orbits: the unbalance's size the record's 1X implies (x declared)
 
     @property
@@ -88,7 +88,7 @@ class Diagnosis:
     # 95 % interval (the winner's profile interval, the others' +-1.96 sigma): what the flows are known to be
     # until a measurement separates the causes. None when nothing is ambiguous.
     set_intervals: tuple | None = None
-    findings: tuple = ()  # identify.plausibility.Finding: the record(s) checked against the machine as declared
+    findings: tuple = ()  # identify.fit.plausibility.Finding: the record(s) checked against the machine as declared
 
     @property
     def final(self) -> Fit:
@@ -139,7 +139,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
     `chain`: the plain forward chain(s) (no effects); `candidates`: Effect instances or classes to try in
     every placement (default: the whole library); `lines`: the record's lines beyond 1X
     (`signals.lines.present_lines`), which the linear model and every effect lack: named in the verdict;
-    `findings`: what is impossible or suspicious in the record(s) as declared (`identify.plausibility`), which
+    `findings`: what is impossible or suspicious in the record(s) as declared (`identify.fit.plausibility`), which
     the verdict leads with. A measurement fault (copied channels, one plane in other units) gets no effect
     fitted: the effect would describe the fault."""
     from ..effects import EFFECTS
@@ -318,9 +318,9 @@ def _whirl_words(chain, added, final: Fit, line):
 
 
 def _fit_orbit(chain, measured, effect, names, budget, level, progress) -> Candidate:
-    """Large orbits as a candidate: the flows fitted with the film force along the orbit (`identify.orbit_fit`,
+    """Large orbits as a candidate: the flows fitted with the film force along the orbit (`identify.fit.large_orbit`,
     a harmonic balance per round: tens of seconds), no parameter added."""
-    from ..identify.orbit_fit import check_orbit_chain, fit_large_orbit
+    from ..identify.fit.large_orbit import check_orbit_chain, fit_large_orbit
 
     try:
         check_orbit_chain(chain)
@@ -482,7 +482,7 @@ def cost_map(chain, measured, *, effect=None, names=None, budget=None, n: int = 
             chain = [c.with_defect(candidate.defect) for c in (chain if isinstance(chain, (list, tuple)) else [chain])]
         else:
             effect = candidate.effect
-    from ..identify.fit import _parts, _Problem
+    from ..identify.fit.least_squares import _parts, _Problem
 
     chains = list(chain) if isinstance(chain, (list, tuple)) else [chain]
     meas = list(measured) if isinstance(measured, (list, tuple)) else [measured]

@@ -25,8 +25,8 @@ from typing import Sequence
 import numpy as np
 
 from .. import __version__
-from ..identify.budget import ModelBudget
-from ..identify.result import VERDICT_BAND as BAND, lubrication_verdict
+from ..identify.forward.budget import ModelBudget
+from ..identify.fit.result import VERDICT_BAND as BAND, lubrication_verdict
 from ..model.quantity import Quantity
 from ..units import M3S_PER_MLMIN, MLMIN_PER_M3S
 

@@ -3,7 +3,7 @@
 Each effect is a small `param.Parameterized` class in its own module (`base.Effect`), registered where it is
 written by `@register`; the registry `EFFECTS` parses SPEC §7's `NAME:key=value,...` (`parse_effect`,
 `parse_effects`) and names the closest name or key when one is mistyped. The forward chain
-(`lubeviz.identify.chain.ForwardChain`) calls the hooks of each effect's stage in `response`, `simulate` and
+(`lubeviz.identify.forward.chain.ForwardChain`) calls the hooks of each effect's stage in `response`, `simulate` and
 the fit, so an effect added in one module shows up everywhere. The modules are imported below in the order
 the library lists its effects (oil and bearings, rotor, probes, the measurement, the response model).
 """

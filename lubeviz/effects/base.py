@@ -1,6 +1,6 @@
 """What every effect is: a small `param.Parameterized` class that changes one stage of the forward chain.
 
-The forward chain (`lubeviz.identify.chain.ForwardChain`) has fixed, named stages:
+The forward chain (`lubeviz.identify.forward.chain.ForwardChain`) has fixed, named stages:
 
     bearings (K, C and journal position of each bearing)  ->  rotor (forces, supports)
     ->  probes (what the sensors read)  ->  features

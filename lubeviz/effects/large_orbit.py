@@ -27,7 +27,7 @@ class LargeOrbit(Effect):
     outside this effect: the linear stability at the equilibrium tells whether to expect it.
 
     It changes the whole response, not one stage of the chain: `simulate` uses it alone (`--effect
-    large_orbit`); `identify --effect large_orbit` fits the flows with it (`identify.orbit_fit`: the linear
+    large_orbit`); `identify --effect large_orbit` fits the flows with it (`identify.fit.large_orbit`: the linear
     chain plus the balance's correction and its slope, a few balances, tens of seconds), with probe effects
     only; a diagnosis tries it when a single record shows a 2X line the plain model cannot explain. A
     record's 2X line (`identify`'s `lines_beyond_1x`) is how it shows.

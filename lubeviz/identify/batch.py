@@ -15,13 +15,13 @@ from ..errors import InputError, LubevizError
 from ..model.machine import load_machine
 from ..progress import ProgressFn, silent
 from ..signals.records import read_record
-from .cache import machine_tables
-from .forward import ALL_FEATURES, ForwardModel
-from .measured import measure
-from .newton import identify
-from .result import Identification
-from .oil_reading import budget_with_reading, oil_reading
-from .settings import IdentificationSettings
+from .tables.cache import machine_tables
+from .forward.model import ALL_FEATURES, ForwardModel
+from .forward.measured import measure
+from .paper.newton import identify
+from .fit.result import Identification
+from .fit.oil_reading import budget_with_reading, oil_reading
+from .fit.settings import IdentificationSettings
 from ..units import MLMIN_PER_M3S
 
 
@@ -93,8 +93,8 @@ def identify_record(record, machine=None, settings: IdentificationSettings | Non
 def record_checks(records, measured, machine) -> tuple:
     """`plausibility.record_findings` of each record (its measured features in `measured`) against the plain
     model of `machine` at the record's speed, planes and probes."""
-    from .chain import ForwardChain
-    from .plausibility import record_findings
+    from .forward.chain import ForwardChain
+    from .fit.plausibility import record_findings
 
     out = []
     for rec, m in zip(records, measured):
@@ -127,11 +127,11 @@ def beyond_1x(records) -> tuple[tuple, tuple[str, ...]]:
 
 
 def _fit_record(record, machine, speed, measured, settings, effects, budget, progress, model) -> Identification:
-    from .chain import ForwardChain
-    from .fit import fit, to_identification
-    from .result import check_record
+    from .forward.chain import ForwardChain
+    from .fit.least_squares import fit, to_identification
+    from .fit.result import check_record
 
-    from .budget import ModelBudget
+    from .forward.budget import ModelBudget
 
     if budget is None and not settings.include_model_error:
         budget = ModelBudget.none()
@@ -146,7 +146,7 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
                          tables=tables, progress=progress)
     check_record(_NodesSpeed(chain), measured, settings)
     if orbit:  # large orbits: the linear chain plus the balance's correction, round by round
-        from .orbit_fit import check_orbit_chain, fit_large_orbit, orbit_points, orbit_summary
+        from .fit.large_orbit import check_orbit_chain, fit_large_orbit, orbit_points, orbit_summary
 
         check_orbit_chain(chain)
         of = fit_large_orbit(chain, measured, names=tuple(settings.features), budget=budget, lower=settings.lower,
@@ -182,7 +182,7 @@ def _oil_check(out: Identification, res, chain, measured, settings, budget) -> I
     """The flows' intervals with the oil viscosity a free nuisance within OIL_RANGE (both bearings), and
     how strongly it is tied to the flows: what a single record at one speed can and cannot say."""
     from ..effects import Viscosity
-    from .fit import fit
+    from .fit.least_squares import fit
 
     oil = Viscosity(bearing="both").release("factor").limited(factor=OIL_RANGE)
     try:
@@ -241,9 +241,9 @@ def identify_group(records, machine=None, settings: IdentificationSettings | Non
     """One identification from the records of one `set:` (SPEC §6): the same flows (and free effect
     parameters) at every speed, one forward chain per record, residuals stacked (`fit.fit`)."""
     from ..signals.records import check_set
-    from .chain import ForwardChain
-    from .fit import fit, to_identification
-    from .result import check_record
+    from .forward.chain import ForwardChain
+    from .fit.least_squares import fit, to_identification
+    from .fit.result import check_record
 
     records = check_set(list(records))
     machine = load_machine() if machine is None else machine
@@ -251,7 +251,7 @@ def identify_group(records, machine=None, settings: IdentificationSettings | Non
     if settings.mode == "paper":
         raise InputError("paper mode identifies one record; a set is identified in best mode")
     if budget is None and not settings.include_model_error:
-        from .budget import ModelBudget
+        from .forward.budget import ModelBudget
 
         budget = ModelBudget.none()
     chains, meas, notes, tolerance = [], [], [], 0.0
@@ -340,7 +340,7 @@ def _interval(r, k, intervals=None):
 def result_text(d: dict) -> list[str]:
     """The identification as a person reads it (the CLI without --json): each flow with its 95 % interval
     (never a +- from noise alone), Q_T and the verdict, the test's outcome, alternatives and lines."""
-    from .result import verdict_over_interval
+    from .fit.result import verdict_over_interval
 
     if "error" in d:
         return [f"{d['file']}: not identified: {d['error']}"]
@@ -386,7 +386,7 @@ def feature_unit(name: str) -> tuple[str, float]:
     base = name.rsplit(":", 1)[-1]
     if base.startswith(("phi", "arg")):
         return "deg", 180.0 / math.pi
-    if base in ("sx1", "sy1", "sx2", "sy2"):  # the static position (identify.chain.STATIC_FEATURES), m
+    if base in ("sx1", "sy1", "sx2", "sy2"):  # the static position (identify.forward.chain.STATIC_FEATURES), m
         return "um", 1e6
     return "-", 1.0
 

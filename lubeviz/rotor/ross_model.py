@@ -1,5 +1,5 @@
 """The same rotor in ROSS (petrobras/ross, PyPI `ross-rotordynamics`): an independent implementation to
-cross-check against (tests/rotor/test_ross_crosscheck.py) and to time against (lubeviz.bench_rotor).
+cross-check against (tests/rotor/test_ross_crosscheck.py) and to time against (lubeviz.bench.rotor).
 
 Optional: ROSS is imported only when one of these functions is called, and a missing or broken ROSS
 raises `RossUnavailable` with the install hint. Checked with ross-rotordynamics 2.3.0 (the newest for

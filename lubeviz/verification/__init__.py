@@ -9,7 +9,7 @@ discretization. `independent.make_record` makes such records. It differs from th
   directly at its exact supply on a 200 x 200 mesh with groove refinement 1 (the paper's uniform mesh
   at twice its resolution) and takes the "fixed-pattern" tangent (the exact small-step derivative of
   that discrete film, a different linearization); these equilibria are cached on disk by content
-  (`equilibria.py`, under `lubeviz.identify.cache.cache_dir() / "independent"`).
+  (`equilibria.py`, under `lubeviz.identify.tables.cache.cache_dir() / "independent"`).
 - Rotor. The model has 20 Timoshenko elements and shaft damping beta = 2e-5 s; the source splits each
   element into two (40 elements; machine node n is node 2n - 1) and uses beta = 3e-5 s.
 - Response. The model is a steady-state complex solve; the source integrates from rest with its own

@@ -85,7 +85,7 @@ def broken_record(columns, speed_hz, rate_hz, kind: str, rng: np.random.Generato
 
 def judge(d, expect: dict, q_mlmin) -> dict:
     """What the diagnosis `d` got right of a record broken as `expect` says (see the module docstring)."""
-    from .bench import _held
+    from ..bench.records import _held
 
     named = [] if d.added is None else [d.added.label, *d.ambiguous]
     alone = d.added.label if (d.added is not None and not d.ambiguous) else None
@@ -124,7 +124,7 @@ def bench_broken(machine_path=None, *, n: int = 112, seed: int = 2026, speed_hz:
     """`n` independent records, each broken as KINDS[i % len(KINDS)] (every kind alike), diagnosed."""
     from ..diagnose import run_diagnosis
     from ..model.machine import load_machine
-    from .bench import wilson
+    from ..bench.records import wilson
     from .independent import IndependentSpec, make_record, thresholds_mlmin
 
     t0 = time.perf_counter()

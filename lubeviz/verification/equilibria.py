@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import ConvergenceError
 from ..film.equilibrium import find_equilibrium, flooded_threshold
 from ..film.feed import Feed
-from ..identify.cache import cache_dir
+from ..identify.tables.cache import cache_dir
 from ..model.bearing import Bearing
 from ..units import MLMIN_PER_M3S
 
@@ -69,14 +69,14 @@ def film_code_version() -> str:
     """sha256 of the film package's source (`lubeviz/film/*.py`): an edit there invalidates the cache.
 
     Only the film code: the load enters the key as numbers, so the rotor and identification modules
-    (which `lubeviz.identify.cache.solver_version` also hashes, and which change often) do not."""
+    (which `lubeviz.identify.tables.cache.solver_version` also hashes, and which change often) do not."""
     return code_version("film")
 
 
 @functools.lru_cache(maxsize=8)
 def code_version(*packages: str, exclude: tuple[str, ...] = ()) -> str:
     """sha256 of the source of these sub-packages of lubeviz (e.g. "film", "rotor"), in the order given, but the
-    modules in `exclude` (paths under lubeviz, e.g. "verification/bench.py": code that makes no number stored)."""
+    modules in `exclude` (paths under lubeviz, e.g. "verification/broken.py": code that makes no number stored)."""
     root = Path(__file__).resolve().parents[1]
     h = hashlib.sha256()
     for name in packages:

@@ -88,7 +88,7 @@ def app_server():
     The paper machine's coefficient tables are put in the user cache first, so page timeouts measure the app,
     not a cold table build (about a minute on 2 cores).
     """
-    from lubeviz.identify.cache import machine_tables
+    from lubeviz.identify.tables.cache import machine_tables
     from lubeviz.model.machine import load_machine
 
     machine_tables(load_machine())

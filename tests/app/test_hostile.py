@@ -261,7 +261,9 @@ def test_the_server_keeps_one_upload_at_a_time_and_refuses_malformed_chunks():
 def test_caches_keyed_by_speed_stay_bounded(monkeypatch):
     """100 records at 100 speeds through every speed-keyed store (its numerics replaced by stand-ins)."""
     from lubeviz.film import equilibrium, explore
-    from lubeviz.identify import cache, chain, forward
+    from lubeviz.identify.tables import cache
+    from lubeviz.identify.forward import chain
+    from lubeviz.identify.forward import model as forward
 
     machine = resources.machine()
     # fresh stores (monkeypatch puts the server's back afterwards)

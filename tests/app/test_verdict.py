@@ -6,7 +6,7 @@ import pytest
 pytest.importorskip("panel")
 
 from lubeviz.app.identify_page import verdict_text  # noqa: E402
-from lubeviz.identify.result import Identification  # noqa: E402
+from lubeviz.identify.fit.result import Identification  # noqa: E402
 
 QT = 546 / 6e7
 

@@ -21,7 +21,7 @@ def test_a_bad_budget_variant_names_the_option_and_the_term(capsys, arg, words):
 
 def test_budget_variants_are_parsed_into_model_budgets():
     from lubeviz.cli.bench_cmd import _budgets
-    from lubeviz.identify.budget import ModelBudget
+    from lubeviz.identify.forward.budget import ModelBudget
 
     got = _budgets("coefficient_k=0.0025, shaft_damping=0.4 ; calibration=0.9;")
     assert got == [{"coefficient_k": 0.0025, "shaft_damping": 0.4}, {"calibration": 0.9}]

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from lubeviz.diagnose.inputs import diagnosis_inputs
-from lubeviz.identify.chain import ForwardChain, simulate
+from lubeviz.identify.forward.chain import ForwardChain, simulate
 
 
 @pytest.fixture(scope="module")

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from lubeviz.diagnose import diagnose, diagnosis_dict
-from lubeviz.identify.chain import ForwardChain
-from lubeviz.identify.measured import measure
+from lubeviz.identify.forward.chain import ForwardChain
+from lubeviz.identify.forward.measured import measure
 from lubeviz.verification import IndependentSpec, make_record, make_set
 
 pytestmark = pytest.mark.slow
@@ -118,7 +118,7 @@ def test_a_worn_bearing_at_one_speed_reports_flows_that_hold_the_truth(chain):
     """A worn bearing 1 (clearance x1.375) at one speed, flows near Q_T (the `bench diagnose` record where a
     soft pedestal ranked first and its flows were 48 % off): a pedestal, a 1X force and the wear all explain
     it, so the loop reports the set, and the flows' interval over the set holds the true flows."""
-    from lubeviz.verification.bench import _held
+    from lubeviz.bench.records import _held
 
     q = (546.3, 559.6)
     d = _diagnose(chain, ("clearance:bearing=1,clearance_um=165",), seed=108, q=q)

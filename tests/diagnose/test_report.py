@@ -12,8 +12,8 @@ from lubeviz.diagnose import diagnose
 from lubeviz.diagnose.loop import cost_map
 from lubeviz.diagnose.report import report_html, residual_svg, write_report
 from lubeviz.effects import ProbeRotation, Unbalance2, parse_effect
-from lubeviz.identify.chain import ForwardChain, simulate
-from lubeviz.identify.measured import measure
+from lubeviz.identify.forward.chain import ForwardChain, simulate
+from lubeviz.identify.forward.measured import measure
 from lubeviz.model.machine import load_machine
 from lubeviz.units import M3S_PER_MLMIN
 

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from lubeviz.diagnose import diagnose, diagnosis_dict
-from lubeviz.identify.chain import ForwardChain
-from lubeviz.identify.measured import measure
+from lubeviz.identify.forward.chain import ForwardChain
+from lubeviz.identify.forward.measured import measure
 from lubeviz.rotor.whirl import mode_stability, whirl_reading
 from lubeviz.signals.lines import Line
 from lubeviz.verification import IndependentSpec, make_record

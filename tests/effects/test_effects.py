@@ -3,7 +3,7 @@
 References: the assembled rotor with the housing's mass DOFs (pedestals, vs the chain's series formula),
 `rotor.response.unbalance_response` with two unbalances (unbalance2), the static limit of a bowed shaft
 on rigid supports (bow: the shaft takes its bent line), plane geometry (probe rotation and gain), and
-the plain table model `identify.forward.ForwardModel` (no effect).
+the plain table model `identify.forward.model.ForwardModel` (no effect).
 """
 
 import math
@@ -13,9 +13,9 @@ import pytest
 
 from lubeviz.effects import EFFECTS, bow_shape, parse_effect, parse_effects
 from lubeviz.errors import InputError
-from lubeviz.identify.cache import machine_tables
-from lubeviz.identify.chain import ForwardChain
-from lubeviz.identify.forward import ALL_FEATURES, ForwardModel
+from lubeviz.identify.tables.cache import machine_tables
+from lubeviz.identify.forward.chain import ForwardChain
+from lubeviz.identify.forward.model import ALL_FEATURES, ForwardModel
 from lubeviz.rotor.assembly import bearing_matrices, isotropic, rotor_from_machine
 from lubeviz.rotor.directional import directional_components
 from lubeviz.rotor.elements import X, Y, node_dofs
@@ -188,7 +188,7 @@ def test_a_response_defect_is_added_affinely_before_the_probes(machine, tables):
     """The large-orbit correction (`ResponseDefect`): added to the 1X and the static offsets in the X/Y frame,
     linear in the flows about its own point, then read by the probes like the rest of the response; the
     fast path and the assembled system agree with it."""
-    from lubeviz.identify.chain import ResponseDefect
+    from lubeviz.identify.forward.chain import ResponseDefect
 
     chain = chain_with(machine, tables, "probe_gain:channel=x1,gain=1.1")
     q = np.asarray(Q)

@@ -10,7 +10,7 @@ from lubeviz.cli.main import main
 from lubeviz.effects import parse_effect
 from lubeviz.errors import InputError
 from lubeviz.identify.batch import identify_record
-from lubeviz.identify.chain import ForwardChain
+from lubeviz.identify.forward.chain import ForwardChain
 from lubeviz.signals.lines import present_lines
 from lubeviz.signals.synthesize import synthesize_record
 

@@ -10,8 +10,8 @@ import pytest
 
 from lubeviz.effects import EFFECTS, parse_effect
 from lubeviz.errors import DataFormatError, InputError, ModelFileError
-from lubeviz.identify.cache import machine_tables
-from lubeviz.identify.chain import ForwardChain
+from lubeviz.identify.tables.cache import machine_tables
+from lubeviz.identify.forward.chain import ForwardChain
 from lubeviz.model.machine import DEFAULT_MACHINE, load_machine
 from lubeviz.model.oil import ISO_VG_NU100_CST, Oil, walther_nu_cst
 from lubeviz.signals.records import read_record, record_from_arrays, write_record

@@ -47,8 +47,8 @@ import numpy as np
 import pytest
 
 from lubeviz.effects import parse_effect
-from lubeviz.identify.chain import ForwardChain
-from lubeviz.identify.tables import CoefficientTable
+from lubeviz.identify.forward.chain import ForwardChain
+from lubeviz.identify.tables.supply import CoefficientTable
 from lubeviz.rotor import machine_unbalance, rotor_from_machine, unbalance_response
 from lubeviz.rotor.ross_model import RossUnavailable, import_ross
 

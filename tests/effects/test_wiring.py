@@ -6,7 +6,7 @@ import pytest
 
 from lubeviz.effects import EFFECTS, parse_effect
 from lubeviz.effects.wiring import FAULTS
-from lubeviz.identify.chain import ForwardChain, simulate
+from lubeviz.identify.forward.chain import ForwardChain, simulate
 
 Q = np.array([450.0, 600.0]) / 6e7
 ANGLES = ((45.0, 135.0), (0.0, 90.0))  # plane 1 turned: a fault across planes must carry the angles

@@ -2,7 +2,7 @@
 
 import pytest
 
-from lubeviz.identify import dimensionless
+from lubeviz.identify.tables import dimensionless
 
 
 @pytest.fixture

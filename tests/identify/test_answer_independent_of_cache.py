@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lubeviz.identify.cache import geometry_table
-from lubeviz.identify.dimensionless import sommerfeld_number
+from lubeviz.identify.tables.cache import geometry_table
+from lubeviz.identify.tables.dimensionless import sommerfeld_number
 from lubeviz.model.machine import load_machine
 from lubeviz.rotor.statics import bearing_static_loads
 

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from lubeviz.identify.budget import ModelBudget, model_sensitivity
-from lubeviz.identify.chain import ForwardChain
-from lubeviz.identify.forward import ALL_FEATURES
+from lubeviz.identify.forward.budget import ModelBudget, model_sensitivity
+from lubeviz.identify.forward.chain import ForwardChain
+from lubeviz.identify.forward.model import ALL_FEATURES
 
 PER_BEARING = 12  # K scale + 4 entries, C scale + 4 entries, viscosity, clearance
 
@@ -52,7 +52,7 @@ def test_no_budget_is_the_noise_alone(chain):
 
 def test_with_large_orbits_the_flooded_bearing_keeps_the_full_mesh_terms(chain):
     """Along a large orbit the film cavitates and refills even above Q_T: no flooded reduction then."""
-    from lubeviz.identify.chain import ResponseDefect
+    from lubeviz.identify.forward.chain import ResponseDefect
 
     zero = np.zeros((2, 2), complex)
     d = ResponseDefect(x=np.zeros(2, complex), y=np.zeros(2, complex), static=np.zeros((2, 2)),

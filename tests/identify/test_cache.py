@@ -16,10 +16,11 @@ import pytest
 
 import lubeviz
 from lubeviz.errors import InputError
-from lubeviz.identify import cache, tables
-from lubeviz.identify.cache import (StaleCacheWarning, cache_dir, cached_table, machine_tables, slice_key,
+from lubeviz.identify.tables import cache
+from lubeviz.identify.tables import supply as tables
+from lubeviz.identify.tables.cache import (StaleCacheWarning, cache_dir, cached_table, machine_tables, slice_key,
                                     table_key)
-from lubeviz.identify.dimensionless import geometry_values, sommerfeld_nodes
+from lubeviz.identify.tables.dimensionless import geometry_values, sommerfeld_nodes
 from lubeviz.model.machine import ShaftElement, load_machine
 from lubeviz.progress import Cancelled
 
@@ -320,7 +321,7 @@ def test_whole_slice_jobs_equal_two_part_jobs_and_the_serial_build(tmp_path):
     """With at least as many slices as processes each job solves a whole slice (its flooded equilibrium once);
     with fewer, each slice's two parts are two jobs (each solving that equilibrium itself). Same slices, bit
     for bit, as the serial build."""
-    from lubeviz.identify.cache import geometry_table
+    from lubeviz.identify.tables.cache import geometry_table
 
     b = coarse_machine().bearings[0]
     nodes = sommerfeld_nodes()[20:22]
@@ -359,8 +360,8 @@ def test_a_changed_view_from_the_slices_in_memory_equals_the_cached_view():
     """An effect fit asks a bearing for thousands of views at changed viscosity or clearance. After the first,
     each comes from the slices already in memory (`cache.scaled_view`, no bearing copy, no file read): the same
     numbers as `bearing_view` of the changed bearing, and a view whose slices are not loaded takes the slow path."""
-    from lubeviz.identify.cache import bearing_view
-    from lubeviz.identify.chain import BearingSource
+    from lubeviz.identify.tables.cache import bearing_view
+    from lubeviz.identify.forward.chain import BearingSource
 
     m = load_machine()
     omega = 2 * math.pi * 75.0

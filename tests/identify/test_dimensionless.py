@@ -11,9 +11,9 @@ from lubeviz.errors import InputError
 from lubeviz.film.equilibrium import find_equilibrium, flooded_threshold
 from lubeviz.film.feed import Feed
 from lubeviz.film.sweep import sweep_supply
-from lubeviz.identify import dimensionless
-from lubeviz.identify.cache import StaleCacheWarning, bearing_view, geometry_table
-from lubeviz.identify.dimensionless import (flow_scale, geometry_values, lagrange_weights, sommerfeld_nodes,
+from lubeviz.identify.tables import dimensionless
+from lubeviz.identify.tables.cache import StaleCacheWarning, bearing_view, geometry_table
+from lubeviz.identify.tables.dimensionless import (flow_scale, geometry_values, lagrange_weights, sommerfeld_nodes,
                                             sommerfeld_number, stencil)
 from lubeviz.model.bearing import Bearing
 
@@ -105,7 +105,7 @@ def test_bearings_differing_in_viscosity_share_the_slices(tmp_path, builds):
 def test_the_paper_machine_at_its_operating_speed_needs_one_slice_for_both_bearings(tmp_path, builds):
     """The S grid is anchored at the paper's operating point: both bearings (loads 3e-5 apart) sit within
     SNAP_LN of that node and are served by its slice alone."""
-    from lubeviz.identify.cache import machine_tables
+    from lubeviz.identify.tables.cache import machine_tables
     from lubeviz.model.machine import load_machine
 
     m = load_machine()

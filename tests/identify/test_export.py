@@ -49,8 +49,8 @@ def test_angles_in_degrees_and_sigmas_with_the_model_budget(item):
         assert float(r["value"]) == pytest.approx(d["features_measured"][name] * f, rel=1e-6)
         assert float(r["model"]) == pytest.approx(d["features_model"][name] * f, rel=1e-6)
     # the fit's sigma includes the model budget: above the record's noise alone, feature by feature
-    from lubeviz.identify.forward import ALL_FEATURES
-    from lubeviz.identify.measured import measure
+    from lubeviz.identify.forward.model import ALL_FEATURES
+    from lubeviz.identify.forward.measured import measure
     from lubeviz.signals.records import read_record
 
     names = list(item.result.features_names)

@@ -9,7 +9,7 @@ import pytest
 
 from lubeviz.effects import parse_effect
 from lubeviz.identify.batch import identify_record
-from lubeviz.identify.settings import IdentificationSettings
+from lubeviz.identify.fit.settings import IdentificationSettings
 from lubeviz.verification import IndependentSpec, clean_corpus, make_record
 
 pytestmark = pytest.mark.slow

@@ -8,11 +8,11 @@ import pytest
 
 from lubeviz.cli.main import main
 from lubeviz.errors import InputError
-from lubeviz.identify.cache import machine_tables
-from lubeviz.identify.forward import ALL_FEATURES, ForwardModel, wrap_difference
-from lubeviz.identify.measured import measure
-from lubeviz.identify.newton import identify
-from lubeviz.identify.settings import IdentificationSettings
+from lubeviz.identify.tables.cache import machine_tables
+from lubeviz.identify.forward.model import ALL_FEATURES, ForwardModel, wrap_difference
+from lubeviz.identify.forward.measured import measure
+from lubeviz.identify.paper.newton import identify
+from lubeviz.identify.fit.settings import IdentificationSettings
 from lubeviz.rotor import machine_unbalance, rotor_from_machine, unbalance_response
 from lubeviz.signals import read_record, record_from_arrays
 
@@ -144,7 +144,7 @@ def test_the_std_shown_is_never_narrower_than_the_profile_interval():
     """`fit.std_within`: a flow whose 95 % profile interval is wider on one side than 1.96 sigma gets that
     side's half-width / 1.96 as its std, its covariance row and column scaled so the correlations stay;
     a narrower or an open interval, or a parameter without one, is left as it is."""
-    from lubeviz.identify.fit import Z95, std_within
+    from lubeviz.identify.fit.least_squares import Z95, std_within
 
     names = ("q1", "q2", "effect.factor")
     values = np.array([8e-6, 9e-6, 1.1])

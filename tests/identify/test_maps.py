@@ -8,12 +8,12 @@ import pytest
 
 from lubeviz.cli.main import main
 from lubeviz.errors import InputError
-from lubeviz.identify.cache import machine_tables
-from lubeviz.identify.forward import PAPER_FEATURES, ForwardModel, wrap_difference
-from lubeviz.identify.maps import (FeatureGrid, branch_cut_mask, domain_axes, error_grid, feature_grid,
+from lubeviz.identify.tables.cache import machine_tables
+from lubeviz.identify.forward.model import PAPER_FEATURES, ForwardModel, wrap_difference
+from lubeviz.identify.paper.maps import (FeatureGrid, branch_cut_mask, domain_axes, error_grid, feature_grid,
                                    flow_sweep, paper_figures, root_curves)
-from lubeviz.identify.measured import MeasuredFeatures
-from lubeviz.identify.settings import IdentificationSettings
+from lubeviz.identify.forward.measured import MeasuredFeatures
+from lubeviz.identify.fit.settings import IdentificationSettings
 from lubeviz.progress import Cancelled
 from lubeviz.rotor.directional import orbit_angle
 from lubeviz.rotor.response import Unbalance

@@ -10,7 +10,7 @@ import pytest
 
 from lubeviz.effects import parse_effect
 from lubeviz.identify.batch import identify_group, identify_record
-from lubeviz.identify.settings import IdentificationSettings
+from lubeviz.identify.fit.settings import IdentificationSettings
 from lubeviz.verification import IndependentSpec, make_record, make_set
 
 pytestmark = pytest.mark.slow
@@ -94,7 +94,7 @@ def test_an_oil_temperature_reading_separates_hot_oil_from_less_oil(machine, tmp
     assert r.effects["oil_temperature"]["temperature_c"] == t
     assert not any("viscosity" in w for w in r.warnings)  # no oil-check warning: the oil is known
     # the budget carries the reading's uncertainty (1 K) as a viscosity tolerance: |d ln mu/dT| ~ 4-5 %/K
-    from lubeviz.identify.oil_reading import oil_reading
+    from lubeviz.identify.fit.oil_reading import oil_reading
 
     effects, tolerance, notes = oil_reading(read, machine)
     assert 0.03 < tolerance < 0.06 and not notes and effects[0].temperature_c == t

@@ -1,5 +1,5 @@
 """Identification with large orbits declared (issue 11): the linear chain plus the harmonic balance's
-correction (`identify.orbit_fit`), on records from another path (`verification.orbit_record`: the 200 x 200
+correction (`identify.fit.large_orbit`), on records from another path (`verification.orbit_record`: the 200 x 200
 film, the 40-element rotor with another shaft damping, 6 harmonics and 28 points per revolution)."""
 
 import numpy as np
@@ -8,10 +8,10 @@ import pytest
 from lubeviz.effects import parse_effect
 from lubeviz.errors import InputError
 from lubeviz.identify.batch import identify_record
-from lubeviz.identify.chain import ForwardChain
-from lubeviz.identify.measured import measure
-from lubeviz.identify.settings import IdentificationSettings
-from lubeviz.identify.orbit_fit import measured_scale, orbit_defect
+from lubeviz.identify.forward.chain import ForwardChain
+from lubeviz.identify.forward.measured import measure
+from lubeviz.identify.fit.settings import IdentificationSettings
+from lubeviz.identify.fit.large_orbit import measured_scale, orbit_defect
 from lubeviz.model.machine import DEFAULT_MACHINE
 from lubeviz.verification import IndependentSpec
 from lubeviz.verification.independent import make_record
@@ -112,7 +112,7 @@ def test_the_diagnosis_names_large_orbits_at_a_smaller_unbalance_and_reads_its_s
 def test_the_correction_s_own_error_is_within_its_budget_term(machine):
     """ModelBudget.orbit_defect (3 % of the correction's size, per entry): the correction with the model's 5
     harmonics and 24 points against 6 and 36 on the same films (measured 1.3 %; 3 and 16 gave 9 %)."""
-    from lubeviz.identify.budget import ModelBudget
+    from lubeviz.identify.forward.budget import ModelBudget
 
     chain = ForwardChain(machine, 75.0, (6, 20))
     q = np.array(Q) / 6e7
@@ -125,7 +125,7 @@ def test_the_correction_s_own_error_is_within_its_budget_term(machine):
 
 
 def test_large_orbits_with_an_effect_on_the_machine_are_refused(machine):
-    from lubeviz.identify.orbit_fit import check_orbit_chain
+    from lubeviz.identify.fit.large_orbit import check_orbit_chain
 
     chain = ForwardChain(machine, 75.0, (6, 20), (parse_effect("viscosity:factor=0.8"),))
     with pytest.raises(InputError, match="probe effects only"):
@@ -154,8 +154,8 @@ def test_the_secant_curvature_is_exact_along_the_step_and_the_correction_carries
     """Powell's symmetric secant update from two exact slopes of a quadratic correction: its curvature times
     the step is the slopes' change, it stays symmetric, and `ResponseDefect.at` then reproduces the quadratic
     along the step (a fit round's model of the correction between its balances)."""
-    from lubeviz.identify.chain import ResponseDefect
-    from lubeviz.identify.orbit_fit import secant_curvature
+    from lubeviz.identify.forward.chain import ResponseDefect
+    from lubeviz.identify.fit.large_orbit import secant_curvature
 
     rng = np.random.default_rng(3)
     H = rng.normal(size=(2, 2, 2)) + 1j * rng.normal(size=(2, 2, 2))
@@ -258,8 +258,8 @@ def test_a_time_round_with_a_better_orbit_model_standing_in_brings_the_five_harm
     balance's flows with that balance and its unbalance scale, as `time_gap` is. (A first version on a record of the
     16-harmonic balance at the paper's unbalance failed in CI: from the 5-harmonic orbit that balance did not settle,
     the round was dropped with a warning; here the orbit is the 0.6 x one, where it settles.)"""
-    from lubeviz.identify import orbit_fit
-    from lubeviz.identify.orbit_fit import _balance
+    from lubeviz.identify.fit import large_orbit as orbit_fit
+    from lubeviz.identify.fit.large_orbit import _balance
     from lubeviz.progress import silent
 
     rec = time_record.record

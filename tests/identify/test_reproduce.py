@@ -10,16 +10,16 @@ truth about as often as a sigma should (the records are this model's own, so noi
 import numpy as np
 import pytest
 
-from lubeviz.identify import reproduce as R
+from lubeviz.identify.paper import reproduce as R
 
 SUBSET = (409.5, 565.5, 682.5)  # the edges and the middle of the paper's grid, below and above Q_T
 
 
 @pytest.fixture(scope="module", params=["center", "outside"])
 def protocol(request, machine):
-    from lubeviz.identify.cache import machine_tables
-    from lubeviz.identify.forward import ForwardModel
-    from lubeviz.identify.settings import IdentificationSettings
+    from lubeviz.identify.tables.cache import machine_tables
+    from lubeviz.identify.forward.model import ForwardModel
+    from lubeviz.identify.fit.settings import IdentificationSettings
 
     location = request.param
     nodes = R.location_nodes(machine, location)

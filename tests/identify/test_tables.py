@@ -6,8 +6,8 @@ import pytest
 
 from lubeviz.errors import InputError
 from lubeviz.film.sweep import sweep_supply
-from lubeviz.identify.accuracy import NOISE_FB_REL, NOISE_PHI_DEG, interpolation_error
-from lubeviz.identify.tables import DEFAULT_POINTS, DEFAULT_SPAN, DENSE_BAND, DENSE_STEP, build_table, table_flows
+from lubeviz.identify.tables.accuracy import NOISE_FB_REL, NOISE_PHI_DEG, interpolation_error
+from lubeviz.identify.tables.supply import DEFAULT_POINTS, DEFAULT_SPAN, DENSE_BAND, DENSE_STEP, build_table, table_flows
 from lubeviz.model.machine import load_machine
 from lubeviz.rotor.statics import bearing_static_loads
 

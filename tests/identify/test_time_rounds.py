@@ -1,4 +1,4 @@
-"""Time rounds of the large-orbit identification (`identify.orbit_fit.time_gap`, `fit_large_orbit(time_rounds=)`).
+"""Time rounds of the large-orbit identification (`identify.fit.large_orbit.time_gap`, `fit_large_orbit(time_rounds=)`).
 
 The time integration itself is too slow for the suite (4-6 min a round at the paper's point); its figures on the
 bench's 12 time-integration records are in BENCHMARKS "Time rounds". Here: the gap's conventions on a small orbit
@@ -8,8 +8,8 @@ integration, is tested in `test_orbit_fit.py` on that module's time-integration 
 import numpy as np
 import pytest
 
-from lubeviz.identify.chain import ForwardChain
-from lubeviz.identify.orbit_fit import _balance, time_gap
+from lubeviz.identify.forward.chain import ForwardChain
+from lubeviz.identify.fit.large_orbit import _balance, time_gap
 from lubeviz.progress import silent
 
 pytestmark = pytest.mark.slow

@@ -213,7 +213,7 @@ def test_at_the_paper_s_point_the_time_integration_bounds_the_balance_s_truncati
     unbalance, 4 % at 0.6 x (measured). The budget's term for it (`ModelBudget.orbit_truncation`: 0.45 share^2 of
     the correction's norm per real component, share = its size over the 1X's) covers the error's RMS; the older
     3 % of the correction did not."""
-    from lubeviz.identify.budget import ModelBudget
+    from lubeviz.identify.forward.budget import ModelBudget
     from lubeviz.model.machine import load_machine
     from lubeviz.rotor.film_bearings import flooded_thresholds
 
@@ -263,7 +263,7 @@ def test_at_the_paper_s_point_the_time_integration_bounds_the_balance_s_truncati
     print(f"scale {scale}: 1X error RMS / correction: 5 harmonics {rms / size:.3f}, 16 harmonics {rms_16 / size:.3f}")
     assert rms_16 < 0.7 * rms
     # the budget's term for a 16-harmonic balance (`budget.truncation_factor`) covers it, and does not overstate it
-    from lubeviz.identify.budget import truncation_factor
+    from lubeviz.identify.forward.budget import truncation_factor
 
     term_16 = max(budget.orbit_defect, truncation_factor(16) * budget.orbit_truncation * share**2) * size
     assert rms_16 <= term_16 < 1.3 * rms_16

@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lubeviz.signals.bench_read import read_peak_memory, write_large_record
+from lubeviz.bench.read import read_peak_memory, write_large_record
 
 
 @pytest.mark.parametrize("suffix", [".csv", ".npz"])

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from lubeviz.errors import DataFormatError, InputError
-from lubeviz.identify.measured import measure
+from lubeviz.identify.forward.measured import measure
 from lubeviz.model.machine import load_machine
 from lubeviz.signals.records import read_record, record_from_arrays, write_record
 from lubeviz.signals.speed_check import check_speed_label, spectrum_speed_check
@@ -162,8 +162,8 @@ def test_a_t_column_too_large_for_its_step_is_refused_naming_t(tmp_path):
 
 
 def test_no_usable_1x_message_names_the_file_the_speed_and_the_strongest_line():
-    from lubeviz.identify.result import check_record
-    from lubeviz.identify.settings import IdentificationSettings
+    from lubeviz.identify.fit.result import check_record
+    from lubeviz.identify.fit.settings import IdentificationSettings
 
     # a tone at 60 Hz in a record labelled 75 Hz, built in memory (the reader would refuse the file)
     rec = _tone_record(60.0, 75.0, source="coast.csv")

@@ -6,7 +6,7 @@ import pytest
 
 from lubeviz.effects import parse_effect
 from lubeviz.effects.wiring import FAULTS
-from lubeviz.identify.chain import ForwardChain, simulate
+from lubeviz.identify.forward.chain import ForwardChain, simulate
 from lubeviz.verification.broken import KINDS, broken_record
 
 Q = np.array([480.0, 560.0]) / 6e7

@@ -320,7 +320,7 @@ def test_the_orbit_bench_counts_a_balance_that_does_not_settle_as_a_miss():
     """`bench_orbit`'s figures at one harmonic count (`orbit_summary`): an identification whose balance did not
     settle is a row with `failed`, counted in its own rate and as a miss of the 1 %, not the bench's end; the error
     and coverage figures are over the rows that finished."""
-    from lubeviz.verification.bench import orbit_summary
+    from lubeviz.bench.records import orbit_summary
 
     def row(err, holds=(True, True)):
         return {"max_abs_error_pct": err, "holds": list(holds), "above_qt": [False, True], "explained": True,

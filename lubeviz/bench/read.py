@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .records import MAX_RECORD_BYTES, record_from_arrays, write_record
+from ..signals.records import MAX_RECORD_BYTES, record_from_arrays, write_record
 
 SPEED_HZ, RATE_HZ = 75.0, 1.0e4
 CSV_BYTES_PER_ROW = 105  # 't,x1,y1,x2,y2' of shortest-repr floats, about

@@ -30,10 +30,10 @@ from typing import Sequence
 import numpy as np
 from scipy import stats
 
-from ..errors import InputError
-from .budget import ModelBudget, model_sensitivity
-from .forward import wrap_difference
-from ..units import MLMIN_PER_M3S
+from ...errors import InputError
+from ..forward.budget import ModelBudget, model_sensitivity
+from ..forward.model import wrap_difference
+from ...units import MLMIN_PER_M3S
 
 STATUS = {
     0: "converged: the step fell below the tolerance",
@@ -511,7 +511,7 @@ def to_identification(res: Fit, chain) -> "Identification":
 def identify_features(model, measured, settings=None) -> "Identification":
     """Best mode on measured features and a `ForwardModel` (its tables, rotor and planes; no record, so
     the declared probe angles and no effects): the same fit as a record's (`batch.identify_record`)."""
-    from .chain import ForwardChain
+    from ..forward.chain import ForwardChain
     from .result import check_record
     from .settings import IdentificationSettings
 

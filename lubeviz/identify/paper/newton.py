@@ -18,10 +18,10 @@ from __future__ import annotations
 import time
 import numpy as np
 
-from .forward import PAPER_FEATURES, ForwardModel, wrap_difference
-from .measured import MeasuredFeatures
-from .result import Identification, check_record
-from .settings import IdentificationSettings
+from ..forward.model import PAPER_FEATURES, ForwardModel, wrap_difference
+from ..forward.measured import MeasuredFeatures
+from ..fit.result import Identification, check_record
+from ..fit.settings import IdentificationSettings
 
 
 def _grid_starts(model: ForwardModel, settings: IdentificationSettings) -> np.ndarray:
@@ -113,6 +113,6 @@ def identify(model: ForwardModel, measured: MeasuredFeatures,
     check_record(model, measured, settings)
     if settings.mode == "paper":
         return identify_paper(model, measured, settings)
-    from .fit import identify_features
+    from ..fit.least_squares import identify_features
 
     return identify_features(model, measured, settings)

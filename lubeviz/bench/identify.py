@@ -11,18 +11,18 @@ import numpy as np
 
 from ..model.machine import load_machine
 from ..progress import ProgressFn, silent
-from .cache import machine_tables
-from .forward import ALL_FEATURES, ForwardModel
-from .measured import measure
-from .newton import identify
-from .settings import IdentificationSettings
+from ..identify.tables.cache import machine_tables
+from ..identify.forward.model import ALL_FEATURES, ForwardModel
+from ..identify.forward.measured import measure
+from ..identify.paper.newton import identify
+from ..identify.fit.settings import IdentificationSettings
 from ..units import MLMIN_PER_M3S
 
 
 def bench_identify(machine_path=None, *, repeat: int = 5, reproduce_all: bool = False, accuracy: bool = False,
                    progress: ProgressFn = silent) -> dict:
     from ..signals.synthesize import synthesize_record
-    from .reproduce import reproduce
+    from ..identify.paper.reproduce import reproduce
 
     machine = load_machine(machine_path)
     out: dict = {"machine": machine.source}
@@ -74,7 +74,7 @@ def bench_identify(machine_path=None, *, repeat: int = 5, reproduce_all: bool = 
 def table_accuracy(machine, tables) -> dict:
     """Each table's fb/φ error against direct solves at every midpoint and reference flow, below,
     across and above the groove-filling band, next to issue 4's target (a tenth of the noise floor)."""
-    from .accuracy import GROOVE_BAND_MLMIN, NOISE_FB_REL, NOISE_PHI_DEG, interpolation_error
+    from ..identify.tables.accuracy import GROOVE_BAND_MLMIN, NOISE_FB_REL, NOISE_PHI_DEG, interpolation_error
 
     out: dict = {"target_fb_pct": 10.0 * NOISE_FB_REL, "target_phi_deg": 0.1 * NOISE_PHI_DEG,
                  "band_mlmin_from_q_threshold": list(GROOVE_BAND_MLMIN)}
@@ -91,9 +91,9 @@ def bench_fit(machine, tables, record, *, repeat: int = 5) -> dict:
     one evaluation of the chain with an effect, an identification with one free effect parameter, and the
     first identification at a speed not seen before (tables of the geometry already built)."""
     from ..effects import parse_effect
-    from .batch import identify_record
-    from .chain import ForwardChain
-    from .fit import _lm, _parts, _Problem, _scales, fit
+    from ..identify.batch import identify_record
+    from ..identify.forward.chain import ForwardChain
+    from ..identify.fit.least_squares import _lm, _parts, _Problem, _scales, fit
 
     def median(fn):
         times = []
@@ -119,7 +119,7 @@ def bench_fit(machine, tables, record, *, repeat: int = 5) -> dict:
         rot.features(theta, ALL_FEATURES)
     out["one_evaluation_with_an_effect_s"] = (time.perf_counter() - t0) / 1000
     out["fit_with_one_free_effect_parameter_s"] = median(lambda: fit(rot, meas))
-    from .chain import simulate
+    from ..identify.forward.chain import simulate
 
     speed = machine.operating_speed * 1.0731  # a speed no table view exists for yet (the slices do)
     rec2 = simulate(ForwardChain(machine, speed, tuple(machine.center_nodes)), res.values[:2],

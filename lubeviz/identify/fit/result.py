@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError
+from ...errors import InputError
 
 VERDICT_BAND = (0.95, 1.05)  # a flow within this fraction of Q_T is "normal"
 
@@ -40,7 +40,7 @@ class Identification:
     p_value: float | None = None
     unique: bool = True
     alternatives: tuple[np.ndarray, ...] = field(default=())
-    # from the fit on named parameters (`lubeviz.identify.fit`): 95 % intervals of the flows with the model
+    # from the fit on named parameters (`lubeviz.identify.fit.least_squares`): 95 % intervals of the flows with the model
     # budget ((low, high or None) per bearing), the test's level, warnings, the fitted effect parameters
     intervals: tuple | None = None
     level: float = 1e-3

@@ -30,7 +30,7 @@ def oil_reading(record, machine, effects=()) -> tuple[tuple, float, tuple[str, .
         return (), 0.0, (f"{where}: oil_temperature_c = {t:g} °C not used: the model file "
                          f"{machine.source or machine.name} declares no [oil] (grade and temperature), so a "
                          "temperature cannot be turned into a viscosity",)
-    from ..effects import OilTemperature
+    from ...effects import OilTemperature
 
     h = 0.5
     slope = abs(float(np.log(oil.factor(t + h) / oil.factor(t - h)))) / (2 * h)  # |d ln mu / dT|, 1/K
@@ -40,7 +40,7 @@ def oil_reading(record, machine, effects=()) -> tuple[tuple, float, tuple[str, .
 
 def budget_with_reading(budget, tolerance: float):
     """`budget` (None: the default) with its viscosity tolerance at least `tolerance`."""
-    from .budget import ModelBudget
+    from ..forward.budget import ModelBudget
 
     budget = ModelBudget() if budget is None else budget
     if tolerance > budget.viscosity:

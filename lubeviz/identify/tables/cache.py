@@ -66,13 +66,13 @@ import platformdirs
 
 import lubeviz
 
-from ..errors import ConvergenceError, InputError
-from ..model.bearing import Bearing
-from ..progress import Cancelled, ProgressFn, silent
-from ..rotor.statics import bearing_static_loads
+from ...errors import ConvergenceError, InputError
+from ...model.bearing import Bearing
+from ...progress import Cancelled, ProgressFn, silent
+from ...rotor.statics import bearing_static_loads
 from . import dimensionless as _dimensionless
 from .dimensionless import DimensionlessTable, Slice, geometry_values, sommerfeld_nodes, sommerfeld_number
-from .tables import DEFAULT_POINTS, DEFAULT_SPAN, CoefficientTable
+from .supply import DEFAULT_POINTS, DEFAULT_SPAN, CoefficientTable
 
 # Bump when the stored layout or the meaning of a stored array changes.
 TABLE_FORMAT_VERSION = 2
@@ -82,7 +82,7 @@ TABLE_FORMAT_VERSION = 2
 # rotor statics that give a view's load. Their source text is hashed into the key
 # (`solver_version`), so any edit to them invalidates every cached slice: a version constant that
 # someone must remember to bump would be trusted after a change nobody bumped it for.
-_SOLVER_MODULES = ("film", "identify/tables.py", "identify/dimensionless.py", "rotor/statics.py",
+_SOLVER_MODULES = ("film", "identify/tables/supply.py", "identify/tables/dimensionless.py", "rotor/statics.py",
                    "rotor/assembly.py", "rotor/elements.py")
 
 _LOAD_DIGITS = 12  # significant digits of the static load kept in a view's key (see `table_key`)

@@ -15,16 +15,16 @@ import time
 
 import numpy as np
 
-from .model.machine import load_machine
-from .progress import ProgressFn, silent
-from .rotor import (
+from ..model.machine import load_machine
+from ..progress import ProgressFn, silent
+from ..rotor import (
     machine_unbalance,
     modal_analysis,
     rotor_from_machine,
     unbalance_response,
 )
-from .rotor.stability import Supply, machine_stability
-from .units import MLMIN_PER_M3S
+from ..rotor.stability import Supply, machine_stability
+from ..units import MLMIN_PER_M3S
 
 # Bearing 1 of the paper's machine at 75 Hz, 546 ml/min (~Q_T), 100x100 mesh (BENCHMARKS "Mesh study"):
 # K in N/m, C in N s/m, SPEC §1 sign. Representative values; the timings do not depend on them.
@@ -71,7 +71,7 @@ def bench_rotor(machine_file=None, repeat: int = 5, include_ross: bool = True,
     out["modal_analysis_s"], modal = _median_per_call(lambda: modal_analysis(rotor, omega, bearings), repeat, 3)
     out["modes_below_300_hz"] = int(np.sum(modal.damped_frequencies_hz < 300.0))
     # the paper's record: 15 s from rest at dt = 1e-4 s, last 5 s kept, nodes 6 and 20
-    from .rotor.transient import linear_system, unbalance_time_response
+    from ..rotor.transient import linear_system, unbalance_time_response
 
     out["time_system_setup_s"], system = _median_per_call(lambda: linear_system(rotor, omega, bearings), repeat)
     out["time_simulation_15s_exact_s"], _ = _median_per_call(
@@ -82,7 +82,7 @@ def bench_rotor(machine_file=None, repeat: int = 5, include_ross: bool = True,
     if not include_ross:
         return out
 
-    from .rotor.ross_model import (
+    from ..rotor.ross_model import (
         RossUnavailable,
         import_ross,
         ross_lateral_eigenvalues,

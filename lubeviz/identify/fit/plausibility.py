@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..units import length_factor
+from ...units import length_factor
 
 # The 1X orbit against the model's response to the declared unbalance: real machines are balanced to
 # grades roughly 30x apart either way of a typical declared unbalance, so a ratio beyond this is suspicious.

@@ -24,12 +24,12 @@ from typing import Sequence
 
 import numpy as np
 
-from ..errors import InputError
-from ..rotor.assembly import rotor_from_machine
-from ..rotor.directional import directional_components, orbit_angle
-from ..rotor.elements import X, Y, node_dofs
-from ..rotor.response import dynamic_stiffness, machine_unbalance, unbalance_force
-from .tables import CoefficientTable
+from ...errors import InputError
+from ...rotor.assembly import rotor_from_machine
+from ...rotor.directional import directional_components, orbit_angle
+from ...rotor.elements import X, Y, node_dofs
+from ...rotor.response import dynamic_stiffness, machine_unbalance, unbalance_force
+from ..tables.supply import CoefficientTable
 
 PAPER_FEATURES = ("fb1", "fb2", "phi1", "phi2")
 ALL_FEATURES = ("fb1", "fb2", "phi1", "phi2", "log_zf_ratio", "arg_zf_ratio")
@@ -100,7 +100,7 @@ class ForwardModel:
         F = unbalance_force(self.rotor, omega, unb)
         K0, C0 = zip(*(t.coefficients(q) for t, q in zip(self.tables, self.q_ref)))
         self._B0 = [k + 1j * omega * c for k, c in zip(K0, C0)]
-        from ..rotor.assembly import bearing_matrices
+        from ...rotor.assembly import bearing_matrices
 
         Kt, Ct = bearing_matrices(self.rotor, list(zip(K0, C0)))
         D0 = dynamic_stiffness(self.rotor, omega, Kt, Ct)
@@ -178,7 +178,7 @@ class ForwardModel:
 def tabled_response(machine, tables: Sequence[CoefficientTable], flows, *, rotor=None, nodes=None):
     """Steady unbalance response (rotor.response.UnbalanceResponse, all nodes by default) with each
     bearing's K, C read from its table at its supply flow (m^3/s): the direct solve, for any nodes."""
-    from ..rotor.response import unbalance_response
+    from ...rotor.response import unbalance_response
 
     rotor = rotor_from_machine(machine) if rotor is None else rotor
     coefficients = [t.coefficients(float(q)) for t, q in zip(tables, flows)]

@@ -35,12 +35,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from ..errors import InputError
-from ..film.equilibrium import flooded_threshold
-from ..film.sweep import sweep_supply
-from ..model.bearing import Bearing
-from ..progress import ProgressFn, silent
-from .tables import DEFAULT_POINTS, DEFAULT_SPAN, CoefficientTable, table_flows
+from ...errors import InputError
+from ...film.equilibrium import flooded_threshold
+from ...film.sweep import sweep_supply
+from ...model.bearing import Bearing
+from ...progress import ProgressFn, silent
+from .supply import DEFAULT_POINTS, DEFAULT_SPAN, CoefficientTable, table_flows
 
 # The reference operating point a slice is solved at (any values give the same dimensionless numbers;
 # fixed so a slice file does not depend on which bearing asked for it first).

@@ -14,7 +14,7 @@ The parameters are a named vector: `q1`, `q2` (m^3/s), then every free continuou
 effect (`viscosity.factor`, `pedestals.stiffness_n_m`, ...). Evaluations are batched over any leading
 shape, so a Jacobian by central differences, a start grid or a whole Q1 x Q2 map is one call.
 
-The rotor solve is the rank-4 Woodbury update of `lubeviz.identify.forward` generalized: with D0 the
+The rotor solve is the rank-4 Woodbury update of `lubeviz.identify.forward.model` generalized: with D0 the
 dynamic stiffness at reference bearings, factorized once, and the forcing a linear combination of fixed
 shapes (main unbalance, effect shapes) with complex weights,
 
@@ -33,15 +33,15 @@ from typing import Sequence
 
 import numpy as np
 
-from ..errors import InputError
-from ..progress import ProgressFn, silent
-from ..rotor.assembly import bearing_matrices, rotor_from_machine
-from ..rotor.elements import X, Y, node_dofs
-from ..rotor.response import dynamic_stiffness, machine_unbalance, unbalance_force
-from ..rotor.statics import bearing_static_loads
-from .forward import feature_vector
-from .tables import CoefficientTable
-from ..units import MLMIN_PER_M3S
+from ...errors import InputError
+from ...progress import ProgressFn, silent
+from ...rotor.assembly import bearing_matrices, rotor_from_machine
+from ...rotor.elements import X, Y, node_dofs
+from ...rotor.response import dynamic_stiffness, machine_unbalance, unbalance_force
+from ...rotor.statics import bearing_static_loads
+from .model import feature_vector
+from ..tables.supply import CoefficientTable
+from ...units import MLMIN_PER_M3S
 
 STATIC_FEATURES = ("sx1", "sy1", "sx2", "sy2")  # static journal offset from the rest reading, m (SPEC §6)
 DEFAULT_PROBE_ANGLES = ((0.0, 90.0), (0.0, 90.0))
@@ -52,7 +52,7 @@ DEFAULT_PROBE_ANGLES = ((0.0, 90.0), (0.0, 90.0))
 class BearingSource:
     """One bearing's K, C and journal position at one speed, for any supply flow, viscosity and clearance.
 
-    The declared bearing is served by its coefficient table (`lubeviz.identify.cache`); a bearing with
+    The declared bearing is served by its coefficient table (`lubeviz.identify.tables.cache`); a bearing with
     another viscosity or clearance by the table of that bearing, which the dimensionless (S, Q/Q_T)
     tables give without a film solve when they cover it. Flows are clipped to the table's span (25-200 %
     of that bearing's own Q_T): the search box's edge.
@@ -85,12 +85,12 @@ class BearingSource:
             changed = key != self._key(1.0, self.bearing.clearance)
             view = None
             if changed and self._table is not None:  # from the slices in memory: ~0.6 ms, not ~2 ms
-                from .cache import scaled_view
+                from ..tables.cache import scaled_view
 
                 view = scaled_view(self._table, self.bearing, self.load, self.omega, float(factor), clearance,
                                    index=self.index)
             if view is None:
-                from .cache import bearing_view
+                from ..tables.cache import bearing_view
 
                 if changed:
                     bearing = self.bearing.copy(viscosity=self.bearing.viscosity * float(factor), clearance=clearance)
@@ -103,7 +103,7 @@ class BearingSource:
 
     def _remember_slices(self, bearing) -> None:
         """Keep the slices the view of `bearing` (this one, changed) was made from, for `cache.scaled_view`."""
-        from . import cache
+        from ..tables import cache
 
         try:
             table = cache.loaded_table(bearing, self.load, self.omega)
@@ -173,7 +173,7 @@ class ResponseDefect:
     stage, affine in the flows: at flows q it adds x + dx (q - q0) to the 1X amplitudes x, y (2 planes,
     complex) and static + dstatic (q - q0) to the static offsets (plane, [x, y]), m.
 
-    The large-orbit identification (`identify.orbit_fit`) sets it to the harmonic balance's orbit minus its
+    The large-orbit identification (`identify.fit.large_orbit`) sets it to the harmonic balance's orbit minus its
     own linear orbit near the last flows q0, with its slope in the flows (a defect correction): the linear
     chain stays the fast model the fit differentiates, and the correction carries what the film's
     nonlinearity adds, slope included, so the fit's intervals see the nonlinear model's sensitivity."""
@@ -241,7 +241,7 @@ class ForwardChain:
             if getattr(e, "stage", None) == "response":
                 raise InputError(f"{e.label()} replaces the linear response (the film solved along the orbit): "
                                  "the linear chain cannot carry it; `identify` fits it through "
-                                 "`identify.orbit_fit` (with probe effects only), `simulate` alone")
+                                 "`identify.fit.large_orbit` (with probe effects only), `simulate` alone")
             if getattr(e, "stage", None) not in ("bearings", "rotor", "probes"):
                 raise InputError(f"{e!r} is not an effect (no stage)")
         self.effects = tuple(e.bind(machine) for e in effects)
@@ -251,7 +251,7 @@ class ForwardChain:
                 raise InputError(f"bearing {k + 1} is given a pedestal twice ({', '.join(on_k)}); "
                                  "one pedestals effect per bearing")
         if tables is None:
-            from .cache import machine_tables
+            from ..tables.cache import machine_tables
 
             tables = machine_tables(machine, self.omega, progress=progress)
         self.sources = [BearingSource(machine, k, self.omega, t, progress=progress) for k, t in enumerate(tables)]
@@ -504,7 +504,7 @@ class ForwardChain:
             pts[1 + 2 * j, i] += hj
             pts[2 + 2 * j, i] -= hj
         g = self.features(pts, names)
-        from .forward import wrap_difference
+        from .model import wrap_difference
 
         J = wrap_difference(g[1::2] - g[2::2], names).T / (2 * h)
         return g[0], J
@@ -517,9 +517,9 @@ def simulate(chain: ForwardChain, theta, *, snr_db: float | None = 12.0, rng: np
 
     The CLI's `simulate --effect`, the app and the tests call this, so an effect shows up everywhere.
     """
-    from ..signals.noise import add_noise
-    from ..signals.records import Record
-    from ..signals.synthesize import steady_signals
+    from ...signals.noise import add_noise
+    from ...signals.records import Record
+    from ...signals.synthesize import steady_signals
 
     if snr_db is not None and rng is None:
         raise InputError("a noisy record needs an explicit rng (numpy.random.Generator); pass snr_db=None "

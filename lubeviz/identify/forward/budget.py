@@ -39,9 +39,9 @@ import dataclasses
 import numpy as np
 import param
 
-from ..errors import InputError
-from ..model.quantity import Quantity
-from .forward import wrap_difference
+from ...errors import InputError
+from ...model.quantity import Quantity
+from .model import wrap_difference
 
 
 # `lubeviz bench budget` (seed 2026, 120 records) gives 0.70 (sqrt(sum chi2 / sum n) of the clean differences).

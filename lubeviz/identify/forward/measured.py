@@ -15,8 +15,8 @@ from typing import Sequence
 
 import numpy as np
 
-from ..signals.features import fit_channels
-from .forward import ALL_FEATURES, feature_vector, wrap_difference
+from ...signals.features import fit_channels
+from .model import ALL_FEATURES, feature_vector, wrap_difference
 
 
 @dataclass(frozen=True)
@@ -102,8 +102,8 @@ def measure(record, names: Sequence[str] = ALL_FEATURES, *, harmonics: int = 3) 
 
 def _strongest_line(record) -> float | None:
     """The record's strongest spectral line (Hz), to say what a record without a usable 1X line holds."""
-    from ..errors import LubevizError
-    from ..signals.speed_check import spectrum_speed_check
+    from ...errors import LubevizError
+    from ...signals.speed_check import spectrum_speed_check
 
     try:
         return spectrum_speed_check(record).strongest_hz

@@ -49,14 +49,14 @@ from typing import Sequence
 
 import numpy as np
 
-from ..errors import InputError
-from ..film.equilibrium import flooded_threshold
-from ..film.sweep import sweep_supply
-from ..rotor.assembly import rotor_from_machine
-from ..rotor.response import machine_unbalance, unbalance_response
-from ..rotor.statics import bearing_static_loads
-from .tables import CoefficientTable
-from ..units import MLMIN_PER_M3S
+from ...errors import InputError
+from ...film.equilibrium import flooded_threshold
+from ...film.sweep import sweep_supply
+from ...rotor.assembly import rotor_from_machine
+from ...rotor.response import machine_unbalance, unbalance_response
+from ...rotor.statics import bearing_static_loads
+from .supply import CoefficientTable
+from ...units import MLMIN_PER_M3S
 
 # The paper's reference flows (SPEC §5), ml/min.
 REFERENCE_FLOWS_MLMIN = (409.5, 448.5, 487.5, 526.5, 565.5, 604.5, 643.5, 682.5)
@@ -212,9 +212,9 @@ class NoiseFloor:
 def noise_floor(machine, flows: Sequence[float], *, seeds: int = 50, nodes: Sequence[int] | None = None,
                 snr_db: float = 12.0, duration_s: float = 5.0) -> NoiseFloor:
     """Scatter of the measured features over `seeds` noisy steady-state records (the paper's protocol)."""
-    from ..rotor.film_bearings import film_bearings
-    from ..signals.features import record_features
-    from ..signals.synthesize import synthesize_record
+    from ...rotor.film_bearings import film_bearings
+    from ...signals.features import record_features
+    from ...signals.synthesize import synthesize_record
 
     if seeds < 2:
         raise InputError(f"seeds = {seeds}; need at least 2 to estimate a standard deviation")
@@ -309,9 +309,9 @@ def range_accuracy(machine, points: int = 200, *, rng: np.random.Generator, node
     of its Q_T) and compare fb, φ with bearing 1 on its table view vs on a direct equilibrium.
 
     The views come from `cache.bearing_view` (slices built if missing, in `directory`)."""
-    from ..film.equilibrium import find_equilibrium
-    from ..film.feed import Feed
-    from ..progress import silent
+    from ...film.equilibrium import find_equilibrium
+    from ...film.feed import Feed
+    from ...progress import silent
     from .cache import bearing_view
     from .dimensionless import sommerfeld_number
 
@@ -369,8 +369,8 @@ def bench_table(machine_path=None, *, points: int = 200, seed: int = 0, identify
     import time
     from pathlib import Path
 
-    from ..model.machine import load_machine
-    from ..progress import silent
+    from ...model.machine import load_machine
+    from ...progress import silent
     from .cache import full_build
 
     progress = silent if progress is None else progress

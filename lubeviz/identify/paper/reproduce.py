@@ -14,16 +14,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
-from ..progress import ProgressFn, silent
-from ..rotor.assembly import rotor_from_machine
-from ..rotor.film_bearings import FilmBearings, film_bearings
-from ..signals.synthesize import synthesize_record
-from .forward import ALL_FEATURES, ForwardModel
-from .measured import measure
+from ...errors import InputError
+from ...progress import ProgressFn, silent
+from ...rotor.assembly import rotor_from_machine
+from ...rotor.film_bearings import FilmBearings, film_bearings
+from ...signals.synthesize import synthesize_record
+from ..forward.model import ALL_FEATURES, ForwardModel
+from ..forward.measured import measure
 from .newton import identify
-from .settings import IdentificationSettings
-from ..units import MLMIN_PER_M3S
+from ..fit.settings import IdentificationSettings
+from ...units import MLMIN_PER_M3S
 
 REFERENCE_FLOWS_MLMIN = (409.5, 448.5, 487.5, 526.5, 565.5, 604.5, 643.5, 682.5)
 PAPER_RESULTS = {
@@ -159,7 +159,7 @@ def report_lines(location: str, results: dict) -> list[str]:
 def reproduce(machine, location: str, *, modes=("paper", "best"), progress: ProgressFn = silent,
               tables=None, seed: int = 2024, method: str = "time") -> dict:
     """Run the protocol at one location; returns {mode: (cases, summary)} and timing."""
-    from .cache import machine_tables
+    from ..tables.cache import machine_tables
 
     t0 = time.perf_counter()
     nodes = location_nodes(machine, location)

@@ -84,9 +84,9 @@ def bench_coverage(machine_path=None, *, n: int = 120, seed: int = 2026, calibra
     held-out check uses another seed). `budgets`: other budgets (dicts of `ModelBudget` values, e.g. one
     term scaled alone), likewise."""
     from ..identify.batch import identify_record
-    from ..identify.budget import ModelBudget
+    from ..identify.forward.budget import ModelBudget
     from ..model.machine import load_machine
-    from .independent import clean_corpus, make_record
+    from ..verification.independent import clean_corpus, make_record
 
     t0 = time.perf_counter()
     machine = load_machine(machine_path)
@@ -127,8 +127,8 @@ def bench_orbit(machine_path=None, *, n: int = 12, seed: int = 2026, speed_hz: f
     made two at a time first (~4 min each from the time integration); then identified on `workers` processes."""
     from concurrent.futures import ProcessPoolExecutor
 
-    from .independent import IndependentSpec, thresholds_mlmin
-    from .orbit_record import make_orbit_records
+    from ..verification.independent import IndependentSpec, thresholds_mlmin
+    from ..verification.orbit_record import make_orbit_records
 
     t0 = time.perf_counter()
     qt = thresholds_mlmin(speed_hz, machine_path)
@@ -173,9 +173,9 @@ def _orbit_rows(machine_path, spec, scale, source, harmonics, time_rounds) -> di
     """`bench_orbit`'s rows of one record, {harmonics: row} (a process of its pool runs this)."""
     from ..effects import parse_effect
     from ..identify.batch import identify_record
-    from ..identify.settings import IdentificationSettings
+    from ..identify.fit.settings import IdentificationSettings
     from ..model.machine import load_machine
-    from .orbit_record import make_orbit_record
+    from ..verification.orbit_record import make_orbit_record
 
     machine = load_machine(machine_path)
     made = make_orbit_record(spec, unbalance_scale=scale, method=source)
@@ -234,7 +234,7 @@ def bench_static(machine_path=None, *, n: int = 100, seed: int = 2026, progress:
     from ..effects import parse_effect
     from ..identify.batch import identify_record
     from ..model.machine import load_machine
-    from .independent import clean_corpus, make_record, max_growth_rate
+    from ..verification.independent import clean_corpus, make_record, max_growth_rate
 
     t0 = time.perf_counter()
     machine = load_machine(machine_path)
@@ -295,11 +295,11 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
     from ..diagnose import diagnose
     from ..diagnose.loop import OTHER_FORCE
     from ..identify.batch import beyond_1x, record_checks
-    from ..identify.chain import ForwardChain
-    from ..identify.measured import measure
+    from ..identify.forward.chain import ForwardChain
+    from ..identify.forward.measured import measure
     from ..model.machine import load_machine
-    from .independent import IndependentSpec, make_record, thresholds_mlmin
-    from .orbit_record import make_orbit_record, make_orbit_records
+    from ..verification.independent import IndependentSpec, make_record, thresholds_mlmin
+    from ..verification.orbit_record import make_orbit_record, make_orbit_records
 
     t0 = time.perf_counter()
     machine = load_machine(machine_path)
@@ -397,11 +397,11 @@ def bench_budget(machine_path=None, *, n: int = 120, seed: int = 2026, progress:
     feature and per speed band. Also the maximum-likelihood calibration factor of the budget's terms as
     stated (calibration 1): sqrt(sum_r chi2_r / sum_r n_r), chi2_r = d_r^T Sigma_r^-1 d_r (the value
     `ModelBudget.calibration` carries, from this command at seed 2026)."""
-    from ..identify.budget import ModelBudget, model_covariance
-    from ..identify.chain import ForwardChain
-    from ..identify.forward import ALL_FEATURES, feature_vector, wrap_difference
+    from ..identify.forward.budget import ModelBudget, model_covariance
+    from ..identify.forward.chain import ForwardChain
+    from ..identify.forward.model import ALL_FEATURES, feature_vector, wrap_difference
     from ..model.machine import load_machine
-    from .independent import clean_corpus, steady_truth
+    from ..verification.independent import clean_corpus, steady_truth
 
     t0 = time.perf_counter()
     machine = load_machine(machine_path)

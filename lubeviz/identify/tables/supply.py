@@ -20,7 +20,7 @@ The grid follows what the coefficients do (measured on the paper's bearings, 100
 - Elsewhere the coefficients are smooth: a grid uniform in s = sqrt(Q / Q_T), about twice as dense
   below Q_T as above.
 `lubeviz bench identify --accuracy` and the tests measure the error against direct solves
-(`lubeviz.identify.accuracy`); `lubeviz bench table` over the whole operating range.
+(`lubeviz.identify.tables.accuracy`); `lubeviz bench table` over the whole operating range.
 """
 
 from __future__ import annotations
@@ -33,13 +33,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from ..errors import InputError
-from ..film.equilibrium import flooded_threshold
-from ..film.sweep import sweep_supply
-from ..model.bearing import Bearing
-from ..progress import ProgressFn, silent
-from ..rotor.statics import bearing_static_loads
-from ..units import MLMIN_PER_M3S
+from ...errors import InputError
+from ...film.equilibrium import flooded_threshold
+from ...film.sweep import sweep_supply
+from ...model.bearing import Bearing
+from ...progress import ProgressFn, silent
+from ...rotor.statics import bearing_static_loads
+from ...units import MLMIN_PER_M3S
 
 DEFAULT_SPAN = (0.25, 2.0)
 # The band where the groove pressurizes, relative to Q_T, and its step (1.1 ml/min at Q_T =
@@ -171,7 +171,7 @@ def bearing_table(bearing: Bearing, load, omega: float, *, index: int = 0, span=
     """The table of one bearing under a given static `load` (N, on the journal) at `omega` (rad/s).
 
     What `build_table` does once the machine has given the load; needs only picklable inputs, so
-    worker processes (`lubeviz.identify.cache`) call it directly. `index` only labels the table.
+    worker processes (`lubeviz.identify.tables.cache`) call it directly. `index` only labels the table.
     """
     t0 = time.perf_counter()
     q_t, _ = flooded_threshold(bearing, omega, load)

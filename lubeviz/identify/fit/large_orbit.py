@@ -60,17 +60,17 @@ from typing import Sequence
 
 import numpy as np
 
-from ..errors import InputError, LubevizError
-from ..progress import ProgressFn, silent
-from ..rotor.film_bearings import equilibrium_flow_slopes, film_bearings, flooded_thresholds
-from ..rotor.orbit_balance import HARMONICS, POINTS, OrbitBalance, orbit_balance
-from ..rotor.orbit_stability import OrbitStability, orbit_stability
-from ..rotor.response import machine_unbalance
-from ..rotor.whirl import Stability, equilibrium_stability
-from .budget import ModelBudget, truncation_factor
-from .chain import ForwardChain, ResponseDefect
-from .fit import Z95, Fit, fit, sandwich_cov, std_within
-from ..units import MLMIN_PER_M3S
+from ...errors import InputError, LubevizError
+from ...progress import ProgressFn, silent
+from ...rotor.film_bearings import equilibrium_flow_slopes, film_bearings, flooded_thresholds
+from ...rotor.orbit_balance import HARMONICS, POINTS, OrbitBalance, orbit_balance
+from ...rotor.orbit_stability import OrbitStability, orbit_stability
+from ...rotor.response import machine_unbalance
+from ...rotor.whirl import Stability, equilibrium_stability
+from ..forward.budget import ModelBudget, truncation_factor
+from ..forward.chain import ForwardChain, ResponseDefect
+from .least_squares import Z95, Fit, fit, sandwich_cov, std_within
+from ...units import MLMIN_PER_M3S
 
 
 SIGMA_TOL = 0.2  # the rounds also stop when the flows move by less than this fraction of their standard deviation
@@ -102,7 +102,7 @@ SLOPE_UNCERTAINTY = 0.2  # of the correction's slope: the model's 100 x 100 slop
 
 def _with_mesh(machine, mesh: int):
     """A copy of `machine` whose bearings' films have `mesh` x `mesh` finite volumes (nothing else changed)."""
-    from ..model.machine import Machine
+    from ...model.machine import Machine
 
     values = {k: getattr(machine, k) for k in machine.param if k != "name"}
     values["bearings"] = [b.copy(n_circumferential=int(mesh), n_axial=int(mesh)) for b in machine.bearings]
@@ -284,7 +284,7 @@ def time_gap(chain: ForwardChain, ob: OrbitBalance, scale: float, *, revolutions
     no truncation in harmonics: its 1X over the last 2 revolutions minus the balance's, per unit of `scale` as
     the defect is; the 0X at the chain's static planes likewise, absolute. `settled_percent`: how much its 1X
     moved between the last 2 revolutions and the 2 before."""
-    from ..rotor.film_transient import film_time_response
+    from ...rotor.film_transient import film_time_response
 
     if revolutions < 4:
         raise InputError(f"time rounds: {revolutions} revolutions; at least 4 (two windows of 2)")

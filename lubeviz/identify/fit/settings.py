@@ -6,7 +6,7 @@ import math
 
 import param
 
-from ..model.quantity import Quantity
+from ...model.quantity import Quantity
 
 
 class IdentificationSettings(param.Parameterized):
@@ -35,7 +35,7 @@ class IdentificationSettings(param.Parameterized):
     features = param.List(["fb1", "fb2", "phi1", "phi2", "log_zf_ratio", "arg_zf_ratio"], item_type=str,
                           doc="Best mode: features used (all invariants of an unbalance of unknown size/phase)")
     include_model_error = param.Boolean(True, doc="Best mode: weigh the fit, its chi2 test and the flows' "
-                                        "intervals by the model's own uncertainty (identify.budget) as well as the "
+                                        "intervals by the model's own uncertainty (identify.forward.budget) as well as the "
                                         "record's noise; off: the noise alone (flags most real records)")
     min_line_snr = Quantity(3.0, bounds=(0.0, None), unit="",
                             doc="Refuse a record whose forward or backward 1X line is below this many "

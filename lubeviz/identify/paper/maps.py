@@ -33,14 +33,14 @@ import contourpy
 import numpy as np
 from scipy.linalg import cholesky, solve_triangular
 
-from ..errors import InputError
-from ..progress import ProgressFn, silent
-from ..rotor.directional import unwrap_orbit_angle
-from .forward import ALL_FEATURES, ANGULAR, PAPER_FEATURES, ForwardModel, feature_vector, wrap_difference
-from .measured import MeasuredFeatures
+from ...errors import InputError
+from ...progress import ProgressFn, silent
+from ...rotor.directional import unwrap_orbit_angle
+from ..forward.model import ALL_FEATURES, ANGULAR, PAPER_FEATURES, ForwardModel, feature_vector, wrap_difference
+from ..forward.measured import MeasuredFeatures
 from .newton import _bounds, _paper_errors
-from .settings import IdentificationSettings
-from ..units import MLMIN_PER_M3S
+from ..fit.settings import IdentificationSettings
+from ...units import MLMIN_PER_M3S
 
 # Sec. 3.1: the sweeps run from 50 to 150 % of the paper's Q_T = 546 ml/min.
 PAPER_SWEEP_MLMIN = (273.0, 819.0)
@@ -329,9 +329,9 @@ def root_curves(q1_axis, q2_axis, field, *, period: float | None = None, level: 
 def _case_features(machine, model: ForwardModel, q_mlmin, snr_db: float, rng: np.random.Generator):
     """The paper's reference for one case (Sec. 3.2): film equilibria solved directly at the flows, the
     steady 1X response sampled 5 s at 10 kHz, 12 dB noise, features measured as from a file."""
-    from ..rotor.film_bearings import film_bearings
-    from ..signals.synthesize import synthesize_record
-    from .measured import measure
+    from ...rotor.film_bearings import film_bearings
+    from ...signals.synthesize import synthesize_record
+    from ..forward.measured import measure
 
     flows = tuple(q / MLMIN_PER_M3S for q in q_mlmin)
     rec = synthesize_record(machine, flows, nodes=model.nodes, snr_db=snr_db, rng=rng, method="steady",
@@ -397,9 +397,9 @@ def paper_figures(machine, *, grid: int = 101, sweep_points: int | None = None, 
     Each figure carries "title" and "seconds" (the time spent on it). `tables`: the machine's coefficient
     tables (default `machine_tables(machine)`, from the cache, built if missing).
     """
-    from ..signals.noise import add_noise
-    from ..signals.synthesize import synthesize_record
-    from .cache import machine_tables
+    from ...signals.noise import add_noise
+    from ...signals.synthesize import synthesize_record
+    from ..tables.cache import machine_tables
 
     if int(grid) != grid or not 3 <= grid <= 2001:
         raise InputError(f"grid {grid!r}: expected an integer number of points per axis, 3 to 2001")
@@ -444,7 +444,7 @@ def paper_figures(machine, *, grid: int = 101, sweep_points: int | None = None, 
     progress(2, steps, "Fig. 7: feature maps")
 
     t0 = time.perf_counter()
-    from ..rotor.film_bearings import film_bearings
+    from ...rotor.film_bearings import film_bearings
 
     flows8 = tuple(v / MLMIN_PER_M3S for v in FIG8_CASE_MLMIN)
     clean = synthesize_record(machine, flows8, nodes=centre, snr_db=None, method="steady", duration_s=0.2,

@@ -8,14 +8,14 @@ import time
 
 import numpy as np
 
-from .film.equilibrium import find_equilibrium, flooded_threshold
-from .film.feed import Feed, setup_problem
-from .film.linearize import fixed_pattern_coefficients
-from .film.solver import solve, solve_sor
-from .film.sweep import sweep_supply
-from .model.machine import load_machine
-from .progress import ProgressFn, silent
-from .units import MLMIN_PER_M3S
+from ..film.equilibrium import find_equilibrium, flooded_threshold
+from ..film.feed import Feed, setup_problem
+from ..film.linearize import fixed_pattern_coefficients
+from ..film.solver import solve, solve_sor
+from ..film.sweep import sweep_supply
+from ..model.machine import load_machine
+from ..progress import ProgressFn, silent
+from ..units import MLMIN_PER_M3S
 
 PAPER_LOAD = np.array([0.0, -3272.8])
 
@@ -77,7 +77,7 @@ def bench_film(machine_file=None, repeat: int = 5, progress: ProgressFn = silent
 
 def bench_mesh(machine_file=None) -> dict:
     """Mesh study 50x50 -> 100x100 -> 200x200 of bearing 1 (see film.mesh_study)."""
-    from .film.mesh_study import mesh_study
+    from ..film.mesh_study import mesh_study
 
     machine = load_machine(machine_file)
     feeds = {"starved 400": Feed.flow(400 / MLMIN_PER_M3S), "546": Feed.flow(546 / MLMIN_PER_M3S),
@@ -95,7 +95,7 @@ def bench_smoothness(machine_file=None, secant_amplitude: float | None = None,
     with the fits split at Q_T and outside the Q_T band (see film.roughness); with `secant_amplitude`
     (m) also the secant coefficients (key "secant").
     """
-    from .film.roughness import supply_roughness
+    from ..film.roughness import supply_roughness
 
     machine = load_machine(machine_file)
     return supply_roughness(machine.bearings[0], 2.0 * math.pi * machine.operating_speed, PAPER_LOAD,

@@ -1,0 +1,1 @@
+"""The forward model: supply flows and effect parameters -> what the probes read, and its uncertainty."""
