@@ -67,6 +67,163 @@ class FilmTimeResponse:
         return self.displacement[2 * k], self.displacement[2 * k + 1]
 
 
+def _initial_state(rotor: Rotor, omega: float, unbalances, coefficients, start, n: int) -> np.ndarray:
+    """The state (q, q') from the static equilibrium that `start` names: the linear steady orbit, rest, or given."""
+    if isinstance(start, str) and start == "steady":
+        Q = unbalance_response(rotor, omega, unbalances, coefficients).q
+        return np.concatenate([Q.real, (1j * omega * Q).real])
+    if isinstance(start, str) and start == "rest":
+        return np.zeros(2 * n)
+    if not isinstance(start, str) and np.shape(start) == (2 * n,):
+        return np.asarray(start, dtype=float)  # a given state (q, q'), e.g. a periodic orbit's
+    raise InputError(f"start {start!r}; expected 'steady', 'rest' or a state vector of {2 * n} values")
+
+
+@dataclass(frozen=True, eq=False)
+class _ModalStep:
+    """The linear part (shaft, K0, C0) in modal coordinates, integrated exactly over a step with a first-order hold
+    of its forcing: the unbalance and the residual film forces at the journals."""
+
+    omega: float
+    unbalance: np.ndarray  # (n_dof,) complex unbalance force amplitude
+    force_dofs: np.ndarray  # the dofs any force acts on
+    journal_slots: tuple[int, ...]  # where each journal's x, y sits in force_dofs
+    G_in: np.ndarray  # modal forcing per unit force at force_dofs
+    decay: np.ndarray
+    w0: np.ndarray
+    w1: np.ndarray
+    Vq_b: np.ndarray  # modes -> journal displacement, velocity, output displacement
+    Vv_b: np.ndarray
+    Vq_out: np.ndarray
+
+    def forcing(self, t, resid):
+        """Modal forcing at time t with residual film forces `resid` (2 n_b,) on the journals."""
+        f = np.zeros(self.force_dofs.size)
+        fu = (self.unbalance[self.force_dofs] * np.exp(1j * self.omega * t)).real
+        f += fu
+        for k, slot in enumerate(self.journal_slots):
+            f[slot] += resid[k]
+        return self.G_in @ f
+
+    def end_residual_gain(self) -> tuple[np.ndarray, np.ndarray]:
+        """q_b, v_b at the step's end are affine in its end residual: d eta_next / d r_next and d(q_b, v_b) / d r_next
+        (4 n_b, 2 n_b)."""
+        P = np.zeros((self.force_dofs.size, len(self.journal_slots)))
+        for k, slot in enumerate(self.journal_slots):
+            P[slot, k] = 1.0
+        Gr = self.w1[:, None] * (self.G_in @ P)
+        return Gr, np.vstack([(self.Vq_b @ Gr).real, (self.Vv_b @ Gr).real])
+
+
+def _modal_step(rotor: Rotor, system, F: np.ndarray, omega: float, dt: float, nodes) -> _ModalStep:
+    """The step's exact hold weights for `system` (`transient.linear_system`) and the forced and observed dofs."""
+    n = system.n_dof
+    flat_b = np.array([node_dofs(nd)[[X, Y]] for nd in rotor.bearing_nodes]).ravel()  # (2 n_b,)
+    force_dofs = np.union1d(np.flatnonzero(F), flat_b)
+    Minv_cols = np.linalg.solve(system.M, np.eye(n)[:, force_dofs])
+    pos_in_force = {d: k for k, d in enumerate(force_dofs)}
+    decay, w0, w1 = _hold_weights(system.eigenvalues, dt)
+    return _ModalStep(omega=omega, unbalance=F, force_dofs=force_dofs,
+                      journal_slots=tuple(pos_in_force[d] for d in flat_b), G_in=system.V_inv[:, n:] @ Minv_cols,
+                      decay=decay, w0=w0, w1=w1, Vq_b=system.V[flat_b], Vv_b=system.V[n + flat_b],
+                      Vq_out=system.V[node_output_dofs(nodes)])
+
+
+class _JournalFilms:
+    """The film at each journal along the integration (each step warm-started from the last), the film forces it
+    gave and the counts of solves and SOR fallbacks."""
+
+    def __init__(self, bearings: FilmBearings, dt: float, n_t: int):
+        eqs = bearings.equilibria
+        self.bearings, self.dt = bearings, dt
+        self.films = [e.film for e in eqs]
+        self.f0 = [e.film.force.copy() for e in eqs]
+        self.K0 = [e.coefficients.K for e in eqs]
+        self.C0 = [e.coefficients.C for e in eqs]
+        self.film_force = np.empty((len(eqs), 2, n_t))
+        self.lin_size = np.zeros((len(eqs), n_t))  # |K0 q + C0 q'| at each step: the scale of the film's dynamic force
+        self.window = max(1, int(math.ceil(2 * math.pi / (bearings.omega * dt))))  # one revolution of steps
+        self.solves = self.fallbacks = 0
+
+    def solve(self, j: int, pos, velocity, k_step: int):
+        """The film of journal j at `pos` moving at `velocity`, warm-started from its last."""
+        e = self.bearings.equilibria[j]
+        if np.hypot(*pos) >= 0.995 * e.bearing.clearance:
+            raise ConvergenceError(f"journal {j + 1} reached {np.hypot(*pos) / e.bearing.clearance:.3f} of the "
+                                   f"clearance at t = {k_step * self.dt:.4g} s: the orbit hits the bearing")
+        problem = setup_problem(e.bearing, self.bearings.omega, pos, Feed.flow(self.bearings.flows[j]),
+                                velocity=velocity)
+        sol = solve(problem, warm=self.films[j])
+        self.solves += 1
+        if not sol.converged:  # the active set can cycle under strong squeeze: projected SOR does not
+            sol = solve(problem, method="sor", warm=self.films[j], relax=1.9, tol=1e-10)
+            self.fallbacks += 1
+        if not sol.converged:
+            raise ConvergenceError(f"film {j + 1} at t = {k_step * self.dt:.4g} s: {sol.message}")
+        self.films[j] = sol
+        self.film_force[j, :, k_step] = sol.force
+        return sol
+
+    def check_near_linear(self, j: int, k_step: int, r_j) -> None:
+        """The explicit coupling holds while r stays small against the linear force's size over the last revolution
+        (an instant where it passes near zero is no measure of the motion's amplitude)."""
+        scale = max(self.lin_size[j, max(0, k_step - self.window):k_step + 1].max(), 1e-9 * np.hypot(*self.f0[j]))
+        if k_step > 0 and np.hypot(*r_j) > MAX_RESIDUAL_SHARE * scale:
+            raise ConvergenceError(
+                f"bearing {j + 1} at t = {k_step * self.dt:.4g} s: the film force departs from its linearization by "
+                f"{np.hypot(*r_j) / scale:.0%} of the linear force's size over the last revolution; the "
+                "explicit coupling is only valid for orbits where the film stays near-linear (reduce the "
+                "unbalance or the time step)")
+
+    def residual(self, modal: _ModalStep, eta, k_step: int, tangents=None):
+        """r = f_film(e0 + q_b, q_b') - f_film(e0) + K0 q_b + C0 q_b' at the state eta (modal); with `tangents` (an
+        (2 n_b, 4 n_b) array) also dr/d(q_b, v_b) there."""
+        n_b = len(self.films)
+        qb = (modal.Vq_b @ eta).real.reshape(n_b, 2)
+        vb = (modal.Vv_b @ eta).real.reshape(n_b, 2)
+        r = np.empty((n_b, 2))
+        for j, (K0, C0) in enumerate(zip(self.K0, self.C0)):
+            sol = self.solve(j, self.bearings.equilibria[j].position + qb[j], vb[j], k_step)
+            lin = K0 @ qb[j] + C0 @ vb[j]
+            r[j] = sol.force - self.f0[j] + lin
+            self.lin_size[j, k_step] = np.hypot(*lin)
+            if tangents is not None:  # dr/dq = dF/dq + K0, dr/dv = dF/dv + C0 (SOR carries none: the static ones)
+                dF = force_jacobian(sol) if sol.linear is not None else -np.hstack([K0, C0])
+                tangents[2 * j:2 * j + 2, 2 * j:2 * j + 2] = dF[:, :2] + K0
+                tangents[2 * j:2 * j + 2, 2 * n_b + 2 * j:2 * n_b + 2 * j + 2] = dF[:, 2:] + C0
+                continue  # the implicit step needs no guard: its Newton iteration says whether it holds
+            self.check_near_linear(j, k_step, r[j])
+        return r.ravel()
+
+
+def _implicit_step(films: _JournalFilms, modal: _ModalStep, eta, r_next, k_step: int, Gr, A, tol_r):
+    """The residual force at the step's end solved for: Newton on E(r) = residual(eta(r)) - r = 0 from the
+    extrapolation, a step that does not lower |E| halved (the film is piecewise smooth: its cavitation pattern
+    switches, and a full step can cycle across a switch). The end residual and state."""
+    n_b = len(films.films)
+    T = np.zeros((2 * n_b, 4 * n_b))
+    E = films.residual(modal, eta, k_step, T) - r_next
+    for _ in range(IMPLICIT_ITERATIONS):
+        if np.abs(E).max() <= tol_r:
+            break
+        step = np.linalg.solve(np.eye(2 * n_b) - T @ A, E)
+        lam = 1.0
+        for _ in range(5):
+            T_try = np.zeros_like(T)
+            eta_try = eta + lam * (Gr @ step)
+            E_try = films.residual(modal, eta_try, k_step, T_try) - (r_next + lam * step)
+            if np.linalg.norm(E_try) < np.linalg.norm(E):
+                break
+            lam *= 0.5
+        r_next, eta, E, T = r_next + lam * step, eta_try, E_try, T_try
+    else:  # near a pattern switch Newton can stall a little above the target: accept up to IMPLICIT_ACCEPT
+        if np.abs(E).max() > tol_r * IMPLICIT_ACCEPT / IMPLICIT_TOL:
+            raise ConvergenceError(f"the implicit step at t = {k_step * films.dt:.4g} s did not settle in "
+                                   f"{IMPLICIT_ITERATIONS} Newton iterations (film force residual "
+                                   f"{np.abs(E).max():.2g} N): reduce the time step")
+    return r_next + E, eta  # the film's own force at the final state
+
+
 def film_time_response(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unbalance], *,
                        duration: float, dt: float = 1e-4, nodes: Sequence[int] = (6, 20),
                        start="steady", implicit: bool = False, progress: ProgressFn = silent) -> FilmTimeResponse:
@@ -85,139 +242,39 @@ def film_time_response(rotor: Rotor, bearings: FilmBearings, unbalances: Sequenc
     n_t = int(round(duration / dt)) + 1
     if n_t < 3:
         raise InputError(f"duration {duration!r} s at dt {dt!r} s gives fewer than 3 samples")
-    coeffs = bearings.coefficients
-    system = linear_system(rotor, omega, coeffs)
-    n = system.n_dof
+    system = linear_system(rotor, omega, bearings.coefficients)
     F = unbalance_force(rotor, omega, unbalances)
-    if isinstance(start, str) and start == "steady":
-        Q = unbalance_response(rotor, omega, unbalances, coeffs).q
-        z0 = np.concatenate([Q.real, (1j * omega * Q).real])
-    elif isinstance(start, str) and start == "rest":
-        z0 = np.zeros(2 * n)
-    elif not isinstance(start, str) and np.shape(start) == (2 * n,):
-        z0 = np.asarray(start, dtype=float)  # a given state (q, q'), e.g. a periodic orbit's
-    else:
-        raise InputError(f"start {start!r}; expected 'steady', 'rest' or a state vector of {2 * n} values")
-
-    b_dofs = np.array([node_dofs(nd)[[X, Y]] for nd in rotor.bearing_nodes])  # (n_b, 2)
-    flat_b = b_dofs.ravel()
-    force_dofs = np.union1d(np.flatnonzero(F), flat_b)
-    Minv_cols = np.linalg.solve(system.M, np.eye(n)[:, force_dofs])
-    G_in = system.V_inv[:, n:] @ Minv_cols  # modal forcing per unit force at force_dofs
-    pos_in_force = {d: k for k, d in enumerate(force_dofs)}
-    decay, w0, w1 = _hold_weights(system.eigenvalues, dt)
-    out_dofs = node_output_dofs(nodes)
-    Vq_b, Vv_b = system.V[flat_b], system.V[n + flat_b]
-    Vq_out = system.V[out_dofs]
-
-    def forcing(t, resid):
-        f = np.zeros(force_dofs.size)
-        fu = (F[force_dofs] * np.exp(1j * omega * t)).real
-        f += fu
-        for k, d in enumerate(flat_b):
-            f[pos_in_force[d]] += resid[k]
-        return G_in @ f
-
-    eqs = bearings.equilibria
-    films = [e.film for e in eqs]
-    f0 = [e.film.force.copy() for e in eqs]
-    K0 = [e.coefficients.K for e in eqs]
-    C0 = [e.coefficients.C for e in eqs]
-    n_b = len(eqs)
-    film_force = np.empty((n_b, 2, n_t))
+    z0 = _initial_state(rotor, omega, unbalances, bearings.coefficients, start, system.n_dof)
+    modal = _modal_step(rotor, system, F, omega, dt, nodes)
+    films = _JournalFilms(bearings, dt, n_t)
+    n_b = len(films.films)
     resid_hist = np.empty((n_b, 2, n_t))
-    disp = np.empty((out_dofs.size, n_t))
-    lin_size = np.zeros((n_b, n_t))  # |K0 q + C0 q'| at each step: the scale of the film's dynamic force
-    window = max(1, int(math.ceil(2 * math.pi / (omega * dt))))  # one revolution of steps
-    solves = fallbacks = 0
-
-    def residual(eta, k_step, tangents=None):
-        """r at the state eta (modal); with `tangents` (an (2 n_b, 4 n_b) array) also dr/d(q_b, v_b) there."""
-        nonlocal solves, fallbacks
-        qb = (Vq_b @ eta).real.reshape(n_b, 2)
-        vb = (Vv_b @ eta).real.reshape(n_b, 2)
-        r = np.empty((n_b, 2))
-        for j, e in enumerate(eqs):
-            pos = e.position + qb[j]
-            if np.hypot(*pos) >= 0.995 * e.bearing.clearance:
-                raise ConvergenceError(f"journal {j + 1} reached {np.hypot(*pos) / e.bearing.clearance:.3f} of the "
-                                       f"clearance at t = {k_step * dt:.4g} s: the orbit hits the bearing")
-            problem = setup_problem(e.bearing, omega, pos, Feed.flow(bearings.flows[j]), velocity=vb[j])
-            sol = solve(problem, warm=films[j])
-            solves += 1
-            if not sol.converged:  # the active set can cycle under strong squeeze: projected SOR does not
-                sol = solve(problem, method="sor", warm=films[j], relax=1.9, tol=1e-10)
-                fallbacks += 1
-            if not sol.converged:
-                raise ConvergenceError(f"film {j + 1} at t = {k_step * dt:.4g} s: {sol.message}")
-            films[j] = sol
-            film_force[j, :, k_step] = sol.force
-            lin = K0[j] @ qb[j] + C0[j] @ vb[j]
-            r[j] = sol.force - f0[j] + lin
-            lin_size[j, k_step] = np.hypot(*lin)
-            if tangents is not None:  # dr/dq = dF/dq + K0, dr/dv = dF/dv + C0 (SOR carries none: the static ones)
-                dF = force_jacobian(sol) if sol.linear is not None else -np.hstack([K0[j], C0[j]])
-                tangents[2 * j:2 * j + 2, 2 * j:2 * j + 2] = dF[:, :2] + K0[j]
-                tangents[2 * j:2 * j + 2, 2 * n_b + 2 * j:2 * n_b + 2 * j + 2] = dF[:, 2:] + C0[j]
-                continue  # the implicit step needs no guard: its Newton iteration says whether it holds
-            # against the linear force's size over the last revolution (an instant where it passes near zero
-            # is no measure of the motion's amplitude)
-            scale = max(lin_size[j, max(0, k_step - window):k_step + 1].max(), 1e-9 * np.hypot(*f0[j]))
-            if k_step > 0 and np.hypot(*r[j]) > MAX_RESIDUAL_SHARE * scale:
-                raise ConvergenceError(
-                    f"bearing {j + 1} at t = {k_step * dt:.4g} s: the film force departs from its linearization by "
-                    f"{np.hypot(*r[j]) / scale:.0%} of the linear force's size over the last revolution; the "
-                    "explicit coupling is only valid for orbits where the film stays near-linear (reduce the "
-                    "unbalance or the time step)")
-        return r.ravel()
+    disp = np.empty((modal.Vq_out.shape[0], n_t))
 
     eta = system.V_inv @ z0
-    r_prev = r_now = residual(eta, 0)
+    r_prev = r_now = films.residual(modal, eta, 0)
     resid_hist[:, :, 0] = r_now.reshape(n_b, 2)
-    disp[:, 0] = (Vq_out @ eta).real
-    g_now = forcing(0.0, r_now)
+    disp[:, 0] = (modal.Vq_out @ eta).real
+    g_now = modal.forcing(0.0, r_now)
     report_every = max(1, n_t // 100)
-    if implicit:  # q_b, v_b at the step's end are affine in its end residual: d/dr of them, once
-        P = np.zeros((force_dofs.size, flat_b.size))
-        for k, d in enumerate(flat_b):
-            P[pos_in_force[d], k] = 1.0
-        Gr = w1[:, None] * (G_in @ P)  # d eta_next / d r_next
-        A = np.vstack([(Vq_b @ Gr).real, (Vv_b @ Gr).real])  # (4 n_b, 2 n_b): d(q_b, v_b) / d r_next
-        tol_r = IMPLICIT_TOL * max(np.hypot(*f) for f in f0)
+    if implicit:
+        Gr, A = modal.end_residual_gain()
+        tol_r = IMPLICIT_TOL * max(np.hypot(*f) for f in films.f0)
     for k in range(n_t - 1):
         r_next = 2.0 * r_now - r_prev  # linear extrapolation of the (small) residual force
-        g_next = forcing((k + 1) * dt, r_next)
-        eta = decay * eta + w0 * g_now + w1 * (g_next - g_now)
-        if implicit:  # Newton on E(r) = residual(eta(r)) - r = 0 from the extrapolation, a step that does not
-            T = np.zeros((2 * n_b, 4 * n_b))  # lower |E| halved (the film is piecewise smooth: its cavitation
-            E = residual(eta, k + 1, T) - r_next  # pattern switches, and a full step can cycle across a switch)
-            for it in range(IMPLICIT_ITERATIONS):
-                if np.abs(E).max() <= tol_r:
-                    break
-                step = np.linalg.solve(np.eye(2 * n_b) - T @ A, E)
-                lam = 1.0
-                for _ in range(5):
-                    T_try = np.zeros_like(T)
-                    eta_try = eta + lam * (Gr @ step)
-                    E_try = residual(eta_try, k + 1, T_try) - (r_next + lam * step)
-                    if np.linalg.norm(E_try) < np.linalg.norm(E):
-                        break
-                    lam *= 0.5
-                r_next, eta, E, T = r_next + lam * step, eta_try, E_try, T_try
-            else:  # near a pattern switch Newton can stall a little above the target: accept up to IMPLICIT_ACCEPT
-                if np.abs(E).max() > tol_r * IMPLICIT_ACCEPT / IMPLICIT_TOL:
-                    raise ConvergenceError(f"the implicit step at t = {(k + 1) * dt:.4g} s did not settle in "
-                                           f"{IMPLICIT_ITERATIONS} Newton iterations (film force residual "
-                                           f"{np.abs(E).max():.2g} N): reduce the time step")
-            r_next = r_next + E  # the film's own force at the final state
-        r_prev, r_now = r_now, residual(eta, k + 1) if not implicit else r_next
+        g_next = modal.forcing((k + 1) * dt, r_next)
+        eta = modal.decay * eta + modal.w0 * g_now + modal.w1 * (g_next - g_now)
+        if implicit:
+            r_next, eta = _implicit_step(films, modal, eta, r_next, k + 1, Gr, A, tol_r)
+        r_prev, r_now = r_now, films.residual(modal, eta, k + 1) if not implicit else r_next
         resid_hist[:, :, k + 1] = r_now.reshape(n_b, 2)
-        g_now = forcing((k + 1) * dt, r_now)
-        disp[:, k + 1] = (Vq_out @ eta).real
+        g_now = modal.forcing((k + 1) * dt, r_now)
+        disp[:, k + 1] = (modal.Vq_out @ eta).real
         if (k + 1) % report_every == 0:
             progress(k + 1, n_t - 1, f"t = {(k + 1) * dt:.4f} s")
-    return FilmTimeResponse(t=dt * np.arange(n_t), nodes=tuple(nodes), displacement=disp, film_force=film_force,
-                            residual_force=resid_hist, film_solves=solves, sor_fallbacks=fallbacks, seconds=time.perf_counter() - t_start)
+    return FilmTimeResponse(t=dt * np.arange(n_t), nodes=tuple(nodes), displacement=disp, film_force=films.film_force,
+                            residual_force=resid_hist, film_solves=films.solves, sor_fallbacks=films.fallbacks,
+                            seconds=time.perf_counter() - t_start)
 
 
 def amplitude_ratio(t: np.ndarray, signal: np.ndarray, omega: float, reference: complex) -> complex:
