@@ -19,8 +19,8 @@ import pandas as pd
 import panel as pn
 
 from ..errors import LubevizError
-from ..identify.batch import (check_model_speed, feature_unit, identify_record, model_speed, result_csv,
-                              result_dict)
+from ..identify.batch import check_model_speed, identify_record, model_speed
+from ..identify.output.export import feature_unit, result_csv, result_dict
 from ..identify.fit.least_squares import Z95
 from ..identify.forward.measured import measure
 from ..identify.fit.settings import IdentificationSettings
@@ -249,21 +249,23 @@ class IdentifyPage(pn.viewable.Viewer):
 
     def _show_result(self, item, name: str):
         r = item.result
-        q = r.q / M3S_PER_MLMIN
+        flows = [p for p in r.params if p.is_flow]
         qt = r.q_threshold / M3S_PER_MLMIN
-        std = None if r.q_std is None else r.q_std / M3S_PER_MLMIN
         lines = [f"### Identified supply flows of {plain(name)}",
                  "| bearing | flow | 95 % interval (noise and model) | Q_T | Q / Q_T | verdict |",
                  "|---|---|---|---|---|---|"]
-        for k in range(2):
-            iv = None if r.intervals is None else r.intervals[k]
+        for k, p in enumerate(flows):
+            iv = p.interval
             if iv is not None:
-                hi = "open (flooded: more oil changes nothing measurable)" if iv[1] is None else f"{iv[1] / M3S_PER_MLMIN:.0f}"
-                interval = f"{iv[0] / M3S_PER_MLMIN:.0f} – {hi} ml/min"
+                hi = "open (flooded: more oil changes nothing measurable)" if iv[1] is None else f"{iv[1]:.0f}"
+                interval = f"{iv[0]:.0f} – {hi} ml/min"
             else:
-                interval = "—" if std is None else f"± {Z95 * std[k]:.1f} ml/min"
-            lines.append(f"| {k + 1} (node {self.machine.bearings[k].node}) | **Q{k + 1} = {q[k]:.1f} ml/min** | "
-                         f"{interval} | {qt[k]:.0f} ml/min | {q[k] / qt[k]:.2f} | {verdict_text(r, k)} |")
+                interval = "—" if p.std is None else f"± {Z95 * p.std:.1f} ml/min"
+            lines.append(f"| {k + 1} (node {self.machine.bearings[k].node}) | **Q{k + 1} = {p.value:.1f} ml/min** | "
+                         f"{interval} | {qt[k]:.0f} ml/min | {p.value / qt[k]:.2f} | {verdict_text(r, k)} |")
+        others = [p for p in r.params if not p.is_flow]
+        for owner in dict.fromkeys(p.owner for p in others):
+            lines.append(f"\n**{plain(owner)}**: " + "; ".join(plain(p.text()) for p in others if p.owner == owner))
         lines.append("")
         extra = f"{r.mode} mode; {'converged' if r.converged else '**not converged**'} in {r.iterations} iterations, " \
                 f"{r.starts_tried} start(s), {r.evaluations} model evaluations, {r.seconds * 1e3:.0f} ms."

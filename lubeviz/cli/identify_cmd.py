@@ -46,7 +46,8 @@ def register(sub) -> None:
 
 
 def run_identify(args) -> dict:
-    from ..identify.batch import identify_files, result_dict, result_text
+    from ..identify.batch import identify_files
+    from ..identify.output.export import result_dict
 
     from ..effects import parse_effects
 
@@ -64,25 +65,25 @@ def run_identify(args) -> dict:
             raise InputError(err)
         out = result_dict(item)
         out["seconds_total"] = time.perf_counter() - t0
-        _text(args, [out])
+        _text(args, results)
         return out
     records = [result_dict(item) if err is None else {"file": path, "error": err} for path, item, err in results]
     failed = [r for r in records if "error" in r]
     if failed:
         sys.stderr.write(f"lubeviz identify: {len(failed)} of {len(records)} records failed: "
                          + "; ".join(f"{r['file']}: {r['error']}" for r in failed)[:500] + "\n")
-    _text(args, records)
+    _text(args, results)
     return {"records": records, "failed": len(failed), "seconds": time.perf_counter() - t0}
 
 
-def _text(args, records) -> None:
+def _text(args, results) -> None:
     """Without --json: what a person reads (every number of the JSON stays in --json)."""
     if args.json:
         return
-    from ..identify.batch import result_text
+    from ..identify.output.export import error_text, result_text
 
-    for d in records:
-        print("\n".join(result_text(d)))
+    for path, item, err in results:
+        print("\n".join(result_text(item) if err is None else error_text(path, err)))
     args.json_text_done = True
 
 

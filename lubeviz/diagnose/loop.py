@@ -56,13 +56,15 @@ class Candidate:
         return self.fit is not None and bool(self.fit.explained)
 
     def parameters(self) -> dict:
+        """{name: value, name_std: std} of the fitted parameters besides the flows, then this effect's held ones
+        as given (its placement), from the fit's `FitParameter`s."""
         if self.fit is None:
             return {}
         out = {}
-        for n, v, s in zip(self.fit.names[2:], self.fit.values[2:], self.fit.std[2:]):
-            p = n.rpartition(".")[2]
-            out[p] = float(v)
-            out[p + "_std"] = float(s)
+        for p in self.fit.params:
+            if p.free and not p.is_flow:
+                out[p.name] = p.value
+                out[p.name + "_std"] = p.std
         for p, v in self.effect.values().items():
             out.setdefault(p, v)
         if self.unbalance_scale is not None:
@@ -127,7 +129,7 @@ def _fit_candidate(base_chain, measured, effect, names, budget, level, starts_ph
     except LubevizError as exc:
         return Candidate(label=label, effect=cand, fit=None, error=str(exc))
     trial, res = best
-    fitted = trial.copy(**{n.rpartition(".")[2]: float(v) for n, v in zip(res.names[2:], res.values[2:])})
+    fitted = trial.copy(**{p.name: p.value for p in res.params if p.free and not p.is_flow})
     return Candidate(label=label, effect=fitted, fit=res)
 
 
@@ -424,18 +426,17 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
     def fit_dict(f: Fit | None):
         if f is None:
             return None
-        out = {"q1_mlmin": f.values[0] * MLMIN_PER_M3S, "q2_mlmin": f.values[1] * MLMIN_PER_M3S,
-               "q1_std_mlmin": f.std[0] * MLMIN_PER_M3S, "q2_std_mlmin": f.std[1] * MLMIN_PER_M3S,
-               "chi2": f.chi2, "dof": f.dof, "p_value": f.p_value, "model_explains_data": f.explained,
-               "aic": f.aic, "features": list(f.features_names),
-               "residual_sigma": f.residual.tolist(),
-               "parameters": {n: {"value": float(v), "std": float(s)} for n, v, s in
-                              zip(f.names[2:], f.values[2:], f.std[2:])},
-               "warnings": list(f.warnings)}
-        for k, n in enumerate(("q1", "q2")):
-            iv = f.intervals.get(n)
-            out[f"{n}_interval_mlmin"] = None if iv is None else [iv[0] * MLMIN_PER_M3S,
-                                                                  None if iv[1] is None else iv[1] * MLMIN_PER_M3S]
+        s = f.summary()
+        flows = [p for p in f.params if p.is_flow]
+        out = {f"{p.key}_mlmin": p.value for p in flows}
+        out.update({f"{p.key}_std_mlmin": p.std for p in flows})
+        out.update({"chi2": s["chi2"], "dof": s["dof"], "p_value": s["p_value"], "model_explains_data": s["explained"],
+                    "aic": f.aic, "features": s["features"], "residual_sigma": s["residual"],
+                    "parameters": {p.key: {"value": p.value, "std": p.std} for p in f.params
+                                   if p.free and not p.is_flow},
+                    "warnings": s["warnings"]})
+        for p in flows:
+            out[f"{p.key}_interval_mlmin"] = None if p.interval is None else list(p.interval)
         return out
 
     effects = [{"name": c.effect.effect_name, "label": c.label, "parameters": c.parameters(),

@@ -89,19 +89,16 @@ def _fmt(v) -> str:
 
 
 def _effect_parameters(c) -> str:
-    """'angle_deg = 4.99 ± 0.32 deg; plane = 1': fitted ones with their std, then the held ones."""
+    """'angle_deg = 4.99 ± 0.32 deg; plane = 1': fitted ones with their std, then the held ones (the fit's
+    `FitParameter`s, then the effect's placement)."""
     if c.fit is None:
         return escape(c.error or "fit failed")
-    p = c.parameters()
-    fitted = [n.rpartition(".")[2] for n in c.fit.names[2:]]
-    parts = []
-    for n in fitted:
-        unit = c.effect.unit(n)
-        parts.append(f"<b>{escape(n)}</b> = {p[n]:.4g} ± {p.get(n + '_std', float('nan')):.2g} {escape(unit)}")
+    fitted = [p for p in c.fit.params if p.free and not p.is_flow]
+    parts = [f"<b>{escape(p.name)}</b> = {p.value:.4g} ± {p.std:.2g} {escape(p.unit)}" for p in fitted]
     if getattr(c, "unbalance_scale", None) is not None:  # large orbits: read from the record's 1X, not fitted
         parts.append(f"unbalance {c.unbalance_scale:.2f} × the declared one (the orbit's size, from the 1X)")
-    held = [f"{escape(n)} = {escape(_fmt(v))}" for n, v in p.items()
-            if not n.endswith("_std") and n not in fitted and n != "unbalance_scale"]
+    names = {p.name for p in fitted}
+    held = [f"{escape(n)} = {escape(_fmt(v))}" for n, v in c.effect.values().items() if n not in names]
     return "; ".join(parts) + (f" <span class='small'>(held: {', '.join(held)})</span>" if held else "")
 
 

@@ -9,6 +9,7 @@ import param
 
 from ..errors import InputError
 from ..rotor.elements import THETA_X, THETA_Y, X, Y, node_dofs
+from ..model.quantity import Quantity
 from .base import Effect, as_array, register
 
 
@@ -58,8 +59,8 @@ class Bow(Effect):
     forcing = True
 
     node = param.Integer(13, bounds=(1, None), doc="Node where the bow's amplitude is given (between the bearings)")
-    amplitude_um = param.Number(10.0, bounds=(0.0, 1000.0), doc="Bow at `node` (um)")
-    phase_deg = param.Number(0.0, bounds=(-360.0, 360.0), doc="Its angle relative to the main unbalance (deg)")
+    amplitude_um = Quantity(10.0, unit="um", bounds=(0.0, 1000.0), doc="Bow at `node` (um)")
+    phase_deg = Quantity(0.0, unit="deg", bounds=(-360.0, 360.0), doc="Its angle relative to the main unbalance (deg)")
 
     def forcing_shapes(self, rotor, omega: float, machine) -> list[np.ndarray]:
         q = bow_shape(rotor, self.node) * np.exp(1j * machine.unbalance_phase)
@@ -70,5 +71,3 @@ class Bow(Effect):
         ph = np.radians(as_array(values, self, "phase_deg", shape))
         return (a * np.exp(1j * ph))[..., None]
 
-    def unit(self, pname):
-        return {"amplitude_um": "um", "phase_deg": "deg"}[pname]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import param
 
+from ..model.quantity import Quantity
 from .base import Effect, as_array, register
 
 
@@ -26,7 +27,7 @@ class Clearance(Effect):
     separated_by = "the static shaft position (a worn bearing sits lower), or a record at a second speed"
 
     bearing = param.Selector(default=1, objects=[1, 2, "both"], doc="Bearing whose clearance differs: 1, 2 or both")
-    clearance_um = param.Number(None, allow_None=True, bounds=(20.0, 1000.0),
+    clearance_um = Quantity(None, unit="um", allow_None=True, bounds=(20.0, 1000.0),
                                 doc="True radial clearance (um); None: the declared one")
 
     def bearing_change(self, k: int, values: dict, shape) -> dict:
@@ -40,8 +41,6 @@ class Clearance(Effect):
         k = 0 if self.bearing in (1, "both") else 1
         return machine.bearings[k].clearance * 1e6
 
-    def unit(self, pname):
-        return "um"
 
     def placements(self):
         return [self.copy(bearing=b) for b in (1, 2)]

@@ -7,6 +7,7 @@ import param
 
 from ..errors import InputError
 from ..model.oil import Oil
+from ..model.quantity import Quantity
 from .base import Effect, as_array, register
 from .viscosity import BEARINGS
 
@@ -35,7 +36,7 @@ class OilTemperature(Effect):
     separated_by = Effect.separated_by
 
     bearing = param.Selector(default="both", objects=BEARINGS, doc="Bearing(s) whose oil is at this temperature")
-    temperature_c = param.Number(None, allow_None=True, bounds=(-20.0, 150.0),
+    temperature_c = Quantity(None, unit="°C", allow_None=True, bounds=(-20.0, 150.0),
                                  doc="Oil temperature in the film (°C); None: the model file's declared one")
     oil = param.ClassSelector(class_=Oil, default=None, allow_None=True, precedence=-1,
                               doc="The machine's oil (set when the effect is bound to a machine)")
@@ -64,8 +65,6 @@ class OilTemperature(Effect):
         t = as_array(values, self, "temperature_c", shape)
         return {"viscosity_factor": np.asarray(self.oil.factor(t), dtype=float)}
 
-    def unit(self, pname):
-        return "°C"
 
     def placements(self):
         return [self.copy(bearing=b) for b in BEARINGS]

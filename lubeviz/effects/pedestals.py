@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import param
 
+from ..model.quantity import Quantity
 from .base import Effect, as_array, register
 
 BEARINGS = ["both", 1, 2]
@@ -32,9 +33,11 @@ class Pedestals(Effect):
     separated_by = "a housing vibration measurement (seismic probe) or records at several speeds"
 
     bearing = param.Selector(default="both", objects=BEARINGS, doc="Bearing(s) on soft pedestals: both, 1 or 2")
-    mass_kg = param.Number(50.0, bounds=(0.0, 5000.0), doc="Housing mass (kg)")
-    stiffness_n_m = param.Number(2e8, bounds=(1e5, 1e12), doc="Pedestal stiffness to ground, each direction (N/m)")
-    damping_ns_m = param.Number(1e4, bounds=(0.0, 1e8), doc="Pedestal damping to ground, each direction (N*s/m)")
+    mass_kg = Quantity(50.0, unit="kg", bounds=(0.0, 5000.0), doc="Housing mass (kg)")
+    stiffness_n_m = Quantity(2e8, unit="N/m", bounds=(1e5, 1e12),
+                             doc="Pedestal stiffness to ground, each direction (N/m)")
+    damping_ns_m = Quantity(1e4, unit="N*s/m", bounds=(0.0, 1e8),
+                            doc="Pedestal damping to ground, each direction (N*s/m)")
 
     def applies(self, k: int) -> bool:
         return self.bearing == "both" or self.bearing == k + 1
@@ -53,8 +56,6 @@ class Pedestals(Effect):
     def housing(self, values: dict) -> tuple[float, float, float]:
         return tuple(float(values.get(p, getattr(self, p))) for p in ("mass_kg", "stiffness_n_m", "damping_ns_m"))
 
-    def unit(self, pname):
-        return {"mass_kg": "kg", "stiffness_n_m": "N/m", "damping_ns_m": "N*s/m"}[pname]
 
     def placements(self):
         return [self.copy(bearing=b) for b in BEARINGS]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import param
 
+from ..model.quantity import Quantity
 from .base import Effect, as_array, register
 
 CHANNELS = ["x1", "y1", "x2", "y2"]
@@ -29,7 +30,7 @@ class ProbeGain(Effect):
     separated_by = "a probe calibration check, or a record at a second speed (a probe error does not move with the machine)"
 
     channel = param.Selector(default="x1", objects=CHANNELS, doc="Probe channel: x1, y1, x2 or y2")
-    gain = param.Number(1.1, bounds=(0.3, 3.0), doc="Actual over declared sensitivity")
+    gain = Quantity(1.1, unit="", bounds=(0.3, 3.0), doc="Actual over declared sensitivity")
 
     def probe_matrix(self, plane: int, angles_deg, values: dict, shape):
         idx = CHANNELS.index(self.channel)

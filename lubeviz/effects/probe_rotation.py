@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import param
 
+from ..model.quantity import Quantity
 from .base import Effect, as_array, register
 
 
@@ -32,15 +33,13 @@ class ProbeRotation(Effect):
     separated_by = "checking the probes' mounting angles, or a record at a second speed (a probe error does not move with the machine)"
 
     plane = param.Selector(default=1, objects=[1, 2], doc="Measurement plane of the rotated pair")
-    angle_deg = param.Number(5.0, bounds=(-45.0, 45.0), doc="Rotation of the pair, + from +X towards +Y (deg)")
+    angle_deg = Quantity(5.0, unit="deg", bounds=(-45.0, 45.0), doc="Rotation of the pair, + from +X towards +Y (deg)")
 
     def probe_matrix(self, plane: int, angles_deg, values: dict, shape):
         if plane + 1 != self.plane:
             return None
         return rotation(-np.radians(as_array(values, self, "angle_deg", shape)))
 
-    def unit(self, pname):
-        return "deg"
 
     def placements(self):
         return [self.copy(plane=p) for p in (1, 2)]

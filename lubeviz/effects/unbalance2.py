@@ -6,6 +6,7 @@ import numpy as np
 import param
 
 from ..rotor.response import Unbalance, unbalance_force
+from ..model.quantity import Quantity
 from .base import Effect, as_array, register
 
 
@@ -29,8 +30,8 @@ class Unbalance2(Effect):
     forcing = True
 
     node = param.Integer(10, bounds=(1, None), doc="Rotor node of the second unbalance (paper numbering)")
-    ratio = param.Number(0.3, bounds=(0.0, 5.0), doc="Its moment over the main unbalance's")
-    phase_deg = param.Number(0.0, bounds=(-360.0, 360.0), doc="Its phase relative to the main unbalance (deg)")
+    ratio = Quantity(0.3, unit="", bounds=(0.0, 5.0), doc="Its moment over the main unbalance's")
+    phase_deg = Quantity(0.0, unit="deg", bounds=(-360.0, 360.0), doc="Its phase relative to the main unbalance (deg)")
 
     def forcing_shapes(self, rotor, omega: float, machine) -> list[np.ndarray]:
         """The force of an unbalance equal to the main one, moved to `node`: weight 1 reproduces it."""
@@ -42,8 +43,6 @@ class Unbalance2(Effect):
         ph = np.radians(as_array(values, self, "phase_deg", shape))
         return (r * np.exp(1j * ph))[..., None]
 
-    def unit(self, pname):
-        return {"ratio": "", "phase_deg": "deg"}[pname]
 
     def placements(self):
         return [self.copy(node=n) for n in (10, 15)]

@@ -154,7 +154,7 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
                              points=orbit_points(settings.orbit_harmonics),
                              time_rounds=settings.orbit_time_rounds, progress=progress)
         out = to_identification(of.fit, chain)
-        out = dataclasses.replace(out, effects={**out.effects, "large_orbit": orbit_summary(of)})
+        out = dataclasses.replace(out, effect_details={**out.effect_details, "large_orbit": orbit_summary(of)})
         return dataclasses.replace(out, warnings=out.warnings + oil_notes) if oil_notes else out
     res = fit(chain, measured, names=tuple(settings.features), budget=budget, lower=settings.lower,
               upper=settings.upper)
@@ -292,137 +292,6 @@ def identify_file(path, machine=None, settings: IdentificationSettings | None = 
         machine, notes = machine_for(rec)
     out = identify_record(rec, machine, settings, progress=progress, model=model, effects=effects)
     return dataclasses.replace(out, file=str(path), warnings=notes + out.warnings)
-
-
-def result_dict(item: RecordIdentification) -> dict:
-    """The JSON form of an identification (the CLI's `identify --json` record, the app's export)."""
-    r = item.result
-    names = list(r.features_names)
-    return {
-        "file": item.file, "q1_mlmin": r.q[0] * MLMIN_PER_M3S, "q2_mlmin": r.q[1] * MLMIN_PER_M3S,
-        "q1_std_mlmin": None if r.q_std is None else r.q_std[0] * MLMIN_PER_M3S,
-        "q2_std_mlmin": None if r.q_std is None else r.q_std[1] * MLMIN_PER_M3S,
-        "q_threshold_mlmin": (r.q_threshold * MLMIN_PER_M3S).tolist(),
-        "verdict": [r.verdict(0), r.verdict(1)],
-        "converged": r.converged, "iterations": r.iterations, "starts_tried": r.starts_tried,
-        "path": (r.path * MLMIN_PER_M3S).tolist(), "paths": [(p * MLMIN_PER_M3S).tolist() for p in r.paths],
-        "features_measured": dict(zip(names, r.features_measured.tolist())),
-        "features_model": dict(zip(names, r.features_model.tolist())),
-        "features_sigma": None if r.features_sigma is None else dict(zip(names, r.features_sigma.tolist())),
-        "residual": r.residual.tolist(), "total_error": r.total_error, "mode": r.mode,
-        "model_evaluations": r.evaluations, "nodes": list(item.nodes), "speed_hz": item.speed_hz,
-        "set": item.set_name, "speeds_hz": list(item.speeds_hz) or [item.speed_hz],
-        "unique": r.unique, "alternatives_mlmin": [(a * MLMIN_PER_M3S).tolist() for a in r.alternatives],
-        "alternatives": [{"q1_mlmin": a[0] * MLMIN_PER_M3S, "q2_mlmin": a[1] * MLMIN_PER_M3S,
-                          "chi2": r.alternatives_chi2[j] if j < len(r.alternatives_chi2) else None}
-                         for j, a in enumerate(r.alternatives)],
-        "q1_interval_mlmin": _interval(r, 0), "q2_interval_mlmin": _interval(r, 1),
-        "q1_interval_any_oil_mlmin": None if r.intervals_any_oil is None else _interval(r, 0, r.intervals_any_oil),
-        "q2_interval_any_oil_mlmin": None if r.intervals_any_oil is None else _interval(r, 1, r.intervals_any_oil),
-        "oil_degeneracy": r.oil_degeneracy,
-        "chi2": r.chi2, "dof": r.dof, "p_value": r.p_value, "level": r.level,
-        "model_explains_data": r.model_explains_data, "effects": r.effects,
-        "lines_beyond_1x": [line.as_dict() for line in getattr(item, "lines", ())],
-        "record_findings": [f.as_dict() for f in getattr(item, "findings", ())],
-        "warnings": list(r.warnings) + list(getattr(item, "warnings", ())),
-        "message": r.message, "seconds": r.seconds,
-    }
-
-
-def _interval(r, k, intervals=None):
-    intervals = r.intervals if intervals is None else intervals
-    if intervals is None or intervals[k] is None:
-        return None
-    low, high = intervals[k]
-    return [low * MLMIN_PER_M3S, None if high is None else high * MLMIN_PER_M3S]
-
-
-def result_text(d: dict) -> list[str]:
-    """The identification as a person reads it (the CLI without --json): each flow with its 95 % interval
-    (never a +- from noise alone), Q_T and the verdict, the test's outcome, alternatives and lines."""
-    from .fit.result import verdict_over_interval
-
-    if "error" in d:
-        return [f"{d['file']}: not identified: {d['error']}"]
-    speeds = "/".join(f"{v:g}" for v in d["speeds_hz"])
-    out = [f"{d['file']} ({speeds} Hz, planes at nodes {d['nodes'][0]} and {d['nodes'][1]}, {d['mode']} mode)"]
-    for k in (1, 2):
-        iv = d[f"q{k}_interval_mlmin"]
-        qt = d["q_threshold_mlmin"][k - 1]
-        span = ("no interval" if iv is None else
-                f"95 % interval {iv[0]:.0f}-{'open (flooded)' if iv[1] is None else format(iv[1], '.0f')}")
-        ends = verdict_over_interval(d[f"q{k}_mlmin"], None if iv is None else (iv[0], iv[1]), qt)
-        verdict = ends[0] if ends[0] == ends[1] else f"{ends[0]} to {ends[1]} (the interval spans Q_T's band)"
-        out.append(f"  Q{k} = {d[f'q{k}_mlmin']:.1f} ml/min, {span}; Q_T = {qt:.0f} ml/min "
-                   f"({d[f'q{k}_mlmin'] / qt:.2f} Q_T): {verdict}")
-    for f in d.get("record_findings", []):
-        out.append(f"  {'THE RECORD CANNOT BE WHAT IT DECLARES' if f['impossible'] else 'check the record'}: {f['text']}")
-    if d.get("chi2") is not None:
-        told = ("the model explains the record" if d["model_explains_data"] else
-                "THE MODEL DOES NOT EXPLAIN THE RECORD (intervals widened; run lubeviz diagnose)")
-        out.append(f"  {told}: chi2 = {d['chi2']:.1f} for {d['dof']} dof, p = {d['p_value']:.2g}")
-    lo = (d.get("effects") or {}).get("large_orbit")
-    if lo:
-        ratio = ", ".join(f"{v:.2f}" for v in lo["ratio_2x_model"])
-        out.append(f"  large orbits: the film force along the orbit ({lo['rounds']} harmonic balances with "
-                   f"{lo.get('harmonics', 5)} harmonics; the linear "
-                   f"model alone gives Q1, Q2 = {lo['plain_q_mlmin'][0]:.0f}, {lo['plain_q_mlmin'][1]:.0f} ml/min, "
-                   f"chi2 {lo['plain_chi2']:.0f}); its 2X/1X at the planes: {ratio}; the orbit's size implies "
-                   f"{lo.get('unbalance_scale', 1.0):.2f} x the declared unbalance")
-        if lo.get("stability"):
-            out.append(f"  stability at these flows: {lo['stability']}")
-    for a in d.get("alternatives", []):
-        out.append(f"  another fit passes as well: Q1, Q2 = {a['q1_mlmin']:.0f}, {a['q2_mlmin']:.0f} ml/min")
-    for ln in d.get("lines_beyond_1x", []):
-        out.append(f"  beyond 1X: {ln['kind']} at plane {ln['plane']}, {100 * ln['relative_to_1x']:.1f} % of 1X")
-    return out
-
-
-CSV_COLUMNS = ("quantity", "bearing_or_feature", "value", "unit", "sigma", "model", "low_95", "high_95")
-
-
-def feature_unit(name: str) -> tuple[str, float]:
-    """The unit a feature is written in (as the pages show it) and the factor from its SI value."""
-    base = name.rsplit(":", 1)[-1]
-    if base.startswith(("phi", "arg")):
-        return "deg", 180.0 / math.pi
-    if base in ("sx1", "sy1", "sx2", "sy2"):  # the static position (identify.forward.chain.STATIC_FEATURES), m
-        return "um", 1e6
-    return "-", 1.0
-
-
-def result_csv(item: RecordIdentification) -> str:
-    """The identification as one CSV table, every number with its unit (as the pages show it): the flows
-    with their 1 sigma and 95 % interval, Q_T and the verdict of each bearing, then each feature (measured
-    value, its 1 sigma with the model budget, the model's value), then the test's statistics."""
-    import csv
-    import io
-
-    d = result_dict(item)
-    r = item.result
-    out = io.StringIO()
-    w = csv.writer(out, lineterminator="\n")
-    w.writerow(CSV_COLUMNS)
-
-    def g(v, fmt=".6g"):
-        return "" if v is None else format(v, fmt)
-
-    for k in (1, 2):
-        iv = d[f"q{k}_interval_mlmin"] or [None, None]
-        w.writerow(["supply_flow", k, g(d[f"q{k}_mlmin"]), "ml/min", g(d[f"q{k}_std_mlmin"]), "", g(iv[0]),
-                    "open" if d[f"q{k}_interval_mlmin"] and iv[1] is None else g(iv[1])])
-        w.writerow(["flow_threshold_Q_T", k, g(d["q_threshold_mlmin"][k - 1]), "ml/min", "", "", "", ""])
-        w.writerow(["verdict", k, d["verdict"][k - 1], "", "", "", "", ""])
-    sigma = d.get("features_sigma") or {}
-    for name, value in d["features_measured"].items():
-        unit, f = feature_unit(name)
-        w.writerow(["feature", name, g(value * f, ".9g"), unit, g(None if name not in sigma else sigma[name] * f),
-                    g(d["features_model"][name] * f, ".9g"), "", ""])
-    for key, unit in (("chi2", ""), ("dof", ""), ("p_value", ""), ("level", ""), ("model_explains_data", ""),
-                      ("mode", ""), ("converged", ""), ("iterations", ""), ("unique", ""), ("speed_hz", "Hz")):
-        w.writerow([key, "", d[key], unit, "", "", "", ""])
-    del r
-    return out.getvalue()
 
 
 def _worker(path, machine_path, mode, effect_specs=(), oil_check="warn", orbit_harmonics=None,

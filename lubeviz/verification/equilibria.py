@@ -74,16 +74,13 @@ def film_code_version() -> str:
 
 
 @functools.lru_cache(maxsize=8)
-def code_version(*packages: str, exclude: tuple[str, ...] = ()) -> str:
-    """sha256 of the source of these sub-packages of lubeviz (e.g. "film", "rotor"), in the order given, but the
-    modules in `exclude` (paths under lubeviz, e.g. "verification/broken.py": code that makes no number stored)."""
+def code_version(*packages: str) -> str:
+    """sha256 of the source of these sub-packages of lubeviz (e.g. "film", "rotor"), in the order given."""
     root = Path(__file__).resolve().parents[1]
     h = hashlib.sha256()
     for name in packages:
         package = root / name
         for f in sorted(package.rglob("*.py")):
-            if f.relative_to(root).as_posix() in exclude:
-                continue
             h.update(f.relative_to(package).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
     return h.hexdigest()
 

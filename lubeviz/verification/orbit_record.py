@@ -74,15 +74,13 @@ TIME_WINDOW = 2  # revolutions the harmonics are taken over (the last ones): an 
 START_MESH = 50  # film volumes each way of the orbit Newton's method starts from (the answer is the 200 x 200
 # films' own, to its tolerance): at the paper's unbalance, 460 / 600 ml/min, 13.5 s there then 4 Newton steps on
 # 200 x 200, 88 s in all, against 10 steps and 232 s from the linear orbit; the two orbits agree to 2.4e-9
-NOT_IN_KEY = ()  # modules under the hashed packages that make no stored orbit (the benches live in lubeviz/bench,
-# outside them: before session 20 an edit to a bench threw away hours of time-integration records)
 ORBIT_FORMAT = 4  # 2: the residual stored; 3: the time integration's over a shifted window; 4: over 2
 
 
 def _balance_key(spec: IndependentSpec, unbalance_scale: float, method: str = "balance") -> str:
     machine_file = Path(spec.machine or DEFAULT_MACHINE)
     inputs = {"format": ORBIT_FORMAT, "kind": "orbit balance",
-              "code": equilibria.code_version("film", "rotor", "verification", exclude=NOT_IN_KEY),
+              "code": equilibria.code_version("film", "rotor", "verification"),
               "machine": hashlib.sha256(machine_file.read_bytes()).hexdigest(),
               "speed_hz": float(spec.speed_hz), "flows_mlmin": [float(spec.q1_mlmin), float(spec.q2_mlmin)],
               "nodes": [int(n) for n in spec.nodes], "unbalance_scale": float(unbalance_scale),

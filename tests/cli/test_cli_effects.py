@@ -45,6 +45,15 @@ def test_identify_fits_a_declared_effects_free_parameter_on_an_independent_recor
         low, high = data[f"q{k}_interval_mlmin"]
         assert low <= q and (high is None or q <= high)
         assert abs(data[f"q{k}_mlmin"] / q - 1) < 0.01
+    # the text a person reads lists the fitted parameter with its 95 % interval and the held one, as a fit
+    # report does (before issue 35 a fitted effect parameter appeared in --json only)
+    code, out, err = run(capsys, "identify", rec, "--effect", "probe_gain:channel=x1")
+    assert code == 0, err
+    line = next(s for s in out.splitlines() if s.strip().startswith("probe_gain:"))
+    assert "channel = x1 (held)" in line and f"gain = {gain['gain']:.4g}, 95 % interval " in line
+    low, high = (float(v) for v in line.split("95 % interval ")[1].split(" to "))
+    assert low < 1.2 < high
+    assert (high - low) / 2 == pytest.approx(1.96 * gain["gain_std"], rel=0.01)
 
 
 @pytest.mark.parametrize("argv, fragment", [

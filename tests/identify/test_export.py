@@ -8,7 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from lubeviz.identify.batch import CSV_COLUMNS, identify_file, result_csv, result_dict
+from lubeviz.identify.batch import identify_file
+from lubeviz.identify.output.export import CSV_COLUMNS, result_csv, result_dict
 
 SAMPLE = Path(__file__).resolve().parents[2] / "assets" / "sample_record.csv"
 
@@ -71,3 +72,20 @@ def test_the_cli_text_shows_intervals_and_verdicts_a_person_reads(capsys):
     assert "starved" in lines[1] and "over-supplied" in lines[2]
     assert "the model explains the record" in text
     assert "±" not in text and "std" not in text  # no +- from noise alone; every number stays in --json
+
+
+def test_held_effect_parameters_are_listed_with_units_in_the_text_the_csv_and_the_json():
+    """A fit report lists every parameter: an effect declared with all its values (nothing left to fit) shows
+    each one, marked held, with its unit, in the text; the CSV has a row for each; the JSON's `effects` holds
+    them as given."""
+    from lubeviz.effects import parse_effects
+    from lubeviz.identify.output.export import result_text
+
+    held = identify_file(SAMPLE, effects=parse_effects(["probe_rotation:plane=1,angle_deg=0"]))
+    assert [p.key for p in held.result.params if p.free] == ["q1", "q2"]  # only the flows are fitted
+    text = result_text(held)
+    assert "  probe_rotation: plane = 1 (held); angle_deg = 0 deg (held)" in text
+    rows = [r for r in csv.DictReader(io.StringIO(result_csv(held))) if r["quantity"].startswith("effect")]
+    assert {(r["quantity"], r["bearing_or_feature"], r["unit"]) for r in rows} == {
+        ("effect_parameter_held", "probe_rotation.plane", ""), ("effect_parameter_held", "probe_rotation.angle_deg", "deg")}
+    assert result_dict(held)["effects"] == {"probe_rotation": {"plane": 1, "angle_deg": 0.0}}

@@ -287,9 +287,9 @@ def test_orbit_balance_cache_round_trips_is_keyed_and_rebuilt(tmp_path, monkeypa
 
 
 def test_an_edit_to_the_benches_keeps_the_orbit_records_an_edit_to_their_code_does_not(monkeypatch):
-    """The orbit records' key hashes the film, rotor and verification sources but the benches
-    (`orbit_record.NOT_IN_KEY`): a bench edit kept nothing stored in them and must not throw away hours of
-    time-integration records; an edit to the code that makes them must."""
+    """The orbit records' key hashes the film, rotor and verification sources, not the benches (lubeviz/bench,
+    outside them): a bench edit keeps nothing stored in them and must not throw away hours of time-integration
+    records; an edit to the code that makes them must."""
     import pathlib
 
     from lubeviz.verification import equilibria, orbit_record
@@ -297,10 +297,11 @@ def test_an_edit_to_the_benches_keeps_the_orbit_records_an_edit_to_their_code_do
     spec = IndependentSpec(speed_hz=75.0, q1_mlmin=460.0, q2_mlmin=600.0, seed=5)
     original = pathlib.Path.read_bytes
 
-    def key_with_edit(name):
+    def key_with_edit(name, folder=None):
         def edited(path):
             data = original(path)
-            return data + b"\n# an edit\n" if path.name == name else data
+            hit = path.name == name and (folder is None or path.parent.name == folder)
+            return data + b"\n# an edit\n" if hit else data
 
         monkeypatch.setattr(pathlib.Path, "read_bytes", edited)
         equilibria.code_version.cache_clear()
@@ -311,7 +312,7 @@ def test_an_edit_to_the_benches_keeps_the_orbit_records_an_edit_to_their_code_do
             equilibria.code_version.cache_clear()
 
     before = orbit_record._balance_key(spec, 1.0, "time")
-    assert key_with_edit("bench.py") == before
+    assert key_with_edit("records.py", "bench") == before
     assert key_with_edit("orbit_record.py") != before
     assert key_with_edit("orbit_balance.py") != before  # the rotor's balance
 

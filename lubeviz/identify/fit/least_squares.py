@@ -34,6 +34,7 @@ from ...errors import InputError
 from ..forward.budget import ModelBudget, model_sensitivity
 from ..forward.model import wrap_difference
 from ...units import MLMIN_PER_M3S
+from .result import Z95, FitParameter, flow_parameter, summary  # noqa: F401 - Z95 is read from here too
 
 STATUS = {
     0: "converged: the step fell below the tolerance",
@@ -42,7 +43,6 @@ STATUS = {
     3: "the best fit lies on a bound of the search box",
 }
 CHI2_95_1DOF = float(stats.chi2.ppf(0.95, 1))
-Z95 = float(stats.norm.ppf(0.975))  # 1.96: a 95 % interval's half-width in standard deviations
 
 
 @dataclass(frozen=True)
@@ -75,6 +75,7 @@ class Fit:
     warnings: tuple[str, ...] = field(default=())
     q_threshold: np.ndarray | None = None
     features_sigma: np.ndarray | None = None  # 1 sigma of each feature: noise + model budget (the fit's weights)
+    params: tuple = ()  # every parameter, fitted and held (`result.FitParameter`), what every rendering reads
 
     @property
     def message(self) -> str:
@@ -93,38 +94,9 @@ class Fit:
     def value(self, name: str) -> float:
         return float(self.values[self.names.index(name)])
 
-    def report(self) -> str:
-        """lmfit's layout: fit statistics, parameters with std, correlations, what sits at a bound."""
-        lines = ["[[Fit Statistics]]",
-                 f"    features           = {len(self.features_names)}",
-                 f"    free parameters    = {len(self.names)}",
-                 f"    chi-square         = {self.chi2:.4g}  (noise + model budget)",
-                 f"    degrees of freedom = {self.dof}",
-                 f"    p-value            = {'n/a' if self.p_value is None else format(self.p_value, '.3g')}"
-                 f"  (explained at level {self.level:g}: {self.explained})",
-                 f"    AIC / BIC          = {self.aic:.4g} / {self.bic:.4g}",
-                 f"    status             = {self.message}", "[[Variables]]"]
-        for j, n in enumerate(self.names):
-            v, s = self.values[j], self.std[j]
-            if n in ("q1", "q2"):
-                iv = self.intervals.get(n)
-                ivs = "" if iv is None else (f"  95 %: [{iv[0] * MLMIN_PER_M3S:.1f}, "
-                                             f"{'open' if iv[1] is None else format(iv[1] * MLMIN_PER_M3S, '.1f')}]"
-                                             " ml/min")
-                lines.append(f"    {n}: {v * MLMIN_PER_M3S:.2f} +/- {s * MLMIN_PER_M3S:.2f} ml/min{ivs}")
-            else:
-                lines.append(f"    {n}: {v:.6g} +/- {s:.3g}")
-        lines.append("[[Correlations]] (|r| > 0.1)")
-        c = self.correl
-        for i in range(len(self.names)):
-            for j in range(i + 1, len(self.names)):
-                if abs(c[i, j]) > 0.1:
-                    lines.append(f"    C({self.names[i]}, {self.names[j]}) = {c[i, j]:+.3f}")
-        if self.at_bound:
-            lines.append("[[At bound]] " + ", ".join(self.at_bound))
-        for w in self.warnings:
-            lines.append(f"[[Warning]] {w}")
-        return "\n".join(lines)
+    def summary(self) -> dict:
+        """Every parameter (fitted and held, with units), the test's statistics, the features: `result.summary`."""
+        return summary(self)
 
 
 class _Problem:
@@ -358,6 +330,8 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     fs = prob.difference(theta) + fm
     n = len(all_names)
     std, cov = std_within([ref.names[i] for i in free], theta[free], std, cov, ivals)
+    params = parameters(ref, theta, dict(zip((ref.names[i] for i in free), std)), initial=start, bounds=(lo, hi),
+                            intervals=ivals)
     return Fit(names=tuple(ref.names[i] for i in free), values=theta[free], std=std, cov=cov,
                chi2=chi2, dof=dof, p_value=p, level=level, aic=chi2 + 2 * n_free,
                bic=chi2 + n_free * math.log(max(n, 1)), status=status, at_bound=at_bound,
@@ -365,7 +339,34 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
                seconds=time.perf_counter() - t0, features_names=all_names, features_measured=fm,
                features_model=fs, residual=r, intervals=ivals, alternatives=tuple(alternatives),
                paths=tuple(x[5] for x in reversed(refined)), inflation=inflation, warnings=tuple(warnings),
-               q_threshold=ref.q_threshold.copy(), features_sigma=np.sqrt(np.sum(prob.L ** 2, axis=1)))
+               q_threshold=ref.q_threshold.copy(), features_sigma=np.sqrt(np.sum(prob.L ** 2, axis=1)),
+               params=params)
+
+
+def parameters(chain, theta, std: dict, *, initial, bounds, intervals: dict) -> tuple[FitParameter, ...]:
+    """Every parameter of `chain` at `theta`: the flows, then each effect's, fitted ones with their std (`std`:
+    key -> std of the fitted ones) and held ones (placements, given values) as given."""
+    lo, hi = bounds
+
+    def edge(v):
+        return float(v) if np.isfinite(v) else None
+
+    index = {key: j for j, key in enumerate(chain.names)}
+    out = [flow_parameter(k, theta[k], std.get(f"q{k + 1}"), initial=initial[k], bounds=(lo[k], hi[k]),
+                          free=f"q{k + 1}" in std, interval=intervals.get(f"q{k + 1}"))
+           for k in range(len(chain.q_threshold))]
+    for e in chain.effects:
+        owner = chain.prefix(e)
+        for pname in (*e.placement, *e.continuous):
+            key, j = f"{owner}.{pname}", index.get(f"{owner}.{pname}")
+            if j is None:
+                out.append(FitParameter(key=key, name=pname, owner=owner, value=getattr(e, pname), unit=e.unit(pname),
+                                        free=False))
+            else:
+                out.append(FitParameter(key=key, name=pname, owner=owner, value=float(theta[j]), unit=e.unit(pname),
+                                        std=std.get(key), initial=float(initial[j]), bounds=(edge(lo[j]), edge(hi[j])),
+                                        free=key in std))
+    return tuple(out)
 
 
 def sandwich_cov(chain, measured, theta, *, names: Sequence[str] | None = None, weights: ModelBudget,
@@ -485,27 +486,17 @@ def to_identification(res: Fit, chain) -> "Identification":
     """The `Identification` (the app's and the JSON's shape) of a `Fit` of `chain`."""
     from .result import Identification
 
-    q = res.values[:2]
-    effect_values = {}
-    for j, name in enumerate(res.names[2:], start=2):
-        head, _, pname = name.rpartition(".")
-        effect_values.setdefault(head, {})[pname] = float(res.values[j])
-        effect_values[head][pname + "_std"] = float(res.std[j])
-    for e in chain.effects:  # the held parameters, as given
-        head = chain._prefix(e)
-        for pname, v in e.values().items():
-            effect_values.setdefault(head, {}).setdefault(pname, v)
     alternatives = tuple(a[0][:2] for a in res.alternatives)
     return Identification(
-        q=q, q_std=res.std[:2], converged=res.status in (0, 1), iterations=res.iterations,
+        q=res.values[:2], q_std=res.std[:2], converged=res.status in (0, 1), iterations=res.iterations,
         starts_tried=len(res.paths), paths=res.paths, features_names=res.features_names,
         features_measured=res.features_measured, features_model=res.features_model, residual=res.residual,
         total_error=res.chi2, mode="best", evaluations=res.evaluations, seconds=res.seconds,
         message="; ".join([res.message, *res.warnings]), q_threshold=chain.q_threshold.copy(), chi2=res.chi2,
         dof=res.dof, p_value=res.p_value, unique=not alternatives, alternatives=alternatives,
         intervals=tuple(res.intervals.get(n) for n in ("q1", "q2")), level=res.level, warnings=res.warnings,
-        effects=effect_values, alternatives_chi2=tuple(a[1] for a in res.alternatives),
-        features_sigma=res.features_sigma)
+        alternatives_chi2=tuple(a[1] for a in res.alternatives), features_sigma=res.features_sigma,
+        params=res.params)
 
 
 def identify_features(model, measured, settings=None) -> "Identification":

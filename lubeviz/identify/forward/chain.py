@@ -258,7 +258,7 @@ class ForwardChain:
         if len(self.sources) != 2:
             raise InputError(f"the forward chain needs two bearings, the machine has {len(self.sources)}")
         self.q_threshold = np.array([s.nominal.q_threshold for s in self.sources])
-        self.names = ("q1", "q2") + tuple(f"{self._prefix(e)}.{p}" for e in self.effects for p in e.free)
+        self.names = ("q1", "q2") + tuple(f"{self.prefix(e)}.{p}" for e in self.effects for p in e.free)
         self._slots = [(e, p) for e in self.effects for p in e.free]
         self._build_reference()
         self.evaluations = 0
@@ -287,7 +287,9 @@ class ForwardChain:
         return self.with_effects(self.effects + tuple(effects))
 
     # --- parameters -------------------------------------------------------------------------------
-    def _prefix(self, effect) -> str:
+    def prefix(self, effect) -> str:
+        """What `effect`'s parameters are called after in the vector: its name, or its label when the chain
+        holds it twice ('pedestals[bearing=1]')."""
         same = [e for e in self.effects if e.effect_name == effect.effect_name]
         return effect.effect_name if len(same) == 1 else effect.label()
 

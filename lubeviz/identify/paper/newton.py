@@ -20,7 +20,7 @@ import numpy as np
 
 from ..forward.model import PAPER_FEATURES, ForwardModel, wrap_difference
 from ..forward.measured import MeasuredFeatures
-from ..fit.result import Identification, check_record
+from ..fit.result import Identification, check_record, flow_parameter
 from ..fit.settings import IdentificationSettings
 
 
@@ -103,7 +103,7 @@ def identify_paper(model: ForwardModel, measured: MeasuredFeatures,
                           paths=tuple(paths), features_names=names, features_measured=fm, features_model=fs,
                           residual=e, total_error=float(total), mode="paper",
                           evaluations=model.evaluations - ev0, seconds=time.perf_counter() - t0, message=msg,
-                          q_threshold=qt.copy())
+                          q_threshold=qt.copy(), params=tuple(flow_parameter(k, q[k]) for k in range(len(q))))
 
 
 def identify(model: ForwardModel, measured: MeasuredFeatures,
