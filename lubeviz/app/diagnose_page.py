@@ -4,7 +4,7 @@ effect, Cancel), and see the residual of every feature before and after, the ran
 their evidence, the chi^2 map over Q1 x Q2 with the searches, the verdict, and a report to download.
 
 Display only: the sample comes from `identify.forward.chain.simulate`, the diagnosis and its maps from
-`diagnose.run_diagnosis` (the CLI's one pipeline), its summary from `diagnose.diagnosis_dict`, the report from
+`api.diagnose` (the CLI's one pipeline), its summary from `diagnose.diagnosis_dict`, the report from
 `diagnose.report.report_html`.
 """
 
@@ -20,7 +20,9 @@ import pandas as pd
 import panel as pn
 import param
 
-from ..diagnose import diagnosis_dict, run_diagnosis
+from ..api import DiagnosisSettings, diagnose
+from ..diagnose import diagnosis_dict
+from ..diagnose.settings import REPORT_MAP_POINTS
 from ..diagnose.report import AFTER_COLOUR as AFTER, BEFORE_COLOUR as BEFORE, report_html, report_maps
 from ..effects import EFFECTS
 from ..errors import LubevizError
@@ -42,7 +44,6 @@ from .widgets import (RecordDropper, not_loaded_message, quantity_slider, record
 hv.extension("bokeh", logo=False)
 
 UPLOAD_LIMIT_MB = 50
-MAP_POINTS = 50
 SAMPLE_FLOWS_MLMIN = (420.0, 600.0)
 
 EXPLAIN = """
@@ -286,10 +287,9 @@ class DiagnosePage(pn.viewable.Viewer):
 
     def _diagnose(self, record, measured, truth, chosen, progress):
         pool = None if len(chosen) == len(DIAGNOSABLE) else [EFFECTS[n] for n in chosen]
-        run = run_diagnosis([record], self.machine, candidates=pool, measured=[measured], truth=truth,
-                            chain_for=lambda m, speed, nodes, angles, p: resources.chain(m, speed, nodes, angles,
-                                                                                         progress=p),
-                            map_points=MAP_POINTS, progress=progress)
+        run = diagnose([record], self.machine, DiagnosisSettings(map_points=REPORT_MAP_POINTS), candidates=pool,
+                       measured=[measured], truth=truth, progress=progress,
+                       chain_for=lambda m, speed, nodes, angles, p: resources.chain(m, speed, nodes, angles, progress=p))
         d = run.diagnosis
         return dict(diagnosis=d, summary=diagnosis_dict(d), record=record, maps=list(run.maps), truth=truth,
                     notes=run.inputs.notes)

@@ -2,7 +2,7 @@
 with their uncertainty and a verdict, compare model and measured features, export the result.
 
 Display only: reading (`signals.records.read_record_bytes`), features (`identify.forward.measured.measure`),
-the search (`identify.batch.identify_record`) and the export (`identify.batch.result_dict`/`result_csv`)
+the search (`api.identify_record`) and the export (`identify.output.export.result_dict`/`result_csv`)
 are the headless package's.
 """
 
@@ -19,7 +19,8 @@ import pandas as pd
 import panel as pn
 
 from ..errors import LubevizError
-from ..identify.batch import check_model_speed, identify_record, model_speed
+from ..api import identify_record
+from ..identify.batch import check_model_speed, model_speed
 from ..identify.output.export import feature_unit, result_csv, result_dict
 from ..identify.fit.least_squares import Z95
 from ..identify.forward.measured import measure

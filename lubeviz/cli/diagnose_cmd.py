@@ -10,7 +10,6 @@ from ..progress import StderrBar
 from .common import add_common
 
 
-MAP_POINTS = 50  # the report's chi^2 maps, points a side
 
 
 def register(sub) -> None:
@@ -43,7 +42,9 @@ def _candidates(text):
 
 
 def run_diagnose(args) -> dict | list:
-    from ..diagnose import diagnosis_dict, run_diagnosis
+    from ..api import DiagnosisSettings, diagnose
+    from ..diagnose import diagnosis_dict
+    from ..diagnose.settings import REPORT_MAP_POINTS
     from ..identify.batch import machine_for
     from ..signals.records import check_set, group_records, read_record
 
@@ -59,8 +60,8 @@ def run_diagnose(args) -> dict | list:
         if len(group) > 1:
             check_set(group)
         machine, notes = machine_for(group[0], args.machine)
-        run = run_diagnosis(group, machine, candidates=candidates, level=args.level,
-                            map_points=MAP_POINTS if args.report else 0, progress=bar)
+        settings = DiagnosisSettings(level=args.level, map_points=REPORT_MAP_POINTS if args.report else 0)
+        run = diagnose(group, machine, settings, candidates=candidates, progress=bar)
         d, inputs = run.diagnosis, run.inputs
         label = "+".join(str(r.source) for r in group)
         item = diagnosis_dict(d, file=label)

@@ -47,15 +47,20 @@ def register(sub) -> None:
 
 def run_identify(args) -> dict:
     from ..identify.batch import identify_files
+    from ..identify.fit.settings import IdentificationSettings
     from ..identify.output.export import result_dict
 
     from ..effects import parse_effects
 
     t0 = time.perf_counter()
     parse_effects(args.effect)  # a bad effect is a bad-input error before any work
-    results = identify_files(args.files, args.machine, args.mode, workers=args.workers, progress=StderrBar(),
-                             effect_specs=tuple(args.effect), oil_check="always" if args.oil_check else "warn",
-                             orbit_harmonics=args.orbit_harmonics, orbit_time_rounds=args.orbit_time_rounds)
+    settings = IdentificationSettings(mode=args.mode, oil_check="always" if args.oil_check else "warn",
+                                      **({} if args.orbit_harmonics is None else
+                                         {"orbit_harmonics": args.orbit_harmonics}),
+                                      **({} if args.orbit_time_rounds is None else
+                                         {"orbit_time_rounds": args.orbit_time_rounds}))
+    results = identify_files(args.files, args.machine, settings, workers=args.workers, progress=StderrBar(),
+                             effect_specs=tuple(args.effect))
     for path, item, _ in results:
         for w in () if item is None else tuple(item.warnings) + tuple(item.result.warnings):
             sys.stderr.write(f"lubeviz identify: {path}: warning: {w}\n")

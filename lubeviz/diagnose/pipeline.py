@@ -13,6 +13,7 @@ from typing import Callable, Sequence
 from ..progress import ProgressFn, silent
 from .inputs import DiagnosisInputs, diagnosis_inputs
 from .loop import Diagnosis, cost_map, diagnose
+from .settings import DiagnosisSettings
 
 
 @dataclass(frozen=True)
@@ -22,16 +23,20 @@ class DiagnosisRun:
     maps: tuple = ()  # (title, (q1, q2, chi2), fit) per map: the plain model's, then with the effect added
 
 
-def run_diagnosis(records: Sequence, machine, *, candidates=None, level: float = 0.01, measured=None,
-                  chain_for: Callable | None = None, truth: dict | None = None, map_points: int = 0,
+def run_diagnosis(records: Sequence, machine, settings: DiagnosisSettings | None = None, *, candidates=None,
+                  measured=None, chain_for: Callable | None = None, truth: dict | None = None,
                   progress: ProgressFn = silent) -> DiagnosisRun:
     """Diagnose `records` (one record, or the records of one set, already checked) of `machine`.
-    `map_points` > 0: also the chi^2 maps on that many points a side (the report's and the page's)."""
+
+    `candidates`: the effects to try (default: the library's diagnosable ones); `measured`: the records'
+    features when already measured; `chain_for`: where plain chains come from (the app's shared cache);
+    `truth`: what made a synthetic record, carried into the result."""
+    settings = settings or DiagnosisSettings()
     inputs = diagnosis_inputs(records, machine, measured=measured, chain_for=chain_for, progress=progress)
     chains, meas = inputs.chains, inputs.measured
-    d = diagnose(chains, meas, candidates=candidates, level=level, progress=progress, truth=truth,
+    d = diagnose(chains, meas, candidates=candidates, level=settings.level, progress=progress, truth=truth,
                  budget=inputs.budget, lines=inputs.lines, findings=inputs.findings)
-    maps = []
+    maps, map_points = [], settings.map_points
     if map_points > 0:
         maps.append(("plain model", cost_map(chains, meas, n=map_points), d.before))
         if d.added is not None and d.after is not None:

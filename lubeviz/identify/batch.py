@@ -236,7 +236,7 @@ def machine_for(record, machine_path=None):
     return load_machine(), ()
 
 
-def identify_group(records, machine=None, settings: IdentificationSettings | None = None, *,
+def identify_set(records, machine=None, settings: IdentificationSettings | None = None, *,
                    progress: ProgressFn = silent, effects=(), budget=None) -> RecordIdentification:
     """One identification from the records of one `set:` (SPEC §6): the same flows (and free effect
     parameters) at every speed, one forward chain per record, residuals stacked (`fit.fit`)."""
@@ -294,61 +294,50 @@ def identify_file(path, machine=None, settings: IdentificationSettings | None = 
     return dataclasses.replace(out, file=str(path), warnings=notes + out.warnings)
 
 
-def _worker(path, machine_path, mode, effect_specs=(), oil_check="warn", orbit_harmonics=None,
-            orbit_time_rounds=None):
+def _worker(path, machine_path, settings, effect_specs=()):
     from ..effects import parse_effects
 
     try:
-        return identify_file(path, None if machine_path is None else load_machine(machine_path),
-                             _settings(mode, oil_check, orbit_harmonics, orbit_time_rounds),
+        return identify_file(path, None if machine_path is None else load_machine(machine_path), settings,
                              effects=parse_effects(effect_specs)), None
     except LubevizError as exc:
         return None, str(exc)
 
 
-def identify_files(paths, machine_path=None, mode: str = "best", *, workers: int | None = None,
-                   progress: ProgressFn = silent, effect_specs=(),
-                   oil_check: str = "warn",
-                   orbit_harmonics: int | None = None,
-                   orbit_time_rounds: int | None = None) -> list[tuple[str, RecordIdentification | None, str | None]]:
-    """Identify many records; returns (file, result or None, error message or None) in input order.
-    `oil_check`, `orbit_harmonics`, `orbit_time_rounds`: those settings (`IdentificationSettings`; None: its
-    default).
+def identify_files(paths, machine_path=None, settings: IdentificationSettings | None = None, *,
+                   workers: int | None = None, progress: ProgressFn = silent,
+                   effect_specs=()) -> list[tuple[str, RecordIdentification | None, str | None]]:
+    """Identify many records; returns (file, result or None, error message or None) in input order. The
+    records of one `set:` are identified together (`identify_set`).
 
     Tables are built (or loaded) once, up front, then records run on `workers` processes.
     """
+    from ..effects import parse_effects
+
+    settings = settings or IdentificationSettings()
     paths = [str(p) for p in paths]
     grouped = _set_groups(paths)
     if grouped is not None:
-        return _identify_groups(grouped, machine_path, mode, progress, effect_specs, oil_check, orbit_harmonics,
-                                orbit_time_rounds)
+        return _identify_groups(grouped, machine_path, settings, progress, effect_specs)
     machine = load_machine(machine_path)
     machine_tables(machine, progress=progress)  # warm the cache before fanning out
     workers = min(len(paths), os.cpu_count() or 1) if workers is None else max(1, int(workers))
     out: dict[str, tuple] = {}
     t0 = time.perf_counter()
     if workers == 1 or len(paths) == 1:
-        from ..effects import parse_effects
-
-        settings = _settings(mode, oil_check, orbit_harmonics, orbit_time_rounds)
         effects = parse_effects(effect_specs)
-        model = None
         for n, p in enumerate(paths, start=1):
             try:
                 rec = read_record(p, default_nodes=tuple(machine.center_nodes))
                 mach, notes = machine_for(rec, machine_path)
-                r = identify_record(rec, mach, settings, model=model, effects=effects)
-                r = RecordIdentification(file=p, result=r.result, nodes=r.nodes, speed_hz=r.speed_hz,
-                                         warnings=notes + r.warnings, lines=r.lines)
-                model = None
-                out[p] = (r, None)
+                r = identify_record(rec, mach, settings, effects=effects)
+                out[p] = (dataclasses.replace(r, file=p, warnings=notes + r.warnings), None)
             except LubevizError as exc:
                 out[p] = (None, str(exc))
             progress(n, len(paths), os.path.basename(p))
     else:
         with ProcessPoolExecutor(max_workers=workers) as pool:
-            futures = {pool.submit(_worker, p, machine_path, mode, tuple(effect_specs), oil_check, orbit_harmonics,
-                                   orbit_time_rounds): p for p in paths}
+            futures = {pool.submit(_worker, p, machine_path, settings, tuple(effect_specs)): p for p in paths}
             for n, f in enumerate(as_completed(futures), start=1):
                 out[futures[f]] = f.result()
                 progress(n, len(paths), f"{os.path.basename(futures[f])} ({time.perf_counter() - t0:.1f} s)")
@@ -369,18 +358,9 @@ def _set_groups(paths):
     return group_records(records)
 
 
-def _settings(mode, oil_check, orbit_harmonics, orbit_time_rounds=None) -> IdentificationSettings:
-    return IdentificationSettings(mode=mode, oil_check=oil_check,
-                                  **({} if orbit_harmonics is None else {"orbit_harmonics": int(orbit_harmonics)}),
-                                  **({} if orbit_time_rounds is None else
-                                     {"orbit_time_rounds": int(orbit_time_rounds)}))
-
-
-def _identify_groups(groups, machine_path, mode, progress, effect_specs, oil_check="warn", orbit_harmonics=None,
-                     orbit_time_rounds=None):
+def _identify_groups(groups, machine_path, settings, progress, effect_specs):
     from ..effects import parse_effects
 
-    settings = _settings(mode, oil_check, orbit_harmonics, orbit_time_rounds)
     effects = parse_effects(effect_specs)
     out = []
     for group in groups:
@@ -390,7 +370,7 @@ def _identify_groups(groups, machine_path, mode, progress, effect_specs, oil_che
             if len(group) == 1:
                 item = identify_record(group[0], machine, settings, effects=effects, progress=progress)
             else:
-                item = identify_group(group, machine, settings, effects=effects, progress=progress)
+                item = identify_set(group, machine, settings, effects=effects, progress=progress)
             out.append((label, dataclasses.replace(item, warnings=notes + item.warnings), None))
         except LubevizError as exc:
             out.append((label, None, str(exc)))

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from lubeviz.effects import parse_effect
-from lubeviz.identify.batch import identify_group, identify_record
+from lubeviz.identify.batch import identify_set, identify_record
 from lubeviz.identify.fit.settings import IdentificationSettings
 from lubeviz.verification import IndependentSpec, make_record, make_set
 
@@ -63,9 +63,9 @@ def test_a_set_at_three_speeds_pins_the_oil_from_the_dynamic_part_alone(machine)
     specs = [IndependentSpec(speed_hz=s, q1_mlmin=Q[0], q2_mlmin=Q[1], effects=("viscosity:factor=0.75",),
                              seed=10 + k) for k, s in enumerate((60.0, 75.0, 90.0))]
     records = [x.record for x in make_set(specs, "coast")]
-    plain = identify_group(records, machine).result
+    plain = identify_set(records, machine).result
     assert not plain.model_explains_data
-    r = identify_group(records, machine, effects=(parse_effect("viscosity:bearing=both"),)).result
+    r = identify_set(records, machine, effects=(parse_effect("viscosity:bearing=both"),)).result
     err = r.q * 6e7 / np.array(Q) - 1
     assert np.abs(err).max() < 0.02
     assert abs(r.effects["viscosity"]["factor"] / 0.75 - 1) < 0.05
