@@ -138,14 +138,12 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
     oil_effects, tolerance, oil_notes = oil_reading(record, machine, effects)
     if oil_effects and settings.include_model_error:
         budget = budget_with_reading(budget, tolerance)
-    effects = tuple(oil_effects) + tuple(effects)
-    orbit = [e for e in effects if getattr(e, "stage", None) == "response"]
-    effects = tuple(e for e in effects if e not in orbit)
+    effects, settings = response_setting(tuple(oil_effects) + tuple(effects), settings)
     tables = model.tables if model is not None and abs(model.omega / (2 * math.pi) - speed) < 1e-9 else None
     chain = ForwardChain(machine, speed, record.nodes, effects, probe_angles_deg=record.probe_angles_deg,
                          tables=tables, progress=progress)
     check_record(_NodesSpeed(chain), measured, settings)
-    if orbit:  # large orbits: the linear chain plus the balance's correction, round by round
+    if settings.response == "large orbit":  # the linear chain plus the balance's correction, round by round
         from .fit.large_orbit import check_orbit_chain, fit_large_orbit, orbit_points, orbit_summary
 
         check_orbit_chain(chain)
@@ -173,6 +171,18 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
                 "oil from a supply change (--oil-check quantifies it: it tables +-30 % viscosity once, about half "
                 "a minute; the static shaft position or records at other speeds separate them)",))
     return out
+
+
+def response_setting(effects, settings: IdentificationSettings) -> tuple[tuple, IdentificationSettings]:
+    """`effects` without a response-model effect (`large_orbit`, as `--effect` names it), and the settings with
+    the response model it names: it replaces the chain's linear response rather than joining its stages."""
+    named = {e.effect_name for e in effects if e.stage == "response"}
+    if not named:
+        return tuple(effects), settings
+    if named != {"large_orbit"}:
+        raise InputError(f"response models {sorted(named)}: one at a time")
+    values = {k: v for k, v in settings.param.values().items() if k != "name"}
+    return tuple(e for e in effects if e.stage != "response"), type(settings)(**{**values, "response": "large orbit"})
 
 
 OIL_RANGE = (0.75, 1.0 / 0.75)

@@ -206,3 +206,19 @@ def test_a_response_defect_is_added_affinely_before_the_probes(machine, tables):
     np.testing.assert_allclose(c, [1.1 * (d.x[0] + 1e-2 * 1e-6), d.x[1] + 2e-2j * 2e-6], rtol=1e-12)
     direct = corrected.direct_output(q + step)
     np.testing.assert_allclose(direct.x, corrected.output(q + step).x, rtol=1e-9)
+
+
+def test_large_orbit_is_a_response_model_setting_not_a_chain_stage():
+    """`--effect large_orbit` names a response model: it leaves the effects the chain carries and sets the
+    settings' `response`, on a copy (the caller's settings, e.g. a page's, are not changed)."""
+    from lubeviz.effects import parse_effects
+    from lubeviz.identify.batch import response_setting
+    from lubeviz.identify.fit.settings import IdentificationSettings
+
+    mine = IdentificationSettings(orbit_harmonics=7)
+    effects, settings = response_setting(parse_effects(["large_orbit", "probe_rotation:plane=1"]), mine)
+    assert [e.effect_name for e in effects] == ["probe_rotation"]
+    assert settings.response == "large orbit" and settings.orbit_harmonics == 7
+    assert mine.response == "linear"
+    plain, same = response_setting(parse_effects(["probe_gain:channel=x1"]), mine)
+    assert same is mine and [e.effect_name for e in plain] == ["probe_gain"]

@@ -61,3 +61,4 @@ def test_the_record_says_how_stable_its_orbit_is(record):
     assert record.metadata["orbit_stability_state"] in ("stable", "undecided")
     mu = float(text.split("multiplier -")[1].split()[0])
     assert 0.9 < mu < 1.03 and "0.5X" in text
+

@@ -46,6 +46,11 @@ class IdentificationSettings(param.Parameterized):
                                    "the oil viscosity free within x0.75-1.33 (this says how much; builds the tables "
                                    "of that range if needed, ~30 s once); 'warn': a warning says the flows assume "
                                    "the declared oil; 'never': neither. Never decided by what the cache holds")
+    response = param.Selector(default="linear", objects=["linear", "large orbit"],
+                              doc="The rotor's response model: 'linear' (each film's K, C at the static equilibrium, "
+                                  "for orbits small against the clearance); 'large orbit' (the film force along the "
+                                  "orbit by harmonic balance, `orbit_harmonics`, `orbit_time_rounds`; probe effects "
+                                  "only). `--effect large_orbit` on the command line sets it")
     orbit_harmonics = param.Integer(16, bounds=(5, 32),
                                     doc="With large orbits declared: harmonics of the balance's periodic orbit (points "
                                         "per revolution: 24 at 5, else 4 per harmonic; fewer than 5 are refused, the "
