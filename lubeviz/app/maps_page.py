@@ -209,10 +209,8 @@ class MapsPage(pn.viewable.Viewer):
             measured = simulated_measurement(m, model, flows, snr_db=snr_db, rng=np.random.default_rng(2024))
             q_ref, ident = np.array(flows), None
         result = identification_map(model, measured, self.settings, axes, identification=ident)
-        f = np.asarray(self.settings.starts, dtype=float)
-        starts = np.array([(a * model.q_threshold[0], b * model.q_threshold[1]) for a in f for b in f])
         result.update(grid=grid, q_ref=q_ref, model_nodes=planes_nodes, page_identification=page,
-                      mode=self.settings.mode, start_grid=starts)
+                      mode=self.settings.mode)
         return result
 
     async def _recompute(self, *events):

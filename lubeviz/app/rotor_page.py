@@ -31,21 +31,13 @@ import param
 
 from ..effects import EFFECTS
 from ..errors import ConvergenceError
-from ..identify.forward.model import tabled_response
+from ..identify.forward.explore import large_orbit, rotor_state
 from ..model.machine import Machine
 from ..model.operating import OperatingPoint
 from ..progress import Cancelled
 from ..rotor.elements import DOF_PER_NODE, X, Y
-from ..rotor.modal import modal_analysis
 from ..rotor.directional import directional_components, forward_backward_ratio, orbit_angle
-from ..rotor.film_bearings import film_bearings
-from ..rotor.orbit_balance import HARMONICS, POINTS, orbit_balance
-from ..rotor.orbit_stability import orbit_stability
-from ..rotor.response import Unbalance, machine_unbalance
-from ..rotor.whirl import equilibrium_stability
-from ..signals.noise import add_noise
-from ..signals.spectrum import full_spectrum
-from ..signals.synthesize import steady_signals
+from ..rotor.orbit_balance import HARMONICS, POINTS
 from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
@@ -221,53 +213,13 @@ class RotorPage(pn.viewable.Viewer):
         await self._refresh()
 
     def _state(self, node: int, flows, effect, progress=None) -> dict:
-        """Everything the plots show, for the flows, node and effect given (a few milliseconds; seconds
-        the first time an effect changes a bearing's viscosity or clearance: new coefficient views)."""
+        """Everything the plots show (`identify.forward.explore.rotor_state`, on this server's shared rotor,
+        tables and chains)."""
         m = self.machine
-        rotor = resources.rotor(m)
-        resp = tabled_response(m, self._tables, flows, rotor=rotor)
-        omega = self._tables[0].omega
-        k = node - 1
-        x, y = base_x, base_y = resp.x[k], resp.y[k]
-        theta = np.array(flows, dtype=float)
-        planes = resources.chain(m, self.op.speed, rotor.bearing_nodes[:2])  # the bearing centres: statics
-        clearance = [b.clearance for b in m.bearings[:2]]
-        static0 = planes.output(theta).static - np.stack([np.zeros(2), clearance], -1)
-        static, clearance_eff, coefs = static0, clearance, None
-        if effect is not None:
-            effects = (effect,)
-            resources.prepare_views(planes, effects, progress=progress or (lambda *a: None))
-            out = planes.with_effects(effects).output(theta)
-            changes = [resources.bearing_changes(effects, j, clearance[j]) for j in range(2)]
-            clearance_eff = [c for _, c in changes]
-            static = out.static - np.stack([np.zeros(2), clearance_eff], -1)
-            if node in rotor.bearing_nodes[:2]:
-                j = rotor.bearing_nodes.index(node)
-                x, y = out.x[j], out.y[j]
-            else:  # probes are on the measurement planes only: away from them the shaft's own motion
-                shown = effects if effect.stage != "probes" else ()
-                other = resources.chain(m, self.op.speed, (node, rotor.bearing_nodes[1])).with_effects(shown)
-                o = other.output(theta)
-                x, y = o.x[0], o.y[0]
-            coefs = [planes.sources[j].evaluate(theta[j], *changes[j])[:2] for j in range(2)]
-        speed = omega / (2 * math.pi)
-        fs = 64 * speed  # 64 samples per revolution
-        n = int(round(fs / speed * 64))  # 64 revolutions for the spectrum
-        t = np.arange(n) / fs
-        clean = steady_signals(np.array([x]), np.array([y]), omega, t)
-        noisy = add_noise(clean, self.snr_db, np.random.default_rng(self._rng_seed + node))
-        spec = full_spectrum(noisy[0, 0] + 1j * noisy[0, 1], fs, speed)
-        if coefs is None:
-            coefs = [tab.coefficients(q) for tab, q in zip(self._tables, flows)]
-        modal = modal_analysis(rotor, omega, coefs, n_modes=6)
-        zf, zb = directional_components(x, y)
-        zf0, zb0 = directional_components(base_x, base_y)
-        return dict(resp=resp, node=node, x=x, y=y, base_x=base_x, base_y=base_y, t=t, clean=clean[0],
-                    noisy=noisy[0], fs=fs, speed=speed, spectrum=spec, modal=modal, flows=flows,
-                    q_threshold=[tab.q_threshold for tab in self._tables], effect=effect,
-                    zf=complex(zf), zb=complex(zb), phi=float(orbit_angle(zf, zb)), zf0=complex(zf0),
-                    zb0=complex(zb0), phi0=float(orbit_angle(zf0, zb0)), static=static, static0=static0,
-                    clearance=clearance, clearance_eff=clearance_eff)
+        return rotor_state(m, self._tables, resources.rotor(m), flows, node, effect, snr_db=self.snr_db,
+                           seed=self._rng_seed, progress=progress or (lambda *a: None),
+                           chain_for=lambda nodes: resources.chain(m, self.op.speed, nodes),
+                           prepare=resources.prepare_views)
 
     async def _refresh(self, *events):
         if not self._ready or self._tables is None:
@@ -404,17 +356,8 @@ class RotorPage(pn.viewable.Viewer):
     @staticmethod
     def _orbit_balance(machine: Machine, flows, speed_hz: float, node: int, scale: float,
                        resolution: tuple[int, int], progress):
-        """The periodic orbit on the films at `flows` (m^3/s) and `speed_hz` under the machine's unbalance
-        times `scale`, at `node` (in the job's worker thread)."""
-        progress(0, 0, "film equilibria at the supply flows")
-        bearings = film_bearings(machine, list(flows), 2 * math.pi * speed_hz)
-        unbalances = [Unbalance(u.node, u.moment * scale, u.phase) for u in machine_unbalance(machine)]
-        harmonics, points = resolution
-        rotor = resources.rotor(machine)
-        orbit = orbit_balance(rotor, bearings, unbalances, nodes=(node,), harmonics=harmonics, points=points,
-                              progress=progress)
-        progress(0, 0, "the orbit's stability (Floquet multipliers)")
-        return orbit, equilibrium_stability(rotor, bearings), orbit_stability(rotor, bearings, orbit)
+        """The large orbit and its stability (`identify.forward.explore.large_orbit`, in the job's thread)."""
+        return large_orbit(machine, resources.rotor(machine), flows, speed_hz, node, scale, resolution, progress)
 
     async def _on_large_orbit(self, event=None):
         flows, speed = (self.op.q1, self.op.q2), self.op.speed

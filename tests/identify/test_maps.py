@@ -253,3 +253,21 @@ def test_figures_command_refuses_a_file_as_output_directory(tmp_path, capsys):
     f.write_text("")
     assert main(["figures", "--out", str(f)]) == 2
     assert "not a directory" in capsys.readouterr().err
+
+
+def test_the_map_s_start_grid_is_where_the_paper_s_searches_start(machine, model):
+    """The Maps page draws `start_grid` under the search paths (it computes nothing): every path begins on it,
+    and it holds the settings' fractions of Q_T, every pair."""
+    from lubeviz.identify.fit.settings import IdentificationSettings
+    from lubeviz.identify.paper.maps import identification_map, simulated_measurement
+
+    settings = IdentificationSettings.paper()
+    q_true = np.array([450.0, 620.0]) * MLMIN
+    measured = simulated_measurement(machine, model, q_true, snr_db=30.0, rng=np.random.default_rng(1))
+    out = identification_map(model, measured, settings, domain_axes(model, 21))
+    grid = out["start_grid"]
+    assert grid.shape == (len(settings.starts) ** 2, 2)
+    np.testing.assert_allclose(sorted(set(np.round(grid[:, 0] / model.q_threshold[0], 12))), settings.starts)
+    for path in out["paths"]:
+        assert np.min(np.max(np.abs(grid - path[0]) / model.q_threshold, axis=1)) < 1e-12
+

@@ -38,7 +38,7 @@ from ...progress import ProgressFn, silent
 from ...rotor.directional import unwrap_orbit_angle
 from ..forward.model import ALL_FEATURES, ANGULAR, PAPER_FEATURES, ForwardModel, feature_vector, wrap_difference
 from ..forward.measured import MeasuredFeatures
-from .newton import _bounds, _paper_errors
+from .newton import _bounds, _paper_errors, start_grid
 from ..fit.settings import IdentificationSettings
 from ...units import MLMIN_PER_M3S
 
@@ -358,7 +358,7 @@ def identification_map(model: ForwardModel, measured: MeasuredFeatures, settings
             "paths": list(ident.paths), "paths_total_error": path_total,
             "starts": np.array([p[0] for p in ident.paths]), "q_identified": ident.q,
             "converged": ident.converged, "iterations": ident.iterations, "starts_tried": ident.starts_tried,
-            "message": ident.message, "identification": ident}
+            "message": ident.message, "identification": ident, "start_grid": start_grid(model, settings)}
 
 
 def _identification_map(machine, model, q_mlmin, axes, settings, snr_db, rng, title) -> dict:

@@ -24,7 +24,8 @@ from ..fit.result import Identification, check_record, flow_parameter
 from ..fit.settings import IdentificationSettings
 
 
-def _grid_starts(model: ForwardModel, settings: IdentificationSettings) -> np.ndarray:
+def start_grid(model: ForwardModel, settings: IdentificationSettings) -> np.ndarray:
+    """The paper's start points (`settings.starts` x Q_T per bearing, every pair), as (n, 2) flows in m^3/s."""
     f = np.asarray(settings.starts, dtype=float)
     a, b = np.meshgrid(f, f, indexing="ij")
     return np.stack([a.ravel() * model.q_threshold[0], b.ravel() * model.q_threshold[1]], axis=1)
@@ -62,7 +63,7 @@ def identify_paper(model: ForwardModel, measured: MeasuredFeatures,
     def eps(q):
         return _paper_errors(model.features(q[..., 0], q[..., 1], names), fm, names, settings)
 
-    starts = _grid_starts(model, settings)
+    starts = start_grid(model, settings)
     e_starts = np.abs(eps(starts)).sum(axis=-1)
     order = np.argsort(e_starts)
     h = settings.fd_step * qt
