@@ -144,29 +144,68 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
     `findings`: what is impossible or suspicious in the record(s) as declared (`identify.fit.plausibility`), which
     the verdict leads with. A measurement fault (copied channels, one plane in other units) gets no effect
     fitted: the effect would describe the fault."""
-    from ..effects import EFFECTS
-
     t0 = time.perf_counter()
     chains = list(chain) if isinstance(chain, (list, tuple)) else [chain]
     meas = list(measured) if isinstance(measured, (list, tuple)) else [measured]
     before = fit(chains, meas, names=names, budget=budget, level=level)
-    findings = tuple(findings)
+    findings, lines = tuple(findings), tuple(lines)
+    common = dict(before=before, seconds=0.0, truth=dict(truth or {}), lines=lines, findings=findings)
     broken = [f for f in findings if f.fault]
     if broken:  # the orbit is not the shaft's: an effect fitted to it would describe the fault, not the machine
-        verdict = ("Measurement fault: " + ". ".join(f.text for f in broken) + ". The plain fit (Q1, Q2 = "
-                   f"{before.values[0] * MLMIN_PER_M3S:.0f}, {before.values[1] * MLMIN_PER_M3S:.0f} ml/min, "
-                   f"chi2 = {before.chi2:.1f} for "
-                   f"{before.dof} dof) describes the fault, not the machine, and no effect was fitted: correct the "
-                   "record (or leave that plane out) and diagnose again.")
-        return Diagnosis(before=before, candidates=(), added=None, after=None, explained=False, ambiguous=(),
-                         verdict=verdict, seconds=time.perf_counter() - t0, truth=dict(truth or {}),
-                         lines=tuple(lines), findings=findings)
+        return Diagnosis(**{**common, "seconds": time.perf_counter() - t0}, candidates=(), added=None, after=None,
+                         explained=False, ambiguous=(), verdict=_fault_words(before, broken))
     oil_known = _oil_declared(chains)
-    pool = []
-    orbit = None
+    pool, orbit = _candidate_pool(candidates, oil_known)
+    tried = []
+    for n, e in enumerate(pool, start=1):
+        progress(n, len(pool), e.label())
+        tried.append(_fit_candidate(chains, meas, e, names, budget, level, phase_starts))
+    orbit_tried = orbit is not None and bool(_two_x(lines)) and len(chains) == 1 and not before.explained
+    if orbit_tried:
+        tried.append(_fit_orbit(chains[0], meas[0], orbit, names, budget, level, progress))
+    tried.sort(key=lambda c: c.aic)
+    passing = [c for c in tried if c.passes]
+    best, after, refused = (None, None, []) if before.explained else _refine(chains, meas, passing, names, budget,
+                                                                              level)
+    passing = [c for c in passing if c not in (r for r, _ in refused)]
+    if before.explained:
+        out = _explained_outcome(chains, meas, before, names, budget, level, oil_known)
+    elif best is not None:
+        out = _added_outcome(chains, before, best, after, passing, ambiguity_aic)
+    else:
+        out = _unexplained_outcome(before, tried, refused)
+    verdict = out.pop("verdict") + _line_words(lines, orbit_tried)
+    stability = None
+    sub = [line for line in lines if line.kind == "sub"]
+    if sub:  # what the model's own stability at the flows found says of it
+        final = out["after"] if out["after"] is not None else before
+        stability, words = _whirl_words(chains[0], out["added"], final, max(sub, key=lambda ln: ln.amplitude_m))
+        verdict += f" The model's stability: {words}."
+        if stability.unstable:
+            verdict += (" Above the threshold the machine is not in a steady state (the whirl grows on top of the "
+                        "unbalance orbit): the flows above rest on the 1X part of a transient and on a steady model, "
+                        "so take them as indicative; their intervals do not carry this.")
+    return Diagnosis(**{**common, "seconds": time.perf_counter() - t0}, candidates=tuple(tried),
+                     verdict=_finding_words(findings) + verdict, stability=stability, **out)
+
+
+def _fault_words(before: Fit, broken) -> str:
+    return ("Measurement fault: " + ". ".join(f.text for f in broken) + ". The plain fit (Q1, Q2 = "
+            f"{before.values[0] * MLMIN_PER_M3S:.0f}, {before.values[1] * MLMIN_PER_M3S:.0f} ml/min, "
+            f"chi2 = {before.chi2:.1f} for "
+            f"{before.dof} dof) describes the fault, not the machine, and no effect was fitted: correct the "
+            "record (or leave that plane out) and diagnose again.")
+
+
+def _candidate_pool(candidates, oil_known: bool) -> tuple[list, object]:
+    """Every placement of every candidate a diagnosis fits, and the response-model candidate (large orbits,
+    tried only when the record shows their 2X), or None."""
+    from ..effects import EFFECTS
+
+    pool, orbit = [], None
     for c in (EFFECTS.values() if candidates is None else candidates):
         e = c() if isinstance(c, type) else c
-        if e.stage == "response":  # large orbits: tried below, when the record shows their 2X
+        if e.stage == "response":
             orbit = e
             continue
         if not e.diagnosed:  # not fitted by a diagnosis (oil_temperature: `viscosity` told in °C)
@@ -174,131 +213,129 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         if oil_known and e.oil_viscosity:  # an oil temperature reading settles the viscosity
             continue
         pool.extend(e.placements())
-    tried = []
-    for n, e in enumerate(pool, start=1):
-        progress(n, len(pool), e.label())
-        tried.append(_fit_candidate(chains, meas, e, names, budget, level, phase_starts))
+    return pool, orbit
+
+
+def _two_x(lines) -> list:
     from ..signals.lines import LINE_NOTICE
 
-    two_x = [line for line in lines if "2X" in line.kind and line.relative_to_1x > LINE_NOTICE]
-    orbit_tried = orbit is not None and bool(two_x) and len(chains) == 1 and not before.explained
-    if orbit_tried:
-        tried.append(_fit_orbit(chains[0], meas[0], orbit, names, budget, level, progress))
-    tried.sort(key=lambda c: c.aic)
-    passing = [c for c in tried if c.passes]
-    set_intervals = None
-    # the winner: the best passing candidate whose refined fit (its parameters free again, refined from the
-    # screening fit, with intervals) still explains the record. The outcome is that result's, never the screening's.
-    best, after, refused = None, None, []
-    for cand in ([] if before.explained else passing[:REFITS]):
+    return [line for line in lines if "2X" in line.kind and line.relative_to_1x > LINE_NOTICE]
+
+
+def _refine(chains, meas, passing, names, budget, level):
+    """The winner: the best passing candidate whose refined fit (its parameters free again, refined from the
+    screening fit, with intervals) still explains the record; the outcome is that result's, never the
+    screening's. (winner or None, its refined fit, [(candidate, refined fit) refused])."""
+    refused = []
+    for cand in passing[:REFITS]:
         refit = cand.fit if cand.defect is not None else fit(
             [c.adding(cand.effect.candidate()) for c in chains], meas, names=names, budget=budget, level=level,
             start=cand.fit.values)
         if refit.explained:
-            best, after = cand, refit
-            break
+            return cand, refit, refused
         refused.append((cand, refit))
-    passing = [c for c in passing if c not in (r for r, _ in refused)]
-    if before.explained:
-        added, after, explained, ambiguous = None, None, True, ()
-        verdict = (f"Explained: the model fits the record within noise and model uncertainty "
-                   f"(chi2 = {before.chi2:.1f} for {before.dof} dof); no effect is needed.")
-        separated = ()
-        look_alike = None if oil_known else _oil_look_alike(chains, meas, before, names, budget, level)
-        if look_alike is not None:
-            ambiguous = (look_alike[0],)
-            set_intervals = look_alike[4]  # the flows over any oil in the range: what the record supports
-            separated = (type(look_alike[1]).separated_by,)
-            verdict += (f" But the oil's viscosity is not pinned by this record: oil x{OIL_RANGE[0]:g}-"
-                        f"{OIL_RANGE[1]:.2f} as viscous as declared explains it as well, with Q1 in {look_alike[2]} "
-                        f"and Q2 in {look_alike[3]} ml/min. To tell them apart: {separated[0]}.")
-    elif best is not None:
-        close = [c for c in passing if c is not best and c.aic - best.aic < ambiguity_aic]
-        added = best
-        explained = True
-        ambiguous = tuple(c.label for c in close)
-        separated = tuple(dict.fromkeys(type(c.effect).separated_by for c in [best, *close]
-                                         if type(c.effect).separated_by))
-        if len(chains) == 1 and all(type(c.effect).forcing for c in [best, *close]):
-            # one speed: a fitted 1X force stands for any 1X force, also one from an effect not in the library
-            ambiguous = ambiguous + (OTHER_FORCE,)
-            separated = separated + (FORCE_SEPARATION,)
-            flows = "; ".join(f"{c.label}: {c.fit.values[0] * MLMIN_PER_M3S:.0f}, {c.fit.values[1] * MLMIN_PER_M3S:.0f}"
-                              for c in [best, *close])
-            set_intervals = _set_intervals(after, close)
-            verdict = (f"Ambiguous cause: a synchronous (1X) force on the rotor explains the record "
-                       f"({', '.join(c.label for c in [best, *close])}), or an effect not in the library that acts "
-                       f"as one ({OTHER_FORCE_EXAMPLES}). At one speed these are the same force, so the flows hardly "
-                       f"depend on which: Q1, Q2 = {flows} ml/min (plain model: "
-                       f"{before.values[0] * MLMIN_PER_M3S:.0f}, "
-                       f"{before.values[1] * MLMIN_PER_M3S:.0f}). To tell the causes apart: {'; or '.join(separated)}.")
-        elif close:
-            flows = "; ".join(f"{c.label}: Q1, Q2 = {c.fit.values[0] * MLMIN_PER_M3S:.0f}, "
-                              f"{c.fit.values[1] * MLMIN_PER_M3S:.0f} ml/min"
-                              for c in [best, *close])
-            set_intervals = _set_intervals(after, close)
-            verdict = (f"Ambiguous: {len(close) + 1} effects explain the record equally well ({flows}). "
-                       f"Until a measurement tells them apart the flows are known only within "
-                       f"{_interval_words(set_intervals)}. To tell them apart: {'; or '.join(separated)}.")
-        else:
-            verdict = (f"{_story(best)}{_oil_words(chains, best)} explains the record (chi2 {before.chi2:.1f} -> "
-                       f"{after.chi2:.1f} for "
-                       f"{after.dof} dof). Flows re-identified with it: Q1 = {after.values[0] * MLMIN_PER_M3S:.0f}, "
-                       f"Q2 = {after.values[1] * MLMIN_PER_M3S:.0f} ml/min (plain model: "
-                       f"{before.values[0] * MLMIN_PER_M3S:.0f}, "
-                       f"{before.values[1] * MLMIN_PER_M3S:.0f})." + (ORBIT_REFINE if best.defect is not None else ""))
-    else:
-        closest = tried[0] if tried and tried[0].fit is not None else None
-        added, after, explained, ambiguous = None, None, False, ()
-        separated = ()
-        left = "" if closest is None else (f" The closest candidate, {closest.label}, still leaves chi2 = "
-                                           f"{closest.fit.chi2:.1f} for {closest.fit.dof} dof.")
-        if refused:
-            left = " " + "; ".join(
-                f"{c.label} passed the screening fit (chi2 = {c.fit.chi2:.1f}) but not once refined with its "
-                f"intervals (chi2 = {r.chi2:.1f} for {r.dof} dof)" for c, r in refused) + "."
-        verdict = ("Unexplained: the model does not fit the record and no effect in the library brings the "
-                   f"residual back to noise (plain chi2 = {before.chi2:.1f} for {before.dof} dof)." + left +
-                   " Do not trust the flows; check the machine and the measurement.")
-    from ..signals.lines import CAUSES
+    return None, None, refused
 
+
+def _flows_words(f: Fit) -> str:
+    return f"{f.values[0] * MLMIN_PER_M3S:.0f}, {f.values[1] * MLMIN_PER_M3S:.0f}"
+
+
+def _explained_outcome(chains, meas, before, names, budget, level, oil_known) -> dict:
+    out = dict(added=None, after=None, explained=True, ambiguous=(), separated_by=(), set_intervals=None,
+               verdict=(f"Explained: the model fits the record within noise and model uncertainty "
+                        f"(chi2 = {before.chi2:.1f} for {before.dof} dof); no effect is needed."))
+    look_alike = None if oil_known else _oil_look_alike(chains, meas, before, names, budget, level)
+    if look_alike is not None:
+        separated = (type(look_alike[1]).separated_by,)
+        out.update(ambiguous=(look_alike[0],), set_intervals=look_alike[4], separated_by=separated)
+        out["verdict"] += (f" But the oil's viscosity is not pinned by this record: oil x{OIL_RANGE[0]:g}-"
+                           f"{OIL_RANGE[1]:.2f} as viscous as declared explains it as well, with Q1 in {look_alike[2]} "
+                           f"and Q2 in {look_alike[3]} ml/min. To tell them apart: {separated[0]}.")
+    return out
+
+
+def _added_outcome(chains, before, best, after, passing, ambiguity_aic) -> dict:
+    close = [c for c in passing if c is not best and c.aic - best.aic < ambiguity_aic]
+    ambiguous = tuple(c.label for c in close)
+    separated = tuple(dict.fromkeys(type(c.effect).separated_by for c in [best, *close]
+                                     if type(c.effect).separated_by))
+    set_intervals = None
+    if len(chains) == 1 and all(type(c.effect).forcing for c in [best, *close]):
+        # one speed: a fitted 1X force stands for any 1X force, also one from an effect not in the library
+        ambiguous = ambiguous + (OTHER_FORCE,)
+        separated = separated + (FORCE_SEPARATION,)
+        flows = "; ".join(f"{c.label}: {_flows_words(c.fit)}" for c in [best, *close])
+        set_intervals = _set_intervals(after, close)
+        verdict = (f"Ambiguous cause: a synchronous (1X) force on the rotor explains the record "
+                   f"({', '.join(c.label for c in [best, *close])}), or an effect not in the library that acts "
+                   f"as one ({OTHER_FORCE_EXAMPLES}). At one speed these are the same force, so the flows hardly "
+                   f"depend on which: Q1, Q2 = {flows} ml/min (plain model: {_flows_words(before)}). To tell the "
+                   f"causes apart: {'; or '.join(separated)}.")
+    elif close:
+        flows = "; ".join(f"{c.label}: Q1, Q2 = {_flows_words(c.fit)} ml/min" for c in [best, *close])
+        set_intervals = _set_intervals(after, close)
+        verdict = (f"Ambiguous: {len(close) + 1} effects explain the record equally well ({flows}). "
+                   f"Until a measurement tells them apart the flows are known only within "
+                   f"{_interval_words(set_intervals)}. To tell them apart: {'; or '.join(separated)}.")
+    else:
+        verdict = (f"{_story(best)}{_oil_words(chains, best)} explains the record (chi2 {before.chi2:.1f} -> "
+                   f"{after.chi2:.1f} for "
+                   f"{after.dof} dof). Flows re-identified with it: Q1 = {after.values[0] * MLMIN_PER_M3S:.0f}, "
+                   f"Q2 = {after.values[1] * MLMIN_PER_M3S:.0f} ml/min (plain model: {_flows_words(before)})."
+                   + (ORBIT_REFINE if best.defect is not None else ""))
+    return dict(added=best, after=after, explained=True, ambiguous=ambiguous, separated_by=separated,
+                set_intervals=set_intervals, verdict=verdict)
+
+
+def _unexplained_outcome(before, tried, refused) -> dict:
+    closest = tried[0] if tried and tried[0].fit is not None else None
+    left = "" if closest is None else (f" The closest candidate, {closest.label}, still leaves chi2 = "
+                                       f"{closest.fit.chi2:.1f} for {closest.fit.dof} dof.")
+    if refused:
+        left = " " + "; ".join(
+            f"{c.label} passed the screening fit (chi2 = {c.fit.chi2:.1f}) but not once refined with its "
+            f"intervals (chi2 = {r.chi2:.1f} for {r.dof} dof)" for c, r in refused) + "."
+    verdict = ("Unexplained: the model does not fit the record and no effect in the library brings the "
+               f"residual back to noise (plain chi2 = {before.chi2:.1f} for {before.dof} dof)." + left +
+               " Do not trust the flows; check the machine and the measurement.")
+    return dict(added=None, after=None, explained=False, ambiguous=(), separated_by=(), set_intervals=None,
+                verdict=verdict)
+
+
+def _line_words(lines, orbit_tried: bool) -> str:
+    """What the verdict adds for the record's lines beyond 1X: mains pickup named apart, the others with their
+    usual causes (the flows rest on the 1X line)."""
+    from ..signals.lines import CAUSES, LINE_NOTICE
+
+    words = ""
     pickup = [line for line in lines if line.kind == "mains" and line.relative_to_1x > LINE_NOTICE]
     if pickup:  # not the machine: named apart from the lines the model lacks
-        verdict += (" The record also holds " + "; ".join(line.describe() for line in pickup) + ": " +
-                    CAUSES["mains"] + ". The flows rest on the 1X line, which it does not touch.")
+        words += (" The record also holds " + "; ".join(line.describe() for line in pickup) + ": " +
+                  CAUSES["mains"] + ". The flows rest on the 1X line, which it does not touch.")
     big = [line for line in lines if line.relative_to_1x > LINE_NOTICE and line.kind != "mains"]
     if big:
+        words += (" Beyond 1X the record also holds " + "; ".join(line.describe() for line in big) +
+                  ", which the linear model does not produce" +
+                  ((" (the library's large_orbit effect, the film solved along the orbit, makes 2X lines: it "
+                    "was fitted, see the candidates)" if orbit_tried else
+                    " (the library's large_orbit effect, the film solved along the orbit, makes 2X lines; a "
+                    "diagnosis fits it on a single record the plain model does not explain)")
+                   if any("2X" in line.kind for line in big) else "") +
+                  " (usual causes: " +
+                  "; ".join(dict.fromkeys(CAUSES[line.kind] for line in big)) + "): the flows rest on the 1X part.")
+    return words
 
-        verdict += (" Beyond 1X the record also holds " + "; ".join(line.describe() for line in big) +
-                    ", which the linear model does not produce" +
-                    ((" (the library's large_orbit effect, the film solved along the orbit, makes 2X lines: it "
-                      "was fitted, see the candidates)" if orbit_tried else
-                      " (the library's large_orbit effect, the film solved along the orbit, makes 2X lines; a "
-                      "diagnosis fits it on a single record the plain model does not explain)")
-                     if any("2X" in line.kind for line in big) else "") +
-                    " (usual causes: " +
-                    "; ".join(dict.fromkeys(CAUSES[line.kind] for line in big)) + "): the flows rest on the 1X part.")
-    stability = None
-    sub = [line for line in lines if line.kind == "sub"]
-    if sub:  # what the model's own stability at the flows found says of it
-        final = after if after is not None else before
-        stability, words = _whirl_words(chains[0], added, final, max(sub, key=lambda ln: ln.amplitude_m))
-        verdict += f" The model's stability: {words}."
-        if stability.unstable:
-            verdict += (" Above the threshold the machine is not in a steady state (the whirl grows on top of the "
-                        "unbalance orbit): the flows above rest on the 1X part of a transient and on a steady model, "
-                        "so take them as indicative; their intervals do not carry this.")
-    if findings:
-        impossible = [f.text for f in findings if f.impossible]
-        odd = [f.text for f in findings if not f.impossible]
-        verdict = ((("The record cannot be what it declares: " + ". ".join(impossible) + ". ") if impossible else "") +
-                   (("Check the record: " + ". ".join(odd) + ". ") if odd else "") +
-                   "The flows below rest on amplitude ratios and angles, which a scale error does not change. " +
-                   verdict)
-    return Diagnosis(before=before, candidates=tuple(tried), added=added, after=after, explained=explained,
-                     ambiguous=ambiguous, verdict=verdict, separated_by=separated,
-                     seconds=time.perf_counter() - t0, truth=dict(truth or {}), lines=tuple(lines),
-                     set_intervals=set_intervals, stability=stability, findings=findings)
+
+def _finding_words(findings) -> str:
+    """What the verdict leads with when the record is impossible or suspicious as declared."""
+    if not findings:
+        return ""
+    impossible = [f.text for f in findings if f.impossible]
+    odd = [f.text for f in findings if not f.impossible]
+    return ((("The record cannot be what it declares: " + ". ".join(impossible) + ". ") if impossible else "") +
+            (("Check the record: " + ". ".join(odd) + ". ") if odd else "") +
+            "The flows below rest on amplitude ratios and angles, which a scale error does not change. ")
 
 
 def _whirl_words(chain, added, final: Fit, line):
