@@ -34,11 +34,11 @@ def register(sub) -> None:
     p.add_argument("--large-orbit", action="store_true",
                    help="coverage: large-orbit records at 75 Hz (flows 75-125 %% Q_T, the unbalance x0.5-1, made by "
                         "--orbit-source), identified with large_orbit declared at each --orbit-harmonics: error, "
-                        "coverage, chi2 flag rate, time (give --records; ~4 min per time-integration record, cached)")
+                        "coverage, chi2 flag rate, time (give --records; minutes per time-integration record, cached)")
     p.add_argument("--orbit-harmonics", default="5,16",
                    help="coverage --large-orbit: the balance's harmonics to identify with, comma-separated (default 5,16)")
     p.add_argument("--orbit-time-rounds", type=int, default=0, metavar="N",
-                   help="coverage --large-orbit: time rounds after the balance's (0-5, default 0; 5-6 min each a record)")
+                   help="coverage --large-orbit: time rounds after the balance's (0-5, default 0; minutes each a record)")
     p.add_argument("--orbit-workers", type=int, default=1, metavar="N",
                    help="coverage --large-orbit: records identified on N processes at once (default 1)")
     p.add_argument("--seed", type=int, default=2026,
@@ -56,13 +56,13 @@ def register(sub) -> None:
     p.add_argument("--orbit-source", choices=("balance", "time"), default=None,
                    help="diagnose, coverage --large-orbit: how the large-orbit records are made: harmonic balance on "
                         "the source's 200 x 200 films (diagnose's default), or the time integration on the declared "
-                        "films (coverage's default; every harmonic; ~4 min "
+                        "films (coverage's default; every harmonic; minutes "
                         "per record, cached)")
     p.add_argument("--no-ross", action="store_true", help="rotor: skip the side-by-side ROSS timings")
     p.add_argument("--reproduce", action="store_true",
                    help="identify: also time the paper's whole protocol, both locations, both modes (cold tables)")
     p.add_argument("--accuracy", action="store_true",
-                   help="identify: also measure the tables' error in fb and phi against direct solves (~30 s)")
+                   help="identify: also measure the tables' error in fb and phi against direct solves")
     p.add_argument("--secant-amplitude-um", type=finite_float, default=None,
                    help="smoothness: use secant coefficients over +-this amplitude (um) instead of the tangent")
     p.add_argument("--points", type=int, default=200,

@@ -22,17 +22,17 @@ def register(sub) -> None:
                         "fitted with the flows, e.g. viscosity:bearing=both or probe_rotation:plane=1,angle_deg=4")
     p.add_argument("--oil-check", action="store_true",
                    help="for a record at one speed without the static position, give the flows' intervals with the "
-                        "oil viscosity free within x0.75-1.33 (tables +-30 %% viscosity once if needed, ~30 s)")
+                        "oil viscosity free within x0.75-1.33 (builds the tables of that range once if needed; the time: "
+                        "BENCHMARKS.md \"Dimensionless tables\")")
     p.add_argument("--orbit-harmonics", type=int, default=None, metavar="N",
-                   help="with --effect large_orbit: harmonics of the periodic orbit, 5-32 (default 16, 1-2 min a "
-                        "record: it follows the film's sharp turn where it is thinnest; over 12 time-integration "
-                        "records the flows 1.0 %% off median, 3.7 %% at most; 5, what diagnose tries, 20-40 s, "
-                        "2.4 %% median, 10 %% at most)")
+                   help="with --effect large_orbit: harmonics of the periodic orbit, 5-32 (default 16; diagnose "
+                        "uses 5). More harmonics follow the film's sharp turn where it is thinnest, at more time a "
+                        "record; the flows' sigma carries the truncation at any count. Error and time per count: "
+                        "BENCHMARKS.md \"Rates over time-integration records\"")
     p.add_argument("--orbit-time-rounds", type=int, default=None, metavar="N",
                    help="with --effect large_orbit: after the balance, N rounds (0-5, default 0) that integrate the "
-                        "model in time at the answer (5-6 min each on one core, twice near Q_T) and take the "
-                        "balance's truncation out of it; over 12 time-integration records 2 rounds put every flow "
-                        "within 1 %% (0.24 %% median, 0.74 %% at most), 11-42 min a record; see BENCHMARKS.md "
+                        "model in time at the answer (one time integration of several minutes each, two near "
+                        "Q_T) and take the balance's truncation out of it. Error and time: BENCHMARKS.md "
                         "\"Time rounds on all 12 records\"")
     p.set_defaults(run=run_identify)
 

@@ -429,10 +429,10 @@ def _oil_look_alike(chains, meas, before: Fit, names, budget, level):
     return ("viscosity[bearing=both]", oil, *ranges, ivs) if wider else None
 
 
-# a diagnosis fits large orbits with the 5-harmonic balance (20-40 s); identification's default is 16 (1-2 min)
-ORBIT_REFINE = (" These flows come from a 5-harmonic balance (over 12 time-integration records 2.4 % off median, 10 % at "
-                "most; their sigma carries it); `lubeviz identify --effect large_orbit` gives them with 16 harmonics "
-                "(1.0 % median, 3.7 % at most there).")
+# a diagnosis fits large orbits with the 5-harmonic balance; identification's default is 16 (more time a record)
+ORBIT_REFINE = (" These flows come from a 5-harmonic balance, coarser than identify's default (their sigma carries the "
+                "difference); `lubeviz identify --effect large_orbit` gives them with 16 harmonics (the error of each: "
+                "BENCHMARKS.md \"Rates over time-integration records\").")
 
 
 def _story(c: Candidate) -> str:

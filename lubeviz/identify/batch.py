@@ -168,8 +168,8 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
         else:
             out = dataclasses.replace(out, warnings=out.warnings + (
                 "the flows assume the declared oil viscosity: one record at one speed cannot tell hotter or colder "
-                "oil from a supply change (--oil-check quantifies it: it tables +-30 % viscosity once, about half "
-                "a minute; the static shaft position or records at other speeds separate them)",))
+                "oil from a supply change (--oil-check quantifies it: it builds the tables over x0.75-1.33 viscosity once; "
+                "the static shaft position or records at other speeds separate them)",))
     return out
 
 

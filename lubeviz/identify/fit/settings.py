@@ -44,7 +44,7 @@ class IdentificationSettings(param.Parameterized):
                                doc="Best mode, one record without the static position: hotter or colder oil than "
                                    "declared mimics a supply change. 'always': also give the flows' intervals with "
                                    "the oil viscosity free within x0.75-1.33 (this says how much; builds the tables "
-                                   "of that range if needed, ~30 s once); 'warn': a warning says the flows assume "
+                                   "of that range once if needed; time: BENCHMARKS \"Dimensionless tables\"); 'warn': a warning says the flows assume "
                                    "the declared oil; 'never': neither. Never decided by what the cache holds")
     response = param.Selector(default="linear", objects=["linear", "large orbit"],
                               doc="The rotor's response model: 'linear' (each film's K, C at the static equilibrium, "
@@ -54,17 +54,15 @@ class IdentificationSettings(param.Parameterized):
     orbit_harmonics = param.Integer(16, bounds=(5, 32),
                                     doc="With large orbits declared: harmonics of the balance's periodic orbit (points "
                                         "per revolution: 24 at 5, else 4 per harmonic; fewer than 5 are refused, the "
-                                        "budget's truncation term is measured from 5 up). Over 12 time-integration "
-                                        "records: 16, 1-2 min a record, flows off by 1.0 % median, 3.7 % at most; 5 "
-                                        "(what a diagnosis tries), 20-40 s, 2.4 % median, 10 % at most; the sigma "
-                                        "carries either")
+                                        "budget's truncation term is measured from 5 up). More harmonics: a smaller "
+                                        "truncation error at more time a record; the sigma carries the truncation at "
+                                        "any count. Error and time per count: BENCHMARKS \"Rates over "
+                                        "time-integration records\"")
     orbit_time_rounds = param.Integer(0, bounds=(0, 5),
                                       doc="With large orbits declared: time rounds after the balance's (each integrates "
-                                          "the model in time at the answer, 5-6 min on one core at 75 Hz, and corrects "
-                                          "the balance's truncation; twice near Q_T). Over 12 time-integration "
-                                          "records at 16 harmonics, 2 rounds: every flow within 1 %, 0.24 % median, "
-                                          "0.74 % at most, 11-42 min a record (the balance alone: 6 of 12 within 1 %; "
-                                          "BENCHMARKS \"Time rounds on all 12 records\"). 0: the balance alone")
+                                          "the model in time at the answer, one time integration, two near Q_T, and "
+                                          "corrects the balance's truncation). Error and time: BENCHMARKS \"Time "
+                                          "rounds on all 12 records\". 0: the balance alone")
     speed_tolerance = Quantity(0.02, bounds=(0.0, 1.0), unit="",
                                doc="Refuse a record whose speed differs from the model's by more than this fraction")
 

@@ -103,27 +103,28 @@ class ModelBudget(param.Parameterized):
 
     static_position = Quantity(STATIC_POSITION, bounds=(0.0, 1.0), unit="",
                                doc="Static journal position from the film equilibrium, each component, relative "
-                                   "to the clearance (mesh and tables: 0.026 um at most against the independent "
-                                   "source's 200^2 films over 120 records, `lubeviz bench budget`)")
+                                   "to the clearance (several times the largest model-vs-source difference "
+                                   "`lubeviz bench budget` measures: BENCHMARKS \"The budget against the "
+                                   "model-vs-source differences\")")
     calibration = Quantity(CALIBRATION, bounds=(0.0, 10.0), unit="",
                            doc="One factor on the mesh and shaft-damping terms: the maximum-likelihood scale of the terms above against "
                                "the model-vs-independent-source differences (lubeviz bench budget); 1 = as stated")
     orbit_defect = Quantity(0.03, bounds=(0.0, 1.0), unit="",
                             doc="The large-orbit correction (harmonic balance minus its linear orbit): each of its "
-                                "1X entries, relative to the whole correction's size, at least (the 100^2 film "
-                                "against the 200^2 one: 2.0 % at the paper's unbalance, 3.4 % at 0.6 x of it; 5 "
-                                "harmonics and 24 points against 6 and 36: 1.3 %); only when large orbits are declared")
+                                "1X entries, relative to the whole correction's size, at least (sized on the "
+                                "correction's measured mesh and truncation errors: docs/notes/large-orbit-fit.md); "
+                                "only when large orbits are declared")
     orbit_truncation = Quantity(ORBIT_TRUNCATION, bounds=(0.0, 10.0), unit="",
                                 doc="The balance's orbit against the time integration's on the same films (the harmonics "
                                     "it leaves out): each component of the correction's error, relative to its size, "
                                     "is this times the square of the correction's share of the 1X, when larger than "
-                                    "`orbit_defect` (RMS measured 0.043-0.048 at the paper's unbalance near Q_T, a "
-                                    "share of 0.354; 0.015 at 0.6 x, share 0.216)")
+                                    "`orbit_defect` (sized on the time integration at the paper's operating point: "
+                                    "docs/notes/large-orbits.md)")
     flooded_mesh = Quantity(FLOODED_MESH, bounds=(0.0, 1.0), unit="",
                             doc="The film mesh terms (K, C) of a bearing supplied above its Q_T (at its viscosity and "
                                 "clearance), relative to the stated ones (reached at 1.1 Q_T, smoothly from 1 at "
-                                "Q_T): the mesh study moves C by 0.14-0.35 % of its largest entry at and above Q_T "
-                                "against 0.8 % starved, K by 0.14-0.2 % against 0.5 %")
+                                "Q_T): the ratio the mesh study shows above Q_T against starved, not a fitted "
+                                "value (BENCHMARKS \"Mesh study\")")
     rest_reading = Quantity(1e-6, bounds=(0.0, 1e-3), unit="m", display_unit="um", display_scale=1e6,
                             doc="Repeatability of each probe's rest reading (SPEC §6 rest_position)")
 
