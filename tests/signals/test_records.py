@@ -338,7 +338,7 @@ def test_missing_file_and_unknown_suffix(tmp_path):
 
 def test_file_larger_than_the_limit_is_refused_before_reading(tmp_path, monkeypatch):
     path = write_csv(tmp_path / "r.csv")
-    monkeypatch.setattr(records, "MAX_RECORD_BYTES", 1000)
+    monkeypatch.setattr(records.record, "MAX_RECORD_BYTES", 1000)
     with pytest.raises(DataFormatError, match="larger than the limit") as err:
         read_record(path)
     assert str(path) in str(err.value) and "MAX_RECORD_BYTES" in str(err.value)
@@ -604,7 +604,7 @@ def test_mat_variables_a_record_cannot_hold_are_skipped_with_a_warning(tmp_path)
 
 def test_an_npz_that_unpacks_beyond_the_limit_is_refused_before_unpacking(tmp_path, monkeypatch):
     path = _npz(tmp_path / "r.npz")
-    monkeypatch.setattr(records, "MAX_RECORD_BYTES", path.stat().st_size + 100)
+    monkeypatch.setattr(records.record, "MAX_RECORD_BYTES", path.stat().st_size + 100)
     np.savez_compressed(path, **{k: np.zeros(N) for k in ("x1", "y1", "x2", "y2")}, pad=np.zeros(10**5))
     assert path.stat().st_size < records.MAX_RECORD_BYTES  # small on disk, 0.8 MB unpacked
     with pytest.raises(DataFormatError, match="unpacks to") as err:
