@@ -114,7 +114,8 @@ def bench_coverage(machine_path=None, *, n: int = 120, seed: int = 2026, calibra
 
 
 ORBIT_FLOWS = (0.75, 1.25)  # `bench_orbit`: each flow over its Q_T, uniform ...
-ORBIT_SCALES = (0.5, 1.0)  # ... and the machine's unbalance, times this (the paper's unbalance at 1: 2X ~ 20 % of 1X)
+ORBIT_SCALES = (0.5, 1.0)  # ... and the machine's unbalance, times this (the paper's unbalance at 1; its 2X against
+# the 1X: docs/notes/large-orbits.md, "What it says about the paper's machine")
 
 
 def bench_orbit(machine_path=None, *, n: int = 12, seed: int = 2026, speed_hz: float = 75.0, source: str = "time",

@@ -13,13 +13,13 @@ class LargeOrbit(Effect):
     """The films' force along the orbit (nonlinear), not their tangent K, C at the static equilibrium.
 
     The linear model holds for orbits small against the clearance. At the paper's unbalance (75 Hz, flows
-    near Q_T) the journals whirl on orbits of about an eighth of the clearance around equilibria at
-    eccentricity 0.12-0.16 (largest eccentricity along the orbit 0.26-0.28); the cavitated region breathes
-    with the orbit and the film force is already far from linear in the motion. The steady orbit stays
-    periodic at the shaft speed but gains 2X and 3X lines (2X 12-19 % of 1X), a static shift of the journals
-    (a few um downward) and a 1X that differs from the linear one by 10-25 % in size and 5-20 deg in phase
-    (harmonic balance of `rotor.orbit_balance`, 0X-5X, the p-theta film re-solved at 24 points of each
-    revolution with the journal's squeeze velocity and the bearing's supply flow).
+    near Q_T) the journals whirl on orbits that are no longer small against the clearance; the cavitated
+    region breathes with the orbit and the film force is already far from linear in the motion. The steady
+    orbit stays periodic at the shaft speed but gains 2X and 3X lines, a static shift of the journals and a
+    1X that differs from the linear one in size and phase (harmonic balance of `rotor.orbit_balance`,
+    0X-5X, the p-theta film re-solved at 24 points of each revolution with the journal's squeeze velocity
+    and the bearing's supply flow; how much at the paper's unbalance: docs/notes/large-orbits.md, "What it
+    says about the paper's machine").
 
     A modelling assumption to know: at each instant the film is solved quasi-statically and consumes the
     supply flow exactly (as the linearized C assumes); the film's own oil storage over a revolution (the

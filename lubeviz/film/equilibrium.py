@@ -91,12 +91,13 @@ def find_equilibrium(bearing: Bearing, omega: float, load, feed: Feed, *,
     instead of `warm`'s (a sweep's prediction, film.sweep); the later solves start from the last film.
     `coefficients` chooses how K and C are computed at the equilibrium:
     - "subcell" (default): tangent of the exact film with each rupture/reformation front placed
-      inside its pair of cells (subcell.py); continuous in the supply and position (staircase along
-      a 1 ml/min sweep < 0.05 % away from Q_T on 100 x 100) and closer to the 200 x 200 values than
-      the fixed-pattern tangent; ~30 ms.
+      inside its pair of cells (subcell.py); continuous in the supply and position (its residual
+      staircase: BENCHMARKS "Smoothness in the supply flow") and closer to the 200 x 200 values than
+      the fixed-pattern tangent (docs/notes/film-smoothness.md); ~30 ms.
     - "fixed-pattern": derivative of the exact discrete film with the cavitation pattern held
-      (linearize.py); the exact small-amplitude limit of this mesh's film, ~1 ms, but it jumps by up
-      to ~1-1.5 % whenever one cell changes state.
+      (linearize.py); the exact small-amplitude limit of this mesh's film, ~1 ms, but it jumps
+      whenever one cell changes state (a staircase in the supply: BENCHMARKS "Smoothness in the supply
+      flow").
     - "smoothed": derivative of the film with Eq. 6 smoothed to P (1 - theta) = `smoothing`
       (smoothed.py; default smoothing.DEFAULT_SMOOTHING); ~50 ms.
     The equilibrium position itself is always that of the exact film.

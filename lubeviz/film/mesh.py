@@ -8,11 +8,11 @@ Local refinement: the columns in and around the groove may be split into equal s
 so the circumferential spacing is non-uniform there (see `refined_split`). Why: just above Q_T the
 groove pressurizes and its full-film zone spreads up- and downstream of it; on a uniform 100-column
 mesh that zone grows one whole column (25 axial cells at once) at a time, and the coefficients follow
-in a staircase of slope changes (0.16 % deviation from a local cubic over 15 ml/min; 0.02 % with 4x finer
-columns). Splitting those 14 columns by 4 makes the growth as smooth as on a 400-column mesh for 42 %
-more cells instead of 300 %. The groove itself is decided on the nominal columns (`angle_mask`), so
-the refinement does not change what the groove covers: Q_T and the flooded film stay those of the
-uniform mesh.
+in a staircase of slope changes (BENCHMARKS "Smoothness in the supply flow": the uniform 100 columns
+against the refined mesh; docs/notes/film-smoothness.md). Splitting those 14 columns by 4 makes the growth
+as smooth as on a 400-column mesh for 42 % more cells instead of 300 %. The groove itself is decided on
+the nominal columns (`angle_mask`), so the refinement does not change what the groove covers: Q_T and
+the flooded film stay those of the uniform mesh.
 
 Symmetry: with an axially centred groove and an aligned journal the film is symmetric about the
 mid-plane, so by default only the half 0 <= z <= L/2 is solved, with a zero-flux face at L/2. The
@@ -196,7 +196,8 @@ def groove_aligned_offset(n_circ: int, radius: float, angle: float, groove_lengt
 # Refined zone of `refined_split`, in nominal columns beyond the groove: the groove-fed full film
 # reaches ~1 column upstream and ~3 downstream of the groove within Q_T .. Q_T + 60 ml/min on the
 # paper's bearing (100 columns), where it grows fastest; a margin of 2 / 6 also covers its growth up
-# to 150 % Q_T (measured: local-cubic deviation over 15 ml/min 0.033 % with 1 / 3, 0.020 % with 2 / 6).
+# to 150 % Q_T (measured against 1 / 3 by the local-cubic deviation over 15 ml/min:
+# docs/notes/film-smoothness.md).
 REFINE_UPSTREAM = 2
 REFINE_DOWNSTREAM = 6
 

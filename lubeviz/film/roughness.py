@@ -17,9 +17,10 @@ the uniform 100-column mesh one column at a time, from ~0.7 ml/min below Q_T to 
 Two windows. Above Q_T the groove's pressurized zone spreads, and the slope of K(Q) and C(Q) ramps
 from its starved value to about 3x over ~10 ml/min (the same on 100, 200 and 400 columns). A cubic
 over 31 samples cannot follow that ramp: even the 400 x 100 uniform mesh, which has no staircase
-there, deviates 0.25 % from it. So the roughness is also measured over 15 samples (SHORT_WINDOW,
-+-7 ml/min), which follows the ramp (400 x 100: 0.020 %) and still shows a step of height s as
-~0.5 s; with the fits split at Q_T and over the whole sweep, band included ("short_window").
+there, deviates from it. So the roughness is also measured over 15 samples (SHORT_WINDOW,
++-7 ml/min), which follows the ramp and still shows a step of height s as ~0.5 s; with the fits split
+at Q_T and over the whole sweep, band included ("short_window"). Both windows on the 400 x 100 mesh:
+BENCHMARKS "Smoothness in the supply flow".
 
 One sweep of exact equilibria is computed; the coefficients of every requested method are then
 evaluated at the same equilibria, so the methods are compared on identical journal positions.

@@ -3,8 +3,9 @@
 Why. The discrete p-theta system (Eq. 3-6) is piecewise linear: each cell is either full (p > 0,
 theta = 1) or cavitated (p = 0, theta < 1), and the fixed-pattern tangent (linearize.py) jumps
 whenever one cell changes state. Along a supply sweep on the paper's 100 x 100 mesh that happens
-~3.5 times per ml/min (rupture-side columns, the reformation front of the strip fed by the groove,
-groove cells near Q_T), and K, C show a staircase of ~1-2 %.
+several times per ml/min (rupture-side columns, the reformation front of the strip fed by the groove,
+groove cells near Q_T), and K, C show a staircase (BENCHMARKS "Smoothness in the supply flow";
+docs/notes/film-smoothness.md).
 
 What. Eq. 6 (p >= 0, theta <= 1, p (1 - theta) = 0) is replaced by the Fischer-Burmeister equation
 
@@ -29,7 +30,8 @@ The default mu = 1e-7 means p (1 - theta) = mu p_ref ~ 4 Pa for the paper's bear
 a full cell at 1 kPa keeps 1 - theta ~ 4e-3, one at 1 MPa ~ 4e-6, so only the cells next to a
 rupture or reformation boundary and in the groove are touched. It moves the paper bearing's
 coefficients by less than the 100 -> 200 mesh difference; a larger mu smooths more but changes the
-model itself (mu = 1e-6 moves K by ~2 % at Q_T, on 100 x 100 and 200 x 200 alike).
+model itself (a tenfold mu moves K at Q_T by more than that difference, on 100 x 100 and 200 x 200
+alike). The smoothed coefficients are superseded by the sub-cell ones (docs/notes/film-smoothness.md).
 """
 
 from __future__ import annotations

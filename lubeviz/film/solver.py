@@ -84,12 +84,12 @@ def _whole(problem: FilmProblem, a: np.ndarray) -> np.ndarray:
 # at the level a direct LU leaves (REFINE_RESIDUAL, relative to |A| |x| + |b| in the max norm). A system that
 # does not get there within REFINE_STEPS refinements, or whose first refinement contracts the residual by
 # less than REFINE_RATE, is factorized afresh (and becomes the root of later ones), so the answer is always
-# the new matrix's to round-off; only the work changes. A back-substitution costs ~1/20 of a factorization
-# (0.18 against 3.3 ms at 6500 unknowns), a k-column one ~0.1 + 0.09 k ms: up to MAX_SWITCHED columns.
-# Measured on dimensionless slices (S = 0.05 / 1.91 / 8.0, 141 equilibria each): 1157 -> ~540 factorizations,
-# 7.3 / 7.7 / 8.3 -> 6.7 / 6.9 / 7.4 s, values equal to 1e-12 of each column's max. The harmonic balance
-# (rotor.orbit_balance) reuses within a film solve only: reusing across its Newton steps saved 8 % on one thread
-# and nothing on its two (a back-substitution holds the interpreter's lock, a factorization mostly does not).
+# the new matrix's to round-off; only the work changes. A back-substitution costs a small fraction of a
+# factorization and a k-column one grows with k: up to MAX_SWITCHED columns it stays well below a factorization.
+# Measured on dimensionless slices (factorizations and time per slice, values equal to 1e-12 of each column's
+# max): docs/notes/dimensionless-tables.md (session 16). The harmonic balance (rotor.orbit_balance) reuses within
+# a film solve only: reusing across its Newton steps saved time on one thread and none on its two (a
+# back-substitution holds the interpreter's lock, a factorization mostly does not; the same notes).
 MAX_SWITCHED = 12
 REFINE_STEPS = 4
 REFINE_RATE = 0.05

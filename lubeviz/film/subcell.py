@@ -4,8 +4,9 @@ Why. The discrete p-theta film (Eq. 3-6) is piecewise linear in the journal posi
 supply: each cell is either full (p > 0, theta = 1) or cavitated (p = 0, theta < 1). The
 fixed-pattern tangent (linearize.py) is the derivative of one piece, so it jumps whenever one
 cell changes state: along a 1 ml/min supply sweep on the paper's 100 x 100 mesh K and C show a
-staircase of ~1-1.5 % (rupture columns, reformation fronts, the lateral edges of the film fed by
-the groove, groove cells near Q_T).
+staircase (rupture columns, reformation fronts, the lateral edges of the film fed by the groove,
+groove cells near Q_T; its size: BENCHMARKS "Smoothness in the supply flow", the diagnosis:
+docs/notes/film-smoothness.md).
 
 The front inside a pair of cells. Every face between a full cell i and a cavitated cell n is
 crossed by a rupture or reformation front. Where the front lies between the two cells is read
@@ -28,10 +29,11 @@ full cell i, the relation takes the pair from "i cavitated" (phi = 0) to "i full
 by the cavitated cell n, from "n cavitated" to "n full". Either is continuous in every parameter
 -- at each change of state the relation is the same on both sides (a full cell's kappas add, a
 cavitated cell's 1/kappas add, so a pair that appears or disappears contributes nothing) -- but
-each is half a cell off-centre, an O(h) bias of opposite sign (measured +-5 % in K on 100 x 100).
+each is half a cell off-centre, an O(h) bias of opposite sign (measured: docs/notes/film-smoothness.md).
 Their mean places the front's effect where the front is: the coefficients are then smooth in the
-supply (staircase < 0.05 % away from Q_T) and closer to the 200 x 200 values than the fixed-pattern
-tangent is. It costs two sparse LU factorizations of the size of the active-set solver's.
+supply (the residual staircase: BENCHMARKS "Smoothness in the supply flow") and closer to the
+200 x 200 values than the fixed-pattern tangent is (docs/notes/film-smoothness.md). It costs two sparse
+LU factorizations of the size of the active-set solver's.
 
 The film itself is the exact one (the equilibrium does not move); only its tangent changes, by a
 one-cell boundary layer, so it tends to the same mesh limit as the fixed-pattern tangent.

@@ -14,8 +14,9 @@ started film solve per bearing.
 
 K0, C0 are those `bearings` carries. r is zero to first order only when they are the exact tangent of
 this mesh's discrete film, the fixed-pattern one (`film_bearings(..., coefficients="fixed-pattern")`);
-with the sub-cell default (smooth in Q, ~1 % away from it) r keeps a first-order part of that size,
-still small for the explicit coupling. Either way the integrated orbit is that of the discrete film.
+with the sub-cell default (smooth in Q, off the fixed-pattern tangent by about the old staircase:
+docs/notes/film-smoothness.md) r keeps a first-order part of that size, still small for the explicit
+coupling. Either way the integrated orbit is that of the discrete film.
 
 For small unbalance the result must tend to the linear response with the fixed-pattern K, C (the
 film's small-amplitude limit); `tests/rotor` checks that, and the difference at the paper's

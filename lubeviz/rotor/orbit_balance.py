@@ -59,7 +59,8 @@ from .film_bearings import FilmBearings
 from .response import Unbalance, unbalance_force
 
 CONTACT = 0.95  # eccentricity ratio beyond which the orbit is refused (the journal nearly touches)
-HARMONICS, POINTS = 5, 24  # against 6 and 36: the journals' 1X correction within 1.3 % of its size (3 and 16: 9 %)
+HARMONICS, POINTS = 5, 24  # the journals' 1X correction close to that with 6 and 36, unlike with 3 and 16
+# (docs/notes/large-orbits.md, session 8); the time integration's is farther (ModelBudget.orbit_truncation)
 FILM_THREADS = min(2, os.cpu_count() or 1)  # film solves run side by side (the LU and the kernels release the
 # GIL: 1.38 x on this 2-core machine with 2 threads, measured on the 24 films of one revolution)
 MAX_STEP = 0.1  # largest move of a journal in one Newton step, relative to its clearance
@@ -488,9 +489,10 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
     `start`: the orbit at a nearby operating point (same speed; its harmonics padded or cut to H, each point
     warm-started from its nearest phase point: so a coarser balance starts a finer one), from which Newton
     starts (its films warm-start the film solves when they have this mesh): a continuation along the branch
-    that grows from the linear orbit. Without it Newton starts at the linear orbit. (Far from it, e.g. from the orbit at flows
-    10-20 % away, a fixed-point iteration was seen to land on another periodic solution with the same 1X
-    within 3 % and another 0X and 3X: the branch that grows from the linear orbit is the one computed here.)
+    that grows from the linear orbit. Without it Newton starts at the linear orbit. (Far from it, e.g. from the
+    orbit at flows 10-20 % away, a fixed-point iteration was seen to land on another periodic solution with
+    nearly the same 1X and another 0X and 3X: the branch that grows from the linear orbit is the one computed
+    here.)
     `flow_slopes`: per bearing, the derivatives of its equilibrium in its own supply flow, (d position (2,),
     d K0 (2, 2), d C0 (2, 2)) per m^3/s; with them the balance also returns the derivative of its nonlinear part
     in each flow (`flow_slope_x`, `_y`) by implicit differentiation of the converged balance: each exact film

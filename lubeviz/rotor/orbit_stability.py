@@ -66,8 +66,8 @@ NEWTON_TOL = 1e-10  # ... until the step is below this x Omega
 MAX_STEP = 0.05  # a Newton step is at most this x Omega
 START_ORDERS = 0.5  # the starts: the linear system's modes up to this fraction of the orders kept (x Omega)
 DEDUP = 1e-5  # exponents closer than this x Omega are one; those this close to Im s = 0 or Omega / 2 are real
-MARGIN = 0.03  # a multiplier's size within this of 1 is not decided: Hill at 16 harmonics and the time
-# integration differed by 1.5-1.8 % of it at the paper's unbalance (the module's doc)
+MARGIN = 0.03  # a multiplier's size within this of 1 is not decided: about twice what Hill at 16 harmonics and
+# the time integration differed by at the paper's unbalance (the module's doc; BENCHMARKS "Stability of the orbit")
 
 
 def _band(size: float) -> str:

@@ -30,7 +30,7 @@ the steady state, relative to the steady 1X (its floor, ~8e-4, is the trapezoida
 on the 1X line); a warning is raised above 1 %. `truth["transient_factor"]` is the bound |z|^n_skip
 of the slowest discrete mode. With the default 15 s (10 s skipped) the paper's machine at 75 Hz and
 Q_T leaves ~1e-54 of the transient. The slowest mode is the oil-whirl mode near 0.65 X: it decays at
-12 1/s at 75 Hz and Q_T, but only at 0.2 1/s at 75 Hz and 300 ml/min (8.7 % left after 10 s), and
+12 1/s at 75 Hz and Q_T, but only at 0.2 1/s at 75 Hz and 300 ml/min (not gone after the 10 s skipped), and
 part of the 50-100 Hz x 30-180 % Q_T range is unstable (90 Hz at 0.5 and 1.5 Q_T; in the model too),
 where `make_record` raises (`max_growth_rate` tells beforehand). The fast option total_s = 6,
 duration_s = 5 (1 s skipped) suits well-damped points (75 Hz near Q_T: e^-12); check the residual.

@@ -17,8 +17,9 @@ discretization: the balance itself was checked against the time integration on t
 (`tests/rotor/test_orbit_balance.py`).
 
 That check found the balance's own truncation: near the bearings' Q_T at the paper's unbalance the journal's
-velocity turns sharply where the film is thinnest, the orbit's lines fall off only as 1/h up to ~15X, and the
-balance's 1X with 5 harmonics is 4-5 % off the time integration's (16 harmonics halve that, 32 leave 1-2 %).
+velocity turns sharply where the film is thinnest, the orbit's lines fall off only as 1/h, and the balance's 1X
+with 5 harmonics is measurably off the time integration's at the paper's unbalance; more harmonics close the
+gap only slowly (docs/notes/large-orbits.md, sessions 17-18).
 A source that shares the method shares that error. `method="time"` takes another path: the time integration
 (`rotor.film_time_response`, implicit coupling, TIME_STEPS steps per revolution) of the 40-element rotor on the
 declared films (the model's mesh), started on this source's own balance on them, over TIME_REVOLUTIONS
@@ -67,10 +68,12 @@ HARMONICS, POINTS = 6, 28
 METHODS = ("balance", "time")
 TIME_REVOLUTIONS, TIME_STEPS = 6, 512  # the time integration: revolutions from the start orbit, steps in each
 TIME_HARMONICS = 40  # the harmonics kept of its last revolutions (at the paper's point on 60 x 40 films its lines
-# at 20-30X are 0.01-0.1 % of 1X); those at or above the record's Nyquist frequency are left out of the record
+# are negligible against the 1X well below 40X; how they fall off: docs/notes/large-orbits.md, session 18); those at
+# or above the record's Nyquist frequency are left out of the record
 TIME_WINDOW = 2  # revolutions the harmonics are taken over (the last ones): an even number, so that a line at
-# 0.5X cancels from them (at the paper's unbalance near Q_T the 100 x 100 films' orbit holds one, 2-4 % of 1X,
-# decaying over tens of revolutions: the onset of period doubling, which a periodic record leaves out)
+# 0.5X cancels from them (at the paper's unbalance near Q_T the 100 x 100 films' orbit holds one, decaying over
+# tens of revolutions: the onset of period doubling, which a periodic record leaves out; its size:
+# docs/notes/large-orbits.md, session 18, "A half-order line")
 START_MESH = 50  # film volumes each way of the orbit Newton's method starts from (the answer is the 200 x 200
 # films' own, to its tolerance): at the paper's unbalance, 460 / 600 ml/min, 13.5 s there then 4 Newton steps on
 # 200 x 200, 88 s in all, against 10 steps and 232 s from the linear orbit; the two orbits agree to 2.4e-9

@@ -6,8 +6,9 @@ noise flags everything and holds nothing. The budget is a stated list of what th
 each an input uncertainty propagated through the whole chain (linearly, by central differences, at the
 fitted parameters, so it grows where the features amplify it, e.g. just above the first critical speed):
 
-- film discretization: the 100 x 100 coefficients against the 200 x 200 ones differ by about 0.5 % (K)
-  and 0.8 % (C) of the largest entry (`lubeviz bench mesh`). Carried as a common scale error of K and of C
+- film discretization: the largest change of the coefficients from the 100 x 100 to the 200 x 200 mesh,
+  relative to the largest entry (`lubeviz bench mesh`, BENCHMARKS "Mesh study"): the defaults of
+  `coefficient_k` and `coefficient_c`. Carried as a common scale error of K and of C
   per bearing (the mesh moves all entries together) plus an independent error per entry of that size.
   Above a bearing's Q_T (at its viscosity and clearance, so an oil or wear effect moves it) the film is
   flooded, the cavitation fronts that the mesh resolves worst are gone, and the study's differences are
@@ -21,15 +22,16 @@ The noise covariance of the measured features is added to the result by the call
 Calibration. The terms above are sizes stated from the mesh study and a guess for the shaft damping; as
 stated they over-predict the differences between the model and an honest independent implementation
 (the `lubeviz.verification` source: finer film mesh, another linearization, another rotor mesh and
-damping, time integration) by a factor of about 1.4, and the 95 % intervals held the truth on 99-100 %
-of records. `calibration` multiplies those terms (mesh and shaft damping; not the tolerances a user
-declares, nor the static terms) by one number; its maximum-likelihood value comes from the
-clean model-vs-source differences of a calibration corpus, sqrt(sum chi2_r / sum n_r) over the records r
-(`lubeviz bench budget`, seed 2026, 120 records: 0.70), and the coverage it gives is to be checked on
-records the calibration never saw (`lubeviz bench coverage --seed 7`) before it ships: until then the
-default stays 1 (see CALIBRATION). A record from a real machine that differs
-from the model by more than two implementations do is flagged by the chi2 test, and its uncertainty is
-then inflated (Birge) and a diagnosis suggested: the calibration does not hide it.
+damping, time integration), so the 95 % intervals are conservative (the shipped budget's coverage:
+BENCHMARKS "Over the operating range"). `calibration` multiplies those terms
+(mesh and shaft damping; not the tolerances a user declares, nor the static terms) by one number; its
+maximum-likelihood value comes from the clean model-vs-source differences of a calibration corpus,
+sqrt(sum chi2_r / sum n_r) over the records r (`lubeviz bench budget` prints it, `calibration_ml`:
+BENCHMARKS "The budget against the model-vs-source differences"), and the coverage it gives is to be
+checked on records the calibration never saw (`lubeviz bench coverage --seed 7`) before it ships: until
+then the default stays 1 (see CALIBRATION; why: docs/notes/coverage-and-budget.md). A record from a real
+machine that differs from the model by more than two implementations do is flagged by the chi2 test, and
+its uncertainty is then inflated (Birge) and a diagnosis suggested: the calibration does not hide it.
 """
 
 from __future__ import annotations
@@ -44,44 +46,45 @@ from ...model.quantity import Quantity
 from .model import wrap_difference
 
 
-# `lubeviz bench budget` (seed 2026, 120 records) gives 0.70 (sqrt(sum chi2 / sum n) of the clean differences).
-# Shipped at 1 until the held-out coverage check (`lubeviz bench coverage --seed 7 --calibrations 0.7`)
-# confirms it: the smaller budget also weighs the dynamic features more against the static position, and
-# moved one-record hot-oil-with-static answers from 1.3-2.0 % to 2.2-3.4 % off (intervals still holding).
+# `lubeviz bench budget` prints the maximum-likelihood factor (sqrt(sum chi2 / sum n) of the clean differences;
+# BENCHMARKS "The budget against the model-vs-source differences"), below 1. Shipped at 1: on the held-out
+# coverage check (`lubeviz bench coverage --seed 7 --calibrations ...`) a smaller budget also weighs the dynamic
+# features more against the static position and takes the one-record hot-oil answers further off (intervals
+# still holding). The sessions: docs/notes/coverage-and-budget.md (sessions 6-8, 15).
 CALIBRATION = 1.0
-# The mesh terms above Q_T (session 9): stated from the mesh study (C 0.35 / 0.8, K 0.2 / 0.5 at and above Q_T
-# against the worst case), not fitted. `bench coverage` at 0.4: 97.5 / 96.7 % (seed 7), 95.0 / 98.3 % (seed
-# 2026), where 1 gave 99.2-100 % with every interval above Q_T holding; at 0.3 Q1 fell to 91.7 %.
+# The mesh terms above Q_T (session 9): the ratio the mesh study shows at and above Q_T against the starved
+# worst case (BENCHMARKS "Mesh study"), not fitted. Its coverage: BENCHMARKS "Over the operating range"; the
+# ratio worked out, and the coverage at 1 (above the target) and at other ratios (a smaller one drops Q1's
+# below it): docs/notes/coverage-and-budget.md (session 9).
 FLOODED_MESH = 0.4
 # The static position's film term (session 15, `lubeviz bench budget`, 120 records at 50-100 Hz and 25-200 % Q_T):
-# the model's static journal position against the independent source's (200^2 films, its own rotor) differs by
-# 0.005 / 0.015 um (x / y, median) and 0.026 um at most; 0.005 c (0.6 um) was 40 x that RMS. 0.001 c (0.12 um)
-# keeps five times the largest difference seen. The rest reading's repeatability (1 um, `rest_reading`) stays the
-# larger static term. One-record hot oil with the static position: -2.2 / -2.1 % -> -1.8 / -1.7 % (seed 1),
-# -1.7 / -1.3 % -> -1.4 / -1.1 % (seed 2).
+# about five times the largest difference between the model's static journal position and the independent
+# source's (200^2 films, its own rotor): BENCHMARKS "The budget against the model-vs-source differences". The rest
+# reading's repeatability (`rest_reading`) stays the larger static term. The former 0.005 c, and what the change did
+# to one-record hot oil with the static position: docs/notes/coverage-and-budget.md ("The static position's term
+# (session 15)").
 STATIC_POSITION = 0.001
 
 # The harmonic balance (5 harmonics, 24 points) against the time integration of the same films (`film_transient`,
-# implicit, converged in its step: 2.5e-5 and 1.25e-5 s agree to 0.1 %), at 75 Hz and Q_T, the periodic orbit
-# settled after 2 revolutions: the 1X correction (the four complex entries at the bearings) differs by 13.5 % of its
-# norm at the paper's unbalance on 60 x 40 films (its share of the 1X 0.354), 12.3 % on the model's 100 x 100 films
-# (share 0.354), 4.3 % at 0.6 x of it (share 0.216); not a common factor (one complex factor leaves 9.6 % at 1 x).
-# It is the harmonics left out (session 18): the time integration's orbit solves the balance's equations with 24
-# harmonics to 0.4-1.5 % of the 1X; where the film is thinnest the journal's velocity turns sharply and the orbit's
-# lines fall off as 1/h up to ~15X. 8-12 harmonics hardly help (5 on 48-192 points 13.3 %, 8 / 48 14.1 %, 12 / 96
-# 12.0 %), 16 halve the 1X error, 32 leave a third of it. Not another branch: Newton from the time integration's
-# orbit returns to the balance's. This term is for the model's 5 harmonics; with more (`orbit_harmonics`) it is
-# scaled by `truncation_factor` (below).
-# Per real component (8: each entry's real and imaginary part) the RMS error is the norm / sqrt(8), relative to the
-# correction's norm 0.048 / 0.043 / 0.015, which grows as the share squared (0.38 / 0.35 / 0.33 share^2): the term is
-# 0.45 share^2 of the correction's norm per component, at least `orbit_defect`. (tests/rotor/test_orbit_balance.py)
+# implicit, converged in its step), at 75 Hz and Q_T, the periodic orbit settled: at the paper's unbalance and at
+# 0.6 x of it the 1X correction (the four complex entries at the bearings) differs by more than `orbit_defect`,
+# and not by a common factor. It is the harmonics left out (session 18): the time integration's orbit solves
+# the balance's equations with enough harmonics; where the film is thinnest the journal's velocity turns sharply and
+# the orbit's lines fall off only as 1/h. More points do not help, nor do 8-12 harmonics; 16 and more close the gap
+# slowly. Not another branch: Newton from the time integration's orbit returns to the balance's. This term is for the
+# model's 5 harmonics; with more (`orbit_harmonics`) it is scaled by `truncation_factor` (below).
+# Per real component (8: each entry's real and imaginary part) the RMS error is the norm / sqrt(8); relative to the
+# correction's norm it grows as the share squared, with a coefficient below 0.45 at every point measured: the
+# term is 0.45 share^2 of the correction's norm per component, at least `orbit_defect`. Measured:
+# docs/notes/large-orbits.md (sessions 17, 18); guarded by tests/rotor/test_orbit_balance.py
+# (test_at_the_paper_s_point_the_time_integration_bounds_the_balance_s_truncation).
 ORBIT_TRUNCATION = 0.45
 # With more harmonics the balance comes closer to the time integration (session 18, the paper's point at 1 x on 60 x 40
-# films, the 1X error per channel as % of the 1X, summed over the four channels, against 5 harmonics): 8 and 12 hardly
-# help (1.02 / 0.99), 16: 0.57, 24: 0.46, 32: 0.37; the RMS against the correction 4.8 -> 2.9 % at 16 (0.60,
-# tests/rotor/test_orbit_balance.py, where the term is 1.26 x the RMS at 5 harmonics and 1.25 x at 16). At 0.6 x nothing
-# changed (1.5 / 1.6 %): there `orbit_defect` is the larger term. The factor on `orbit_truncation` for a balance with at
-# least that many harmonics (16: the RMS ratio; 24, 32: the channels' ratio rounded up to 0.05):
+# films): 8 and 12 hardly help, 16 and more do. At 0.6 x more harmonics changed nothing: there `orbit_defect` is the
+# larger term. The factor on `orbit_truncation` for a balance with at least that many harmonics: at 16 the ratio of the
+# correction's RMS error to that at 5 harmonics (the term then keeps its ratio to the RMS,
+# tests/rotor/test_orbit_balance.py); at 24 and 32 the ratio of the 1X error summed over the four channels, rounded up
+# to 0.05. Measured: docs/notes/large-orbits.md (sessions 18, 19).
 TRUNCATION_FACTORS = ((32, 0.4), (24, 0.5), (16, 0.6), (0, 1.0))
 
 
@@ -256,10 +259,10 @@ def model_covariance(chain, theta, names, budget: ModelBudget | None = None) -> 
 def _shaft_damping_columns(chain, theta, names, rel: float) -> tuple[np.ndarray, np.ndarray]:
     """The shaft damping's two one-sided changes, beta x (1 + rel) and x (1 - rel), each over sqrt 2: their
     covariance is the mean of the two outer products. Near a critical speed with a starved film the features
-    are far from linear in beta (fb ~ 1/|Zb| when the backward whirl nearly vanishes: +50 % moves fb1 by -21,
-    -50 % by +370 at 57.5 Hz, 0.5 Q_T); a symmetric difference gives one direction, dominated by the steep
-    side, and hides the other (measured: a record 6 % off with intervals that missed it). For a linear
-    response the two columns carry the symmetric difference's covariance."""
+    are far from linear in beta (fb ~ 1/|Zb| when the backward whirl nearly vanishes); a symmetric difference
+    gives one direction, dominated by the steep side, and hides the other (measured on a held-out record just
+    above the first critical speed, whose intervals missed the truth: docs/notes/coverage-and-budget.md,
+    session 7). For a linear response the two columns carry the symmetric difference's covariance."""
     from .chain import ForwardChain
 
     key = ("beta", rel)

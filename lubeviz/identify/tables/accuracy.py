@@ -13,31 +13,23 @@ What the difference contains: (1) the interpolation error of the spline, which f
 the node spacing h where the coefficients are smooth; (2) the fast change of slope of K(Q), C(Q) as the
 groove pressurizes just above Q_T (on the uniform mesh, kinks at mesh-dependent flows; smooth with the
 groove's columns refined), which a spline only follows with short steps (tables.DENSE_BAND); (3) the film's own roughness
-in Q: the sub-cell tangent's residual staircase (~0.03 % in K, C) is in the direct solves, and a
-smooth table cannot follow it, however dense. So away from the band the difference levels off at (3).
+in Q: the sub-cell tangent's residual staircase (BENCHMARKS "Smoothness in the supply flow") is in the direct
+solves, and a smooth table cannot follow it, however dense. So away from the band the difference levels off at (3).
 
-Measured (`lubeviz bench identify --accuracy`; bearing 1, 100 x 100 mesh, 75 Hz, nodes 6, 20, 5, 21,
-all midpoints between nodes and the reference flows; target = a tenth of the noise floor, 0.033 % in
-fb and 0.0079 deg in phi):
-- 222 points (111 in the band at 0.05 % Q_T steps), median / 90th percentile / max:
-  below Q_T - 5 ml/min  fb 0.0002 / 0.003 / 0.011 %, phi 0.0001 / 0.001 / 0.0033 deg (met);
-  Q_T - 5 ... Q_T + 25  fb 0.00002 / 0.001 / 0.052 % (the max in the interval holding the first kink),
-                        phi 0.00000 / 0.0001 / 0.0053 deg;
-  above Q_T + 25        fb 0.0004 / 0.018 / 0.054 %, phi 0.0001 / 0.0056 / 0.014 deg: the max is the
-  direct solves' own roughness (their deviation from a local cubic in Q reaches 0.05 % / 0.014 deg there).
-  Bearing 2 alike (max 0.010 / 0.049 / 0.049 %, 0.0028 / 0.0041 / 0.012 deg).
-- the former 71-point grid without the dense band: max 0.35 % / 0.036 deg below (at Q_T - 7 ml/min,
-  ringing of the first kink), 1.37 % / 0.14 deg at Q_T + 7, 0.21 % / 0.034 deg above.
-- on 1014 flows every 1 ml/min (0.1 near Q_T) instead of the midpoints: the same picture (222 points:
-  max 0.012 / 0.055 / 0.058 % in fb, 0.0035 / 0.0056 / 0.014 deg in phi).
-- the default grid is now 140 points at 0.2 % Q_T steps in the band (tables.py lists the measurements):
-  max 0.023 / 0.016 / 0.064 % in fb, 0.0046 / 0.0018 / 0.013 deg in phi.
+The target is a tenth of the noise floor (`NOISE_FB_REL`, `NOISE_PHI_DEG`) in fb and in phi. Measured with
+`lubeviz bench identify --accuracy` (100 x 100 mesh, 75 Hz, nodes 6, 20, 5, 21, all midpoints between nodes and
+the reference flows) below, across and above the band GROOVE_BAND_MLMIN: BENCHMARKS "Coefficient tables: accuracy
+against direct solves" (with the uniform mesh's and the former 71-flow grid's figures for comparison); guarded by
+tests/identify/test_tables.py. The choice of the grid (its points and its step in the band):
+docs/notes/dimensionless-tables.md ("Ratio grid") and supply.py; why the band was hard and the earlier grids:
+docs/notes/identification-history.md.
 
 Over the operating range (`range_accuracy`, `lubeviz bench table`): the tables are views of the
 dimensionless (S, Q/Q_T) table (dimensionless.py), so their error has a third part, (4) the cubic in
 ln S between slices (and the film's roughness in S). Measured at 200 random points (speed 5-150 Hz,
 viscosity x0.5-2, clearance x0.8-1.5, both bearings, bearing 1 at 25-200 % of its Q_T; nodes 6, 20, 5,
-21, the per-point worst node): see BENCHMARKS.md, "Dimensionless tables". The fixed target (a tenth of
+21, the per-point worst node): see BENCHMARKS.md, "Dimensionless tables" (the ln S step behind (4):
+docs/notes/dimensionless-tables.md). The fixed target (a tenth of
 the 75 Hz noise floor) is strict away from 75 Hz: where the backward component |Zb| nearly vanishes
 fb = |Zf| / |Zb| is ill-conditioned, and its noise grows in proportion.
 """
@@ -67,8 +59,8 @@ _STATS = {"median": np.median, "p90": lambda a: np.percentile(a, 90), "max": np.
 
 # Noise of the features at 12 dB SNR over 5 s at 75 Hz, the paper's machine: one standard deviation
 # over 50 seeds (`noise_floor`) with both bearings at Q_T, bearing centres (nodes 6, 20). It varies
-# with the flows and the node: 0.06-0.9 % in fb and 0.02-0.22 deg in phi over the corners
-# (409.5/682.5 ml/min) of the paper's protocol, smallest outside a starved bearing.
+# with the flows and the node, smallest outside a starved bearing: `noise_floor` at the corners
+# (409.5/682.5 ml/min) of the paper's protocol measures it there.
 NOISE_FB_REL = 3.3e-3
 NOISE_PHI_DEG = 0.079
 

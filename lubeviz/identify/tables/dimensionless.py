@@ -49,14 +49,13 @@ REF_CLEARANCE_RATIO = 2.5e-3  # c / R
 REF_OMEGA = 2.0 * math.pi * 50.0  # rad/s
 
 # The ln S grid (see `sommerfeld_nodes`): steps of `COARSE_STEP` from the anchor S_ANCHOR, down to
-# about `FINE_BELOW`, then `FINE_STEP` below it, over S_RANGE. Chosen by measurement (BENCHMARKS.md,
-# "Dimensionless tables"; slices every 0.0375 in ln S, the cubic through every 2nd/4th/8th one checked
-# at the others, error in K relative to max|K| over r = 0.25-2): above S ~ 0.1 the error is small
-# (median over r 2e-5 at H = 0.15) except at r > 1.5, where the film's own roughness in S (cells
-# switching) gives 1e-3 ... 2.3e-3 at H = 0.15 and still 5e-4 at H = 0.075 (roughness, not the
-# cubic: halving H gains 4x, not 16x); below S ~ 0.1 (eps > 0.75) it is 1e-3 ... 1.7e-3 everywhere in r
-# at H = 0.15 (median 7e-4) and 4e-4 ... 8e-4 at H = 0.075 (median 1.5e-4). Hence 0.15 above 0.12 and
-# 0.075 below: 52 slices over S_RANGE.
+# about `FINE_BELOW`, then `FINE_STEP` below it, over S_RANGE. Chosen by measurement (slices every
+# 0.0375 in ln S, the cubic through every 2nd/4th/8th one checked at the others, error in K relative to
+# max|K| over r = 0.25-2; docs/notes/dimensionless-tables.md, "ln S step"): above S ~ 0.1 the error is
+# small except at r > 1.5, where the film's own roughness in S (cells switching) dominates and halving
+# H gains far less than the cubic's 16x; below S ~ 0.1 (eps > 0.75) the cubic's error is spread over all r
+# and a finer step pays. Hence the coarse step above FINE_BELOW and the fine one below. The accuracy this
+# gives over the range: BENCHMARKS.md, "Dimensionless tables".
 COARSE_STEP = 0.15
 FINE_STEP = 0.075
 FINE_BELOW = 0.12

@@ -10,15 +10,16 @@ table directly (tests, accuracy measurements).
 
 The grid follows what the coefficients do (measured on the paper's bearings, 100 x 100, sub-cell K, C):
 - Q_T is a change of regime (the groove starts to pressurize: Kyy turns from falling to rising), so
-  Q_T is a node and each side gets its own spline: one spline across it left 0.75 % in fb.
-- Just above Q_T the slope of K, C ramps to ~3x its starved value within ~10 ml/min as the groove
-  pressurizes (Kyy: from -0.1 to +1.9 % per ml/min). On the uniform mesh the ramp came in kinks at
-  mesh-dependent flows and a coarse spline rang around them (the old 71-point grid: 0.35 % in fb at
-  Q_T - 7, 1.4 % at Q_T + 7 ml/min). `DENSE_BAND` around Q_T gets a uniform step `DENSE_STEP`; with
-  the groove's columns refined (film.mesh.refined_split) the ramp is smooth, so a step of 0.2 % Q_T
-  suffices there (0.016 % in fb at most).
+  Q_T is a node and each side gets its own spline: one spline across it cannot follow the kink.
+- Just above Q_T the slope of K, C ramps up steeply as the groove pressurizes (BENCHMARKS "Smoothness in
+  the supply flow"). On the uniform mesh the ramp came in kinks at mesh-dependent flows and a coarse
+  spline rang around them. `DENSE_BAND` around Q_T gets a uniform step `DENSE_STEP`; with the groove's
+  columns refined (film.mesh.refined_split) the ramp is smooth, so the step DENSE_STEP suffices there.
 - Elsewhere the coefficients are smooth: a grid uniform in s = sqrt(Q / Q_T), about twice as dense
   below Q_T as above.
+Measured: the current grid, BENCHMARKS "Coefficient tables: accuracy against direct solves"; the choice of
+the grid, docs/notes/dimensionless-tables.md ("Ratio grid"); the kinks, the ramp's slope and the earlier
+grids, docs/notes/identification-history.md.
 `lubeviz bench identify --accuracy` and the tests measure the error against direct solves
 (`lubeviz.identify.tables.accuracy`); `lubeviz bench table` over the whole operating range.
 """
@@ -43,16 +44,13 @@ from ...units import MLMIN_PER_M3S
 
 DEFAULT_SPAN = (0.25, 2.0)
 # The band where the groove pressurizes, relative to Q_T, and its step (1.1 ml/min at Q_T =
-# 545 ml/min): 28 of the default points; the other 112 on the sqrt(Q) grid outside it. Measured
-# (fb, phi vs direct solves, bearing 1 at 75 Hz, all midpoints; accuracy.py), max below Q_T - 5 ml/min
-# / across the band / above Q_T + 25, fb in %:
-#   140 points, step 0.002: 0.023 / 0.016 / 0.064 (phi 0.0046 / 0.0018 / 0.013 deg)  <- the default
-#   120 points, step 0.002: 0.028 / 0.016 / 0.082 (phi 0.0064 / 0.0018 / 0.017 deg)
-#   120 points, step 0.001: 0.031 / 0.017 / 0.109;  90 points, step 0.002: 0.053 / 0.016 / 0.119
-#   120 points, step 0.004 over -0.5 ... +10 %: 0.067 / 0.054 / 0.078
-#   222 points, step 0.0005 (the former default): 0.011 / 0.052 / 0.054
-# Above the band the max sits just past it (Q_T + 27 ml/min) and is partly the film's own roughness.
-# Fewer points keep the dimensionless tables' slices (dimensionless.py) cheap.
+# 545 ml/min): 28 of the default points; the other 112 on the sqrt(Q) grid outside it. Chosen by
+# measurement (fb, phi vs direct solves, bearing 1 at 75 Hz, all midpoints; accuracy.py; max below
+# Q_T - 5 ml/min / across the band / above Q_T + 25): across the band this step is as good as a finer
+# one, a coarser one over a wider band is not; fewer points than the default lose outside the band (above
+# it the max sits just past it and is partly the film's own roughness). Figures:
+# docs/notes/dimensionless-tables.md ("Ratio grid"). Fewer points keep the dimensionless tables' slices
+# (dimensionless.py) cheap.
 DENSE_BAND = (-0.005, 0.05)
 DENSE_STEP = 0.002
 DEFAULT_POINTS = 140
