@@ -7,13 +7,14 @@ pytest.importorskip("panel")
 
 from lubeviz.app.identify_page import verdict_text  # noqa: E402
 from lubeviz.identify.fit.result import Identification  # noqa: E402
+from lubeviz.units import MLMIN_PER_M3S
 
-QT = 546 / 6e7
+QT = 546 / MLMIN_PER_M3S
 
 
 def result(q_mlmin, intervals_mlmin, p_value=0.5):
-    iv = tuple(None if i is None else (i[0] / 6e7, None if i[1] is None else i[1] / 6e7) for i in intervals_mlmin)
-    return Identification(q=np.array(q_mlmin) / 6e7, q_std=None, converged=True, iterations=1, starts_tried=1,
+    iv = tuple(None if i is None else (i[0] / MLMIN_PER_M3S, None if i[1] is None else i[1] / MLMIN_PER_M3S) for i in intervals_mlmin)
+    return Identification(q=np.array(q_mlmin) / MLMIN_PER_M3S, q_std=None, converged=True, iterations=1, starts_tried=1,
                           paths=(), features_names=(), features_measured=np.zeros(0), features_model=np.zeros(0),
                           residual=np.zeros(0), total_error=0.0, mode="best", evaluations=1, seconds=0.0,
                           message="", q_threshold=np.array([QT, QT]), chi2=1.0, dof=4, p_value=p_value,

@@ -13,6 +13,7 @@ import pytest
 from lubeviz.diagnose import diagnosis_dict, run_diagnosis
 from lubeviz.identify.batch import identify_record
 from lubeviz.signals.records import record_from_arrays
+from lubeviz.units import MLMIN_PER_M3S
 from lubeviz.verification import IndependentSpec, make_record
 
 pytestmark = pytest.mark.slow
@@ -52,7 +53,7 @@ def _consistent(d):
 
 
 def _errors(fit):
-    return np.abs(fit.values[:2] * 6e7 / np.array(Q) - 1) * 100
+    return np.abs(fit.values[:2] * MLMIN_PER_M3S / np.array(Q) - 1) * 100
 
 
 @pytest.mark.parametrize("mix, fault", [
@@ -124,7 +125,7 @@ def test_impossible_and_implausible_amplitudes_name_the_unit_slip(machine, colum
 
 
 def _errors_of(out):
-    return np.abs(np.asarray(out.result.q) * 6e7 / np.array(Q) - 1) * 100
+    return np.abs(np.asarray(out.result.q) * MLMIN_PER_M3S / np.array(Q) - 1) * 100
 
 
 def test_a_clean_record_has_no_finding_and_a_consistent_verdict(machine, columns):

@@ -9,12 +9,13 @@ import pytest
 
 from lubeviz.diagnose.inputs import diagnosis_inputs
 from lubeviz.identify.forward.chain import ForwardChain, simulate
+from lubeviz.units import MLMIN_PER_M3S
 
 
 @pytest.fixture(scope="module")
 def record(machine):
     chain = ForwardChain(machine, machine.operating_speed, machine.center_nodes)
-    return simulate(chain, np.array([450.0, 600.0]) / 6e7, rng=np.random.default_rng(3))
+    return simulate(chain, np.array([450.0, 600.0]) / MLMIN_PER_M3S, rng=np.random.default_rng(3))
 
 
 def test_a_temperature_reading_is_held_and_widens_the_viscosity_budget(machine, record):

@@ -10,6 +10,7 @@ from lubeviz.diagnose import diagnose, diagnosis_dict
 from lubeviz.identify.forward.chain import ForwardChain
 from lubeviz.identify.forward.measured import measure
 from lubeviz.verification import IndependentSpec, make_record, make_set
+from lubeviz.units import MLMIN_PER_M3S
 
 pytestmark = pytest.mark.slow
 
@@ -28,7 +29,7 @@ def _diagnose(chain, effects, *, seed=4, static=False, q=Q):
 
 
 def _flow_errors(fit, q=Q):
-    return np.abs(fit.values[:2] * 6e7 / np.array(q) - 1) * 100
+    return np.abs(fit.values[:2] * MLMIN_PER_M3S / np.array(q) - 1) * 100
 
 
 @pytest.mark.parametrize("effect, named", [
@@ -130,4 +131,4 @@ def test_a_worn_bearing_at_one_speed_reports_flows_that_hold_the_truth(chain):
         assert "static shaft position" in d.verdict
         out = diagnosis_dict(d)
         assert out["q1_interval_set_mlmin"][0] <= q[0]
-    assert _held(d, np.array(q) / 6e7)
+    assert _held(d, np.array(q) / MLMIN_PER_M3S)

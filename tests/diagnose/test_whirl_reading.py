@@ -15,6 +15,7 @@ from lubeviz.identify.forward.measured import measure
 from lubeviz.rotor.whirl import mode_stability, whirl_reading
 from lubeviz.signals.lines import Line
 from lubeviz.verification import IndependentSpec, make_record
+from lubeviz.units import MLMIN_PER_M3S
 
 
 def _stability(chain, q):
@@ -42,9 +43,9 @@ def test_a_diagnosis_reads_a_sub_synchronous_line_with_the_model_s_stability(mac
     frequency handed to the diagnosis as the record's line search would: the verdict reads it as the film's
     whirl mode excited below the threshold; the JSON carries the stability."""
     chain = ForwardChain(machine, 85.0, (6, 20))
-    q = 1.25 * chain.q_threshold * 6e7
+    q = 1.25 * chain.q_threshold * MLMIN_PER_M3S
     rec = make_record(IndependentSpec(speed_hz=85.0, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]), seed=4)).record
-    s = _stability(chain, q / 6e7)
+    s = _stability(chain, q / MLMIN_PER_M3S)
     assert not s.unstable and s.damping_ratio < 0.1 and 0.42 <= s.order <= 0.6
     line = Line(plane=1, kind="sub", order=s.frequency_hz / 85.0, amplitude_m=2e-6, noise_m=1e-8,
                 relative_to_1x=0.1, threshold_m=4e-8)

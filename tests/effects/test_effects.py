@@ -20,8 +20,9 @@ from lubeviz.rotor.assembly import bearing_matrices, isotropic, rotor_from_machi
 from lubeviz.rotor.directional import directional_components
 from lubeviz.rotor.elements import X, Y, node_dofs
 from lubeviz.rotor.response import Unbalance, dynamic_stiffness, machine_unbalance, unbalance_response
+from lubeviz.units import MLMIN_PER_M3S
 
-Q = np.array([420.0, 600.0]) / 6e7
+Q = np.array([420.0, 600.0]) / MLMIN_PER_M3S
 
 
 @pytest.fixture(scope="module")

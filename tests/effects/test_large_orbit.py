@@ -13,6 +13,7 @@ from lubeviz.identify.batch import identify_record
 from lubeviz.identify.forward.chain import ForwardChain
 from lubeviz.signals.lines import present_lines
 from lubeviz.signals.synthesize import synthesize_record
+from lubeviz.units import MLMIN_PER_M3S
 
 pytestmark = pytest.mark.slow
 
@@ -21,7 +22,7 @@ Q = (450.0, 600.0)
 
 @pytest.fixture(scope="module")
 def record(machine):
-    return synthesize_record(machine, np.array(Q) / 6e7, snr_db=12.0, rng=np.random.default_rng(11),
+    return synthesize_record(machine, np.array(Q) / MLMIN_PER_M3S, snr_db=12.0, rng=np.random.default_rng(11),
                              duration_s=5.0, total_s=5.0, method="orbit")
 
 
@@ -41,7 +42,7 @@ def test_the_linear_identification_flags_it_and_its_intervals_hold_the_truth(mac
     assert res.model_explains_data is False
     for k in range(2):
         low, high = res.intervals[k]
-        assert low * 6e7 <= Q[k] and (high is None or Q[k] <= high * 6e7)
+        assert low * MLMIN_PER_M3S <= Q[k] and (high is None or Q[k] <= high * MLMIN_PER_M3S)
     assert any("2X" in w and "large orbits" in w for w in r.warnings)
 
 

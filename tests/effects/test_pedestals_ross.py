@@ -51,6 +51,7 @@ from lubeviz.identify.forward.chain import ForwardChain
 from lubeviz.identify.tables.supply import CoefficientTable
 from lubeviz.rotor import machine_unbalance, rotor_from_machine, unbalance_response
 from lubeviz.rotor.ross_model import RossUnavailable, import_ross
+from lubeviz.units import MLMIN_PER_M3S
 
 try:
     rs = import_ross()
@@ -172,7 +173,7 @@ def ross_response(machine, ross_cases):
 def flat_table(k: int, omega: float) -> CoefficientTable:
     """Bearing k's BEARINGS coefficients at every flow (the chain reads its K, C from a table)."""
     K, C = BEARINGS[k]
-    q_t = 546.0 / 6e7
+    q_t = 546.0 / MLMIN_PER_M3S
     q = np.linspace(0.25, 2.0, 8) * q_t
     n = q.size
     return CoefficientTable(bearing=k, omega=omega, q_threshold=q_t, q=q, K=np.repeat(K[None], n, 0),

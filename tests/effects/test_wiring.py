@@ -7,8 +7,9 @@ import pytest
 from lubeviz.effects import EFFECTS, parse_effect
 from lubeviz.effects.wiring import FAULTS
 from lubeviz.identify.forward.chain import ForwardChain, simulate
+from lubeviz.units import MLMIN_PER_M3S
 
-Q = np.array([450.0, 600.0]) / 6e7
+Q = np.array([450.0, 600.0]) / MLMIN_PER_M3S
 ANGLES = ((45.0, 135.0), (0.0, 90.0))  # plane 1 turned: a fault across planes must carry the angles
 COLUMNS = ("x1", "y1", "x2", "y2")
 

@@ -8,6 +8,7 @@ from lubeviz.errors import InputError
 from lubeviz.film.equilibrium import find_equilibrium
 from lubeviz.film.feed import Feed, setup_problem
 from tests.conftest import OMEGA_75HZ
+from lubeviz.units import MLMIN_PER_M3S
 
 
 @pytest.mark.parametrize("q", [-1e-6, 0.0, float("nan"), float("inf")])
@@ -49,5 +50,5 @@ def test_load_must_be_finite_and_nonzero(paper_bearing):
 
 def test_impossible_load_reports_non_convergence_instead_of_a_number(paper_bearing):
     # 100 MN would need the journal closer than 0.5 % of the clearance to the wall: the result says so.
-    eq = find_equilibrium(paper_bearing, OMEGA_75HZ, np.array([0.0, -1e8]), Feed.flow(300 / 6e7), max_iter=15)
+    eq = find_equilibrium(paper_bearing, OMEGA_75HZ, np.array([0.0, -1e8]), Feed.flow(300 / MLMIN_PER_M3S), max_iter=15)
     assert not eq.converged and eq.message

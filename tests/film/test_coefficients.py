@@ -12,8 +12,9 @@ from lubeviz.film.feed import Feed, setup_problem
 from lubeviz.film.linearize import finite_difference_coefficients
 from lubeviz.film.solver import solve
 from tests.conftest import OMEGA_75HZ, PAPER_LOAD
+from lubeviz.units import MLMIN_PER_M3S
 
-FEEDS = {"starved": Feed.flow(300 / 6e7), "over-supplied": Feed.flow(800 / 6e7), "flooded": Feed.flooded()}
+FEEDS = {"starved": Feed.flow(300 / MLMIN_PER_M3S), "over-supplied": Feed.flow(800 / MLMIN_PER_M3S), "flooded": Feed.flooded()}
 
 
 @pytest.fixture(scope="module", params=sorted(FEEDS))
@@ -56,7 +57,7 @@ def test_stiffness_restores_and_damping_dissipates(equilibrium):
 
 def test_large_fd_steps_drift_near_the_threshold(paper_bearing):
     """Near Q_T the cavitation boundary moves within an FD step: FD depends on the step (SPEC §3)."""
-    eq = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, Feed.flow(546 / 6e7), coefficients="fixed-pattern")
+    eq = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, Feed.flow(546 / MLMIN_PER_M3S), coefficients="fixed-pattern")
     c = paper_bearing.clearance
     small = finite_difference_coefficients(paper_bearing, OMEGA_75HZ, eq.position, eq.feed, step=1e-6 * c, warm=eq.film)
     big = finite_difference_coefficients(paper_bearing, OMEGA_75HZ, eq.position, eq.feed, step=3e-2 * c, warm=eq.film)
@@ -78,7 +79,7 @@ def test_the_supply_derivative_is_the_force_s_change_with_the_supply(paper_beari
     c, om = paper_bearing.clearance, OMEGA_75HZ
     pos = (pos[0] * c, pos[1] * c)
     vel = (vel[0] * c * om, vel[1] * c * om)
-    q = q_mlmin / 6e7
+    q = q_mlmin / MLMIN_PER_M3S
     sol = solve(setup_problem(paper_bearing, om, pos, Feed.flow(q), velocity=vel))
     f = [solve(setup_problem(paper_bearing, om, pos, Feed.flow(q * (1 + s * 1e-3)), velocity=vel), warm=sol).force
          for s in (1, -1)]

@@ -9,11 +9,12 @@ from lubeviz.film.feed import Feed, make_mesh, setup_problem
 from lubeviz.film.operator import residual
 from lubeviz.film.solver import solve, solve_active_set, solve_sor
 from tests.conftest import OMEGA_75HZ, plain_bearing
+from lubeviz.units import MLMIN_PER_M3S
 
 POSITION = (0.3 * 120e-6 * math.sin(1.0), -0.3 * 120e-6 * math.cos(1.0))
 
 
-@pytest.mark.parametrize("feed", [Feed.flow(300 / 6e7), Feed.flow(800 / 6e7), Feed.flooded()],
+@pytest.mark.parametrize("feed", [Feed.flow(300 / MLMIN_PER_M3S), Feed.flow(800 / MLMIN_PER_M3S), Feed.flooded()],
                          ids=["starved", "over-supplied", "flooded"])
 def test_mass_is_conserved(paper_bearing, feed):
     sol = solve(setup_problem(paper_bearing, OMEGA_75HZ, POSITION, feed)).raise_if_failed()
@@ -26,7 +27,7 @@ def test_mass_is_conserved(paper_bearing, feed):
 
 
 def test_complementarity_holds(paper_bearing):
-    sol = solve(setup_problem(paper_bearing, OMEGA_75HZ, POSITION, Feed.flow(300 / 6e7)))
+    sol = solve(setup_problem(paper_bearing, OMEGA_75HZ, POSITION, Feed.flow(300 / MLMIN_PER_M3S)))
     assert np.all(sol.P >= 0.0) and np.all(sol.theta <= 1.0) and np.all(sol.theta > 0.0)
     assert np.all((sol.P == 0.0) | (sol.theta == 1.0))  # Eq. 6
     assert (sol.theta < 0.999).any() and (sol.P > 0).any()  # both regimes present when starved
@@ -38,7 +39,7 @@ def test_mass_is_conserved_plain_bearing():
     assert sol.converged and sol.mass_residual < 1e-8 and sol.side_leakage > 0
 
 
-@pytest.mark.parametrize("feed", [Feed.flow(350 / 6e7), Feed.flooded()], ids=["starved", "flooded"])
+@pytest.mark.parametrize("feed", [Feed.flow(350 / MLMIN_PER_M3S), Feed.flooded()], ids=["starved", "flooded"])
 def test_sor_and_active_set_reach_the_same_solution(paper_bearing, feed):
     b = paper_bearing.copy(n_circumferential=60, n_axial=40)
     problem = setup_problem(b, OMEGA_75HZ, POSITION, feed)
@@ -50,7 +51,7 @@ def test_sor_and_active_set_reach_the_same_solution(paper_bearing, feed):
 
 
 def test_half_domain_equals_full_domain(paper_bearing):
-    feed = Feed.flow(400 / 6e7)
+    feed = Feed.flow(400 / MLMIN_PER_M3S)
     half = solve(setup_problem(paper_bearing, OMEGA_75HZ, POSITION, feed, mesh=make_mesh(paper_bearing, half=True)))
     full = solve(setup_problem(paper_bearing, OMEGA_75HZ, POSITION, feed, mesh=make_mesh(paper_bearing, half=False)))
     np.testing.assert_allclose(half.force, full.force, rtol=1e-10)
@@ -62,7 +63,7 @@ def test_half_domain_equals_full_domain(paper_bearing):
 
 
 def test_warm_start_gives_the_same_solution_in_fewer_solves(paper_bearing):
-    feed = Feed.flow(400 / 6e7)
+    feed = Feed.flow(400 / MLMIN_PER_M3S)
     cold = solve(setup_problem(paper_bearing, OMEGA_75HZ, POSITION, feed))
     moved = setup_problem(paper_bearing, OMEGA_75HZ, (POSITION[0] * 1.01, POSITION[1] * 1.01), feed)
     warm = solve(moved, warm=cold)
@@ -80,7 +81,7 @@ def test_a_sweep_s_predicted_starts_change_the_work_not_the_answer(paper_bearing
     from lubeviz.film.sweep import predicted_pattern, sweep_supply
     from tests.conftest import PAPER_LOAD
 
-    flows = np.array([400.0, 410.0, 420.0, 430.0]) / 6e7
+    flows = np.array([400.0, 410.0, 420.0, 430.0]) / MLMIN_PER_M3S
     keep = []
     sweep = sweep_supply(paper_bearing, OMEGA_75HZ, PAPER_LOAD, flows, keep=keep)
     for k in (2, 3):
@@ -101,7 +102,7 @@ def test_a_reused_factorization_changes_the_work_not_the_answer(paper_bearing):
     from lubeviz.film.linearize import fixed_pattern_coefficients
     from lubeviz.film.solver import Columns, PatternSystem, solve_active_set
 
-    feed = Feed.flow(400 / 6e7)
+    feed = Feed.flow(400 / MLMIN_PER_M3S)
     first = solve(setup_problem(paper_bearing, OMEGA_75HZ, POSITION, feed), base=None)
     root = PatternSystem(first.problem, first.full, Columns(first.problem))  # factorized, first's pattern
     c = paper_bearing.clearance

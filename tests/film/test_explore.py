@@ -10,6 +10,7 @@ from lubeviz.film.explore import supply_frame, supply_frames
 from lubeviz.film.feed import Feed
 from lubeviz.model.machine import load_machine
 from lubeviz.rotor.statics import bearing_static_loads
+from lubeviz.units import MLMIN_PER_M3S
 
 OMEGA = 2 * math.pi * 75.0
 
@@ -21,8 +22,8 @@ def _setup():
 
 def test_frame_keeps_the_equilibrium_and_its_coefficients():
     b, load = _setup()
-    frame, eq = supply_frame(b, OMEGA, load, 400 / 6e7)
-    ref = find_equilibrium(b, OMEGA, load, Feed.flow(400 / 6e7))
+    frame, eq = supply_frame(b, OMEGA, load, 400 / MLMIN_PER_M3S)
+    ref = find_equilibrium(b, OMEGA, load, Feed.flow(400 / MLMIN_PER_M3S))
     np.testing.assert_allclose(frame.position, ref.position, rtol=1e-6)
     np.testing.assert_allclose(frame.K, ref.coefficients.K, rtol=1e-6)
     np.testing.assert_allclose(frame.C, ref.coefficients.C, rtol=1e-6)
@@ -38,7 +39,7 @@ def test_frame_keeps_the_equilibrium_and_its_coefficients():
 
 def test_fields_on_a_uniform_grid_keep_each_column_at_its_width():
     b, load = _setup()
-    frame, _ = supply_frame(b, OMEGA, load, 400 / 6e7)
+    frame, _ = supply_frame(b, OMEGA, load, 400 / MLMIN_PER_M3S)
     assert frame.d_alpha.max() > 1.5 * frame.d_alpha.min()  # the groove's columns are refined
     alpha, p = frame.on_uniform_grid(frame.pressure)
     np.testing.assert_allclose(np.diff(alpha), alpha[1] - alpha[0], rtol=1e-9, atol=1e-12)
@@ -53,7 +54,7 @@ def test_fields_on_a_uniform_grid_keep_each_column_at_its_width():
 
 def test_starving_the_bearing_raises_the_eccentricity_and_shrinks_the_full_film():
     b, load = _setup()
-    frames = supply_frames(b, OMEGA, load, np.array([250.0, 400.0, 550.0, 800.0]) / 6e7)
+    frames = supply_frames(b, OMEGA, load, np.array([250.0, 400.0, 550.0, 800.0]) / MLMIN_PER_M3S)
     qs = sorted(frames)
     ecc = [frames[q].eccentricity_ratio for q in qs]
     full = [((frames[q].theta >= 1.0) * frames[q].d_alpha).sum() for q in qs]  # full-film area

@@ -13,6 +13,7 @@ from lubeviz.film.roughness import SHORT_WINDOW, coefficient_roughness
 from lubeviz.film.solver import solve
 from lubeviz.film.sweep import sweep_supply
 from tests.conftest import OMEGA_75HZ, PAPER_LOAD
+from lubeviz.units import MLMIN_PER_M3S
 
 
 def test_refined_mesh_tiles_the_circumference_and_keeps_the_groove(paper_bearing):
@@ -90,7 +91,7 @@ def test_refinement_moves_the_coefficients_towards_the_finer_mesh_above_q_t(pape
     closer to the 400 x 100 uniform ones than the uniform 100 x 100 are."""
     fine = paper_bearing.copy(groove_refinement=1, n_circumferential=400)
     uniform = paper_bearing.copy(groove_refinement=1)
-    for q in (552 / 6e7, 560 / 6e7, 566 / 6e7):
+    for q in (552 / MLMIN_PER_M3S, 560 / MLMIN_PER_M3S, 566 / MLMIN_PER_M3S):
         ref = find_equilibrium(fine, OMEGA_75HZ, PAPER_LOAD, Feed.flow(q)).coefficients
         dist = []
         for b in (uniform, paper_bearing):
@@ -105,7 +106,7 @@ def test_refinement_removes_the_staircase_where_the_groove_pressurizes(paper_bea
     """Local-cubic deviation over 15 ml/min across Q_T - 20 .. Q_T + 60 (measured: uniform 0.18 %, refined
     0.024 %); the fits are split at Q_T, where the regime changes."""
     q_t, _ = flooded_threshold(paper_bearing, OMEGA_75HZ, PAPER_LOAD)
-    flows = np.round(q_t * 6e7) / 6e7 + np.arange(-20.0, 61.0) / 6e7
+    flows = np.round(q_t * MLMIN_PER_M3S) / MLMIN_PER_M3S + np.arange(-20.0, 61.0) / MLMIN_PER_M3S
     breaks = np.zeros(flows.size, bool)
     breaks[1:] = (flows[1:] >= q_t) & (flows[:-1] < q_t)
     out = {}

@@ -17,9 +17,10 @@ from lubeviz.film.smoothed import (
 from lubeviz.film.solver import solve
 from lubeviz.film.sweep import sweep_supply
 from tests.conftest import OMEGA_75HZ, PAPER_LOAD
+from lubeviz.units import MLMIN_PER_M3S
 
-FEEDS = {"starved": Feed.flow(300 / 6e7), "near-threshold": Feed.flow(546 / 6e7),
-         "over-supplied": Feed.flow(800 / 6e7), "flooded": Feed.flooded()}
+FEEDS = {"starved": Feed.flow(300 / MLMIN_PER_M3S), "near-threshold": Feed.flow(546 / MLMIN_PER_M3S),
+         "over-supplied": Feed.flow(800 / MLMIN_PER_M3S), "flooded": Feed.flooded()}
 
 # Mesh study of BENCHMARKS.md, 200 x 200 (fixed-pattern tangent): K in MN/m, C in kN*s/m, [xx, xy, yx, yy].
 FINE_MESH = {400: ([138.7, 63.1, -67.1, 67.7], [216, -418, -204, 623]),
@@ -83,7 +84,7 @@ def test_smoothed_coefficients_are_the_derivative_of_the_smoothed_force(equilibr
 @pytest.mark.parametrize("q_mlmin", sorted(FINE_MESH))
 def test_smoothed_coefficients_do_not_move_the_mesh_converged_values(paper_bearing, q_mlmin):
     """At 100 x 100 the smoothed K, C are no farther from the 200 x 200 values than the tangent is."""
-    eq = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, Feed.flow(q_mlmin / 6e7), coefficients="fixed-pattern")
+    eq = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, Feed.flow(q_mlmin / MLMIN_PER_M3S), coefficients="fixed-pattern")
     sm = smoothed_coefficients(eq.film)
     K_ref = np.reshape(FINE_MESH[q_mlmin][0], (2, 2)) * 1e6
     C_ref = np.reshape(FINE_MESH[q_mlmin][1], (2, 2)) * 1e3
@@ -97,7 +98,7 @@ def test_smoothed_coefficients_do_not_move_the_mesh_converged_values(paper_beari
 
 
 def test_equilibrium_offers_the_smoothed_coefficients(paper_bearing):
-    feed = Feed.flow(450 / 6e7)
+    feed = Feed.flow(450 / MLMIN_PER_M3S)
     exact = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, feed, coefficients="fixed-pattern")
     smooth = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, feed, coefficients="smoothed")
     np.testing.assert_array_equal(smooth.position, exact.position)  # the equilibrium is the exact film's
@@ -110,7 +111,7 @@ def test_equilibrium_offers_the_smoothed_coefficients(paper_bearing):
 @pytest.mark.slow
 def test_smoothed_coefficients_are_smoother_along_the_supply(paper_bearing):
     """1 ml/min sweep across Q_T (473-573 ml/min): the staircase is at least 1.6x lower (measured ~2x)."""
-    flows = np.arange(473.0, 574.0, 1.0) / 6e7
+    flows = np.arange(473.0, 574.0, 1.0) / MLMIN_PER_M3S
     keep = []
     s = sweep_supply(paper_bearing, OMEGA_75HZ, PAPER_LOAD, flows, keep=keep, coefficients="fixed-pattern")
     coefs = [smoothed_coefficients(e.film) for e in keep]

@@ -9,6 +9,7 @@ from lubeviz.film.feed import Feed, setup_problem
 from lubeviz.film.solver import solve
 from lubeviz.film.sommerfeld import sommerfeld_film, sommerfeld_solution
 from lubeviz.model.machine import load_machine
+from lubeviz.units import MLMIN_PER_M3S
 
 OMEGA = 2 * math.pi * 75.0
 
@@ -31,7 +32,7 @@ def test_full_sommerfeld_of_a_plain_bearing_pushes_at_right_angles_to_the_line_o
 def test_half_sommerfeld_does_not_depend_on_the_supply_while_the_p_theta_film_does():
     b = _bearing()
     pos = 0.3 * b.clearance * np.array([0.5, -0.85])
-    starved, flooded = (setup_problem(b, OMEGA, pos, Feed.flow(q / 6e7)) for q in (250.0, 900.0))
+    starved, flooded = (setup_problem(b, OMEGA, pos, Feed.flow(q / MLMIN_PER_M3S)) for q in (250.0, 900.0))
     hs = sommerfeld_film(b, OMEGA, pos)  # no supply among its inputs: one film for both
     p_starved, p_flooded = solve(starved).pressure_field(), solve(flooded).pressure_field()
     assert np.count_nonzero(p_starved > 0) < 0.8 * np.count_nonzero(p_flooded > 0)  # starvation shrinks the zone

@@ -15,6 +15,7 @@ from lubeviz.film.subcell import (
 )
 from lubeviz.film.sweep import sweep_supply
 from tests.conftest import OMEGA_75HZ, PAPER_LOAD
+from lubeviz.units import MLMIN_PER_M3S
 
 # Mesh study of BENCHMARKS.md, 200 x 200 (fixed-pattern tangent): K in MN/m, C in kN*s/m, [xx, xy, yx, yy].
 FINE_MESH = {400: ([138.7, 63.1, -67.1, 67.7], [216, -418, -204, 623]),
@@ -23,7 +24,7 @@ FINE_MESH = {400: ([138.7, 63.1, -67.1, 67.7], [216, -418, -204, 623]),
 
 
 def _sweep_both(bearing, q_lo, q_hi):
-    flows = np.arange(q_lo, q_hi + 0.5, 1.0) / 6e7
+    flows = np.arange(q_lo, q_hi + 0.5, 1.0) / MLMIN_PER_M3S
     keep = []
     s = sweep_supply(bearing, OMEGA_75HZ, PAPER_LOAD, flows, keep=keep)
     fixed = [fixed_pattern_coefficients(e.film) for e in keep]
@@ -50,7 +51,7 @@ def test_subcell_coefficients_are_continuous_where_a_cell_changes_state(paper_be
     """Bisect the supply down to a 1e-4 ml/min interval across which cells switch: the fixed-pattern
     tangent jumps there, the sub-cell one does not."""
     solve = lambda q, prev=None: find_equilibrium(
-        paper_bearing, OMEGA_75HZ, PAPER_LOAD, Feed.flow(q / 6e7), tol=1e-12,
+        paper_bearing, OMEGA_75HZ, PAPER_LOAD, Feed.flow(q / MLMIN_PER_M3S), tol=1e-12,
         start=None if prev is None else prev.position, warm=None if prev is None else prev.film)
     lo, hi = 445.0, 446.0  # a rupture column switches in between (BENCHMARKS: diagnosis)
     a = solve(lo)
@@ -73,7 +74,7 @@ def test_subcell_coefficients_are_continuous_where_a_cell_changes_state(paper_be
     assert jump_new < 2e-5
 
 
-@pytest.mark.parametrize("feed", [Feed.flow(300 / 6e7), Feed.flow(700 / 6e7), Feed.flooded()],
+@pytest.mark.parametrize("feed", [Feed.flow(300 / MLMIN_PER_M3S), Feed.flow(700 / MLMIN_PER_M3S), Feed.flooded()],
                          ids=["starved", "over-supplied", "flooded"])
 def test_subcell_tangent_conserves_mass(paper_bearing, feed):
     """With the supply held, moving the journal cannot change the side leakage; a journal velocity
@@ -104,7 +105,7 @@ def test_subcell_tangent_conserves_mass(paper_bearing, feed):
 def test_subcell_coefficients_do_not_move_the_mesh_converged_values(paper_bearing, q_mlmin):
     """At 100 x 100 the sub-cell K, C are no farther from the 200 x 200 values than the fixed-pattern
     tangent is (measured: 0.2-0.5 % vs 0.55-1.0 %)."""
-    eq = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, Feed.flow(q_mlmin / 6e7))
+    eq = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, Feed.flow(q_mlmin / MLMIN_PER_M3S))
     fixed = fixed_pattern_coefficients(eq.film)
     K_ref = np.reshape(FINE_MESH[q_mlmin][0], (2, 2)) * 1e6
     C_ref = np.reshape(FINE_MESH[q_mlmin][1], (2, 2)) * 1e3
@@ -120,13 +121,13 @@ def test_subcell_coefficients_do_not_move_the_mesh_converged_values(paper_bearin
 
 
 def test_front_positions_lie_in_the_pair_and_the_default_is_subcell(paper_bearing):
-    eq = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, Feed.flow(450 / 6e7))
+    eq = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, Feed.flow(450 / MLMIN_PER_M3S))
     i, n, a, phi = front_pairs(eq.film.problem, eq.film.P, eq.film.theta)
     assert i.size > 50 and np.all((phi >= 0) & (phi <= 1)) and np.all(a > 0)
     full = eq.film.full.ravel()
     assert np.all(full[i]) and not np.any(full[n])
     again = subcell_coefficients(eq.film)
     np.testing.assert_array_equal(again.K, eq.coefficients.K)
-    fixed = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, Feed.flow(450 / 6e7), coefficients="fixed-pattern")
+    fixed = find_equilibrium(paper_bearing, OMEGA_75HZ, PAPER_LOAD, Feed.flow(450 / MLMIN_PER_M3S), coefficients="fixed-pattern")
     np.testing.assert_array_equal(fixed.position, eq.position)  # only the tangent differs
     assert fixed.coefficients.method == "fixed-pattern"

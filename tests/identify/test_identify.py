@@ -15,6 +15,7 @@ from lubeviz.identify.paper.newton import identify
 from lubeviz.identify.fit.settings import IdentificationSettings
 from lubeviz.rotor import machine_unbalance, rotor_from_machine, unbalance_response
 from lubeviz.signals import read_record, record_from_arrays
+from lubeviz.units import MLMIN_PER_M3S
 
 
 @pytest.fixture(scope="session")
@@ -36,7 +37,7 @@ def model(tables):
 def test_rank_4_update_equals_the_direct_solve(machine, tables, nodes):
     model = ForwardModel(machine, tables[0], nodes)
     rotor = rotor_from_machine(machine)
-    for q1, q2 in ((300 / 6e7, 800 / 6e7), (546 / 6e7, 420 / 6e7)):
+    for q1, q2 in ((300 / MLMIN_PER_M3S, 800 / MLMIN_PER_M3S), (546 / MLMIN_PER_M3S, 420 / MLMIN_PER_M3S)):
         r = model.response(q1, q2)
         coeffs = [t.coefficients(q) for t, q in zip(model.tables, (q1, q2))]
         ref = unbalance_response(rotor, model.omega, machine_unbalance(machine), coeffs, nodes=nodes)
@@ -45,7 +46,7 @@ def test_rank_4_update_equals_the_direct_solve(machine, tables, nodes):
 
 
 def test_feature_jacobian_matches_finite_differences(model):
-    q1, q2 = 450 / 6e7, 600 / 6e7
+    q1, q2 = 450 / MLMIN_PER_M3S, 600 / MLMIN_PER_M3S
     g, J = model.features_jacobian(q1, q2, ALL_FEATURES)
     h = 1e-3 * model.q_threshold
     for k in range(2):
@@ -80,11 +81,11 @@ def test_simulated_records_off_the_paper_grid_are_identified_within_their_uncert
 def test_paper_mode_converges_from_the_start_grid_and_keeps_every_path(model):
     from lubeviz.signals.synthesize import synthesize_record
 
-    rec = synthesize_record(model.machine, (448.5 / 6e7, 604.5 / 6e7), rng=np.random.default_rng(0),
+    rec = synthesize_record(model.machine, (448.5 / MLMIN_PER_M3S, 604.5 / MLMIN_PER_M3S), rng=np.random.default_rng(0),
                             method="steady")
     res = identify(model, measure(rec), IdentificationSettings.paper())
     assert res.converged and res.starts_tried >= 1
-    assert np.allclose(res.q * 6e7, (448.5, 604.5), rtol=0.01)
+    assert np.allclose(res.q * MLMIN_PER_M3S, (448.5, 604.5), rtol=0.01)
     start = res.paths[0][0] / model.q_threshold
     assert np.all(np.isin(np.round(start, 6), [0.7, 1.0, 1.3]))  # each path begins on the 3x3 grid
     assert sum(len(p) - 1 for p in res.paths) == res.iterations
@@ -135,7 +136,7 @@ def test_a_record_from_a_different_machine_is_flagged_as_unexplained(model):
 
     other = load_machine()
     other.bearings = [b.copy(viscosity=1.3 * b.viscosity) for b in other.bearings]
-    rec = synthesize_record(other, (450 / 6e7, 600 / 6e7), rng=np.random.default_rng(4), method="steady")
+    rec = synthesize_record(other, (450 / MLMIN_PER_M3S, 600 / MLMIN_PER_M3S), rng=np.random.default_rng(4), method="steady")
     res = identify(model, measure(rec))
     assert res.model_explains_data is False and "does not explain" in res.message
 

@@ -17,8 +17,9 @@ from lubeviz.identify.fit.settings import IdentificationSettings
 from lubeviz.progress import Cancelled
 from lubeviz.rotor.directional import orbit_angle
 from lubeviz.rotor.response import Unbalance
+from lubeviz.units import MLMIN_PER_M3S
 
-MLMIN = 1 / 6e7
+MLMIN = 1 / MLMIN_PER_M3S
 SWEEP = np.linspace(273.0, 819.0, 61) * MLMIN  # Sec. 3.1: 50-150 % of Q_T
 
 

@@ -12,6 +12,7 @@ from lubeviz.effects import parse_effect
 from lubeviz.identify.batch import identify_set, identify_record
 from lubeviz.identify.fit.settings import IdentificationSettings
 from lubeviz.verification import IndependentSpec, make_record, make_set
+from lubeviz.units import MLMIN_PER_M3S
 
 pytestmark = pytest.mark.slow
 
@@ -20,7 +21,7 @@ Q = (480.0, 600.0)
 
 def _inside(interval, q):
     low, high = interval
-    return low * 6e7 <= q <= (np.inf if high is None else high * 6e7)
+    return low * MLMIN_PER_M3S <= q <= (np.inf if high is None else high * MLMIN_PER_M3S)
 
 
 def test_hot_oil_at_one_speed_is_never_a_confident_wrong_answer(machine):
@@ -32,7 +33,7 @@ def test_hot_oil_at_one_speed_is_never_a_confident_wrong_answer(machine):
     assert not any("viscosity" in w for w in quiet.warnings)
     r = identify_record(rec, machine, IdentificationSettings(oil_check="always")).result
     q = (spec.q1_mlmin, spec.q2_mlmin)
-    assert np.all(r.q * 6e7 < 0.9 * np.array(q))  # the degeneracy is real
+    assert np.all(r.q * MLMIN_PER_M3S < 0.9 * np.array(q))  # the degeneracy is real
     assert not r.model_explains_data or all(_inside(r.intervals_any_oil[k], q[k]) for k in range(2))
     assert any("viscosity" in w for w in r.warnings)
     assert r.oil_degeneracy["correlation_q1"] < -0.9  # thinner oil reads as less oil
@@ -48,7 +49,7 @@ def test_the_static_position_separates_hot_oil_from_less_oil(machine, seed):
     plain = identify_record(rec, machine).result
     assert not plain.model_explains_data  # the static position contradicts the plain model
     r = identify_record(rec, machine, effects=(parse_effect("viscosity:bearing=both"),)).result
-    err = r.q * 6e7 / np.array(Q) - 1
+    err = r.q * MLMIN_PER_M3S / np.array(Q) - 1
     factor = r.effects["viscosity"]["factor"]
     # measured: flows -1.8 / -1.7 % and -1.4 / -1.1 %, factor 0.765 and 0.760 (BENCHMARKS "oil and static");
     # issue 11: within 2 %
@@ -66,7 +67,7 @@ def test_a_set_at_three_speeds_pins_the_oil_from_the_dynamic_part_alone(machine)
     plain = identify_set(records, machine).result
     assert not plain.model_explains_data
     r = identify_set(records, machine, effects=(parse_effect("viscosity:bearing=both"),)).result
-    err = r.q * 6e7 / np.array(Q) - 1
+    err = r.q * MLMIN_PER_M3S / np.array(Q) - 1
     assert np.abs(err).max() < 0.02
     assert abs(r.effects["viscosity"]["factor"] / 0.75 - 1) < 0.05
     assert r.model_explains_data
@@ -86,10 +87,10 @@ def test_an_oil_temperature_reading_separates_hot_oil_from_less_oil(machine, tmp
                            seed=11)
     rec = make_record(spec).record
     plain = identify_record(rec, machine, IdentificationSettings(oil_check="never")).result
-    assert np.all(plain.q * 6e7 < 0.85 * np.array(Q))
+    assert np.all(plain.q * MLMIN_PER_M3S < 0.85 * np.array(Q))
     read = dataclasses.replace(rec, oil_temperature_c=t)
     r = identify_record(read, machine).result
-    assert np.all(np.abs(r.q * 6e7 / np.array(Q) - 1) < 0.03), r.q * 6e7
+    assert np.all(np.abs(r.q * MLMIN_PER_M3S / np.array(Q) - 1) < 0.03), r.q * MLMIN_PER_M3S
     assert all(_inside(r.intervals[k], Q[k]) for k in range(2))
     assert r.effects["oil_temperature"]["temperature_c"] == t
     assert not any("viscosity" in w for w in r.warnings)  # no oil-check warning: the oil is known
@@ -104,4 +105,4 @@ def test_an_oil_temperature_reading_separates_hot_oil_from_less_oil(machine, tmp
     bare.write_text(text[:text.index("[oil]")] + text[text.index("[measurement]"):])
     r = identify_record(read, load_machine(bare), IdentificationSettings(oil_check="never")).result
     assert any("oil_temperature_c = 45 °C not used" in w for w in r.warnings)
-    assert np.all(r.q * 6e7 < 0.85 * np.array(Q))
+    assert np.all(r.q * MLMIN_PER_M3S < 0.85 * np.array(Q))

@@ -10,6 +10,7 @@ from lubeviz.identify.tables.accuracy import NOISE_FB_REL, NOISE_PHI_DEG, interp
 from lubeviz.identify.tables.supply import DEFAULT_POINTS, DEFAULT_SPAN, DENSE_BAND, DENSE_STEP, build_table, table_flows
 from lubeviz.model.machine import load_machine
 from lubeviz.rotor.statics import bearing_static_loads
+from lubeviz.units import MLMIN_PER_M3S
 
 
 @pytest.fixture(scope="module")
@@ -86,7 +87,7 @@ def test_grid_is_uniform_and_dense_where_the_groove_fills():
 def test_flooded_threshold_matches_the_paper(paper_table):
     """SPEC §2: Q_T = 546 ml/min for this bearing at 75 Hz; a correct solver lands within a few percent."""
     _, t = paper_table
-    assert t.q_threshold * 6e7 == pytest.approx(546.0, rel=0.03)
+    assert t.q_threshold * MLMIN_PER_M3S == pytest.approx(546.0, rel=0.03)
 
 
 # Issue 4's target: the table's error in fb and φ below a tenth of the measurement noise floor

@@ -9,6 +9,7 @@ from lubeviz.errors import ConvergenceError
 from lubeviz.rotor import Unbalance, rotor_from_machine, unbalance_response
 from lubeviz.rotor.film_bearings import film_bearings
 from lubeviz.rotor.film_transient import amplitude_ratio, film_time_response
+from lubeviz.units import MLMIN_PER_M3S
 
 pytestmark = pytest.mark.slow
 
@@ -27,7 +28,7 @@ def coarse(machine):
 
     m = load_machine()
     m.bearings = [b.copy(n_circumferential=60, n_axial=40) for b in m.bearings]
-    bearings = film_bearings(m, (450 / 6e7, 450 / 6e7), coefficients="fixed-pattern")
+    bearings = film_bearings(m, (450 / MLMIN_PER_M3S, 450 / MLMIN_PER_M3S), coefficients="fixed-pattern")
     return m, rotor_from_machine(m), bearings
 
 

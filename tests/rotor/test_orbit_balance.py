@@ -11,6 +11,7 @@ from lubeviz.rotor.film_bearings import film_bearings
 from lubeviz.rotor.film_transient import amplitude_ratio, film_time_response
 from lubeviz.rotor.orbit_balance import orbit_balance
 from lubeviz.rotor.response import Unbalance, machine_unbalance
+from lubeviz.units import MLMIN_PER_M3S
 
 pytestmark = pytest.mark.slow
 
@@ -25,7 +26,7 @@ def coarse():
 
     m = load_machine()
     m.bearings = [b.copy(n_circumferential=60, n_axial=40) for b in m.bearings]
-    bearings = film_bearings(m, (900 / 6e7, 900 / 6e7), coefficients="fixed-pattern")
+    bearings = film_bearings(m, (900 / MLMIN_PER_M3S, 900 / MLMIN_PER_M3S), coefficients="fixed-pattern")
     return m, rotor_from_machine(m), bearings
 
 
@@ -142,7 +143,7 @@ def test_the_flow_slope_is_the_balance_s_derivative_in_the_supply(coarse, flows_
 
     machine, rotor, _ = coarse
     ub = _unbalance(machine, 0.5)
-    q = np.array(flows_mlmin) / 6e7
+    q = np.array(flows_mlmin) / MLMIN_PER_M3S
     thresholds = flooded_thresholds(machine)
     fb = film_bearings(machine, q)
     ob = orbit_balance(rotor, fb, ub, nodes=NODES, tol=1e-10,

@@ -31,6 +31,7 @@ from lubeviz.rotor.stability import (
     stability_map,
 )
 from lubeviz.rotor.statics import bearing_static_loads
+from lubeviz.units import MLMIN_PER_M3S
 
 HZ = 2.0 * math.pi
 K_RIGID = 1e6  # N/m per bearing
@@ -159,8 +160,8 @@ def test_warm_started_sweep_matches_cold_equilibria(machine):
 
 def test_supply_rules(machine):
     speeds = HZ * np.array([40.0, 100.0])
-    fixed = film_coefficients_over_speed(machine, speeds, Supply.flow(546 / 6e7))
-    assert np.all(fixed.q_supply == 546 / 6e7)
+    fixed = film_coefficients_over_speed(machine, speeds, Supply.flow(546 / MLMIN_PER_M3S))
+    assert np.all(fixed.q_supply == 546 / MLMIN_PER_M3S)
     frac = film_coefficients_over_speed(machine, speeds, Supply.threshold_fraction((0.6, 0.9)))
     np.testing.assert_allclose(frac.q_supply, frac.q_threshold * [0.6, 0.9], rtol=1e-12)
     with pytest.raises(InputError, match="3 values for 2 bearings"):

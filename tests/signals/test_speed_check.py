@@ -17,8 +17,9 @@ from lubeviz.model.machine import load_machine
 from lubeviz.signals.records import read_record, record_from_arrays, write_record
 from lubeviz.signals.speed_check import check_speed_label, spectrum_speed_check
 from lubeviz.signals.synthesize import synthesize_record
+from lubeviz.units import MLMIN_PER_M3S
 
-FLOWS = (450 / 6e7, 600 / 6e7)
+FLOWS = (450 / MLMIN_PER_M3S, 600 / MLMIN_PER_M3S)
 
 
 @pytest.fixture(scope="module")

@@ -7,8 +7,9 @@ from lubeviz.errors import InputError
 from lubeviz.rotor.film_bearings import film_bearings, machine_response
 from lubeviz.signals import read_record, record_features, write_record
 from lubeviz.signals.synthesize import synthesize_record
+from lubeviz.units import MLMIN_PER_M3S
 
-FLOWS = (450 / 6e7, 600 / 6e7)
+FLOWS = (450 / MLMIN_PER_M3S, 600 / MLMIN_PER_M3S)
 
 
 @pytest.fixture(scope="module")

@@ -8,8 +8,9 @@ from lubeviz.effects import parse_effect
 from lubeviz.effects.wiring import FAULTS
 from lubeviz.identify.forward.chain import ForwardChain, simulate
 from lubeviz.verification.broken import KINDS, broken_record
+from lubeviz.units import MLMIN_PER_M3S
 
-Q = np.array([480.0, 560.0]) / 6e7
+Q = np.array([480.0, 560.0]) / MLMIN_PER_M3S
 
 
 @pytest.mark.parametrize("fault", sorted(FAULTS))

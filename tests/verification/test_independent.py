@@ -16,6 +16,7 @@ from lubeviz.signals.features import record_features
 from lubeviz.signals.records import read_record
 from lubeviz.verification import (IndependentSpec, clean_corpus, make_record, make_set, max_growth_rate, parse_effect,
                                   steady_truth, write_record_csv)
+from lubeviz.units import MLMIN_PER_M3S
 
 SPEED = 75.0
 Q = 545.0  # ml/min, ~Q_T at 75 Hz
@@ -48,7 +49,7 @@ def _angle_diff(a, b):
 @pytest.mark.parametrize("q", [400.0, 545.0, 800.0])
 def test_close_to_model_but_not_identical(machine, q):
     rec = make_record(spec(q1_mlmin=q, q2_mlmin=q, total_s=15.0))  # starved: a slow whirl mode
-    model, _ = machine_response(machine, (q / 6e7, q / 6e7), 2 * math.pi * SPEED, nodes=(6, 20))
+    model, _ = machine_response(machine, (q / MLMIN_PER_M3S, q / MLMIN_PER_M3S), 2 * math.pi * SPEED, nodes=(6, 20))
     t = rec.truth
     dfb = t["fb"] / model.fb - 1.0
     dphi = np.degrees(_angle_diff(t["phi_rad"], model.phi))
@@ -214,12 +215,12 @@ def test_film_cache_is_keyed_validated_and_rebuilt(tmp_path, monkeypatch, paper_
 
     monkeypatch.setenv("LUBEVIZ_CACHE_DIR", str(tmp_path))
     b = paper_bearing.copy(n_circumferential=60, n_axial=20, groove_refinement=1)  # small: a cache test
-    args = (b, 2 * math.pi * 75.0, (0.0, -3272.8), 545.0 / 6e7)
+    args = (b, 2 * math.pi * 75.0, (0.0, -3272.8), 545.0 / MLMIN_PER_M3S)
     cold = equilibria.film_point(*args)
     warm = equilibria.film_point(*args)
     assert not cold.cached and warm.cached
     np.testing.assert_array_equal(warm.K, cold.K)
-    other = equilibria.film_point(b, 2 * math.pi * 75.0, (0.0, -3272.8), 500.0 / 6e7)
+    other = equilibria.film_point(b, 2 * math.pi * 75.0, (0.0, -3272.8), 500.0 / MLMIN_PER_M3S)
     assert not other.cached  # another supply, another key
     files = sorted((tmp_path / "independent").glob("*.npz"))
     assert len(files) == 2
