@@ -361,6 +361,73 @@ def secant_curvature(prev: ResponseDefect, new: ResponseDefect) -> ResponseDefec
                                hstatic=update(prev.hstatic, new.dstatic, prev.dstatic))
 
 
+@dataclass(frozen=True)
+class _RoundsOn:
+    """Where a run of rounds solves its balances and when it stops: on `machine`'s films (None: the chain's
+    machine) at the flows x `factor` (per bearing; None: the flows themselves), with the correction's slopes
+    from `films`, at most `limit` rounds, settled when the flows move by less than `stop_tol` of Q_T (or
+    SIGMA_TOL of their std)."""
+
+    machine: object
+    films: SlopeFilms
+    limit: int
+    stop_tol: float
+    factor: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class _FitContext:
+    """What every step of one large-orbit fit shares: the chain and the record, the fits' keywords (`fit`'s
+    names, working budget, bounds, level), the balance's harmonics and points, the rounds on the model's films
+    (`model`), the progress report and its total, and the flows of each round so far (`history`, appended to)."""
+
+    chain: ForwardChain
+    measured: object
+    kw: dict
+    harmonics: int
+    points: int
+    model: _RoundsOn
+    progress: ProgressFn
+    total: int
+    history: list
+
+
+@dataclass(frozen=True)
+class _SlopeTaken:
+    """The last round that took the correction's slope: the flows and the unbalance's scale it was taken at,
+    how (per flow: exact, and at or above Q_T) and the correction it gave."""
+
+    q: np.ndarray
+    scale: float
+    how: tuple
+    defect: ResponseDefect
+
+
+@dataclass(frozen=True)
+class _RoundMove:
+    """How far one round moved: the flows, relative to Q_T and to their std, and the unbalance's scale
+    (relative)."""
+
+    flows: float
+    flows_sigma: float
+    scale: float
+
+    def settled(self, stop_tol: float) -> bool:
+        return (self.flows < stop_tol or self.flows_sigma < SIGMA_TOL) and self.scale < SCALE_TOL
+
+
+@dataclass(frozen=True)
+class _Branch:
+    """One branch of a time round (at the answer, or across Q_T from it): the rounds' state after its
+    balances, whether they settled, whether the answer lies on the side of each near flow's Q_T its gap was
+    taken on, and its `TimeRound`."""
+
+    state: dict
+    converged: bool
+    consistent: bool
+    round: TimeRound
+
+
 def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | None = None,
                     budget: ModelBudget | None = None, lower: float = 0.25, upper: float = 2.0,
                     level: float = 0.01, tol: float = 1e-3, max_rounds: int = 10, harmonics: int = HARMONICS, points: int = POINTS,
@@ -403,183 +470,259 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     """
     t0 = time.perf_counter()
     check_orbit_chain(chain)
+    if int(time_rounds) < 0:
+        raise InputError(f"time rounds {time_rounds!r}; expected 0 or more")
+    full_budget, working = _fit_budgets(budget, harmonics)
+    slope_films = SlopeFilms(chain, slope_mesh)
+    total = (max_rounds + 1) * (1 + 2 * int(time_rounds)) + (0 if slope_films.own_mesh else COARSE_ROUNDS)  # a time
+    # round near Q_T runs its balances twice (`KINK_BAND`)
+    ctx = _FitContext(chain, measured, dict(names=names, budget=working, lower=lower, upper=upper, level=level),
+                      harmonics, points, _RoundsOn(None, slope_films, max_rounds, tol), progress, total, [])
+    progress(0, total, "large orbits: the linear fit")
+    plain, state = _plain_fit(ctx)
+    _coarse_rounds(ctx, state)
+    converged = _balance_rounds(ctx, state, ctx.model, "round")
+    balance_intervals = None
+    if time_rounds:  # the balance's own intervals: those with time rounds are never narrower (below)
+        balance_intervals = _intervals_at(ctx, state, full_budget)[2]
+    time_log, time_warnings, converged = _run_time_rounds(ctx, state, int(time_rounds), time_revolutions, converged)
+    progress(total - 1, total, "large orbits: intervals")
+    final, slope_intervals, intervals = _intervals_at(ctx, state, full_budget)
+    # the time rounds' own intervals, without the truncation term they take out and the balance's union: reported
+    # so that their coverage can be measured (`bench coverage --large-orbit --orbit-time-rounds`), never shown as
+    # the answer's
+    own = {n: slope_intervals[n] for n in chain.names[:2] if n in slope_intervals} if time_log else None
+    if balance_intervals is not None:  # near Q_T the time rounds can end on the kink with a narrow interval (record
+        # 5 of the bench: Q2 +2.8 % with sigma 0.9 %); until their own sigma is measured, the balance's bounds it
+        intervals = _interval_union(intervals, balance_intervals)
+    final = _with_std_of(final, intervals)
+    stability, orbit_stab, answer_warnings = _answer_checks(ctx, state, converged)
+    warnings = list(final.warnings) + time_warnings + answer_warnings
+    final = dataclasses.replace(final, warnings=tuple(warnings), seconds=time.perf_counter() - t0)
+    progress(total, total, "large orbits: done")
+    return OrbitFit(fit=final, plain=plain, orbit=state["ob"], defect=state["defect"], history=tuple(ctx.history),
+                    converged=converged, seconds=time.perf_counter() - t0, stability=stability,
+                    unbalance_scale=state["ob_scale"],  # the size the last balance ran at
+                    orbit_stability=orbit_stab, time_rounds=time_log, time_round_intervals=own)
+
+
+def _fit_budgets(budget: ModelBudget | None, harmonics: int) -> tuple[ModelBudget, ModelBudget]:
+    """The whole model budget, its `orbit_truncation` term that of a balance with `harmonics`, and the working
+    budget the rounds and the fits weigh the features with."""
     # the rounds and the fits weigh the features with the budget less its `orbit_truncation` term, whose size is
     # itself uncertain (measured against the time integration at two points); the flows' uncertainty carries it
     # (`_truncation_union`: the sandwich covariance of these weights under the whole budget)
     full_budget = budget or ModelBudget()
-    if int(time_rounds) < 0:
-        raise InputError(f"time rounds {time_rounds!r}; expected 0 or more")
     full_budget = ModelBudget(**{**full_budget.param.values(), "name": None,
                                  "orbit_truncation": full_budget.orbit_truncation * truncation_factor(harmonics)})
     working = ModelBudget(**{**full_budget.param.values(), "name": None, "orbit_truncation": 0.0})
-    kw = dict(names=names, budget=working, lower=lower, upper=upper, level=level)
-    slope_films = SlopeFilms(chain, slope_mesh)
-    total = (max_rounds + 1) * (1 + 2 * int(time_rounds)) + (0 if slope_films.own_mesh else COARSE_ROUNDS)  # a time
-    # round near Q_T runs its balances twice (`KINK_BAND`)
-    progress(0, total, "large orbits: the linear fit")
-    plain = fit(chain, measured, intervals=False, **kw)
+    return full_budget, working
+
+
+def _plain_fit(ctx: _FitContext) -> tuple[Fit, dict]:
+    """The plain linear fit (global search) the rounds start from, and the rounds' state at its answer: the flows
+    `q` and every parameter `theta`, the unbalance's `scale` the record's 1X implies, the last balance `ob`, the
+    correction `defect`, the balances so far (`rounds`), the time integration's `gap` held in the correction, the
+    last refit's `chi2` and the scale the last balance ran at (`ob_scale`)."""
+    plain = fit(ctx.chain, ctx.measured, intervals=False, **ctx.kw)
     theta = plain.values.copy()  # every parameter is free here
     q = theta[:2].copy()
-    scale = measured_scale(chain, measured, theta)  # the linear model's reading; each round reads it again
-    history = [q.copy()]
-    state = dict(q=q, theta=theta, scale=scale, ob=None, defect=None, rounds=0, gap=None, chi2=None, ob_scale=scale)
+    scale = measured_scale(ctx.chain, ctx.measured, theta)  # the linear model's reading; each round reads it again
+    ctx.history.append(q.copy())
+    return plain, dict(q=q, theta=theta, scale=scale, ob=None, defect=None, rounds=0, gap=None, chi2=None,
+                       ob_scale=scale)
 
+
+def _coarse_rounds(ctx: _FitContext, state: dict) -> None:
+    """With the slope's films coarser than the model's: the rounds on them first, the state moved to their
+    answer (its correction dropped: the model's rounds take their own)."""
+    slope_films = ctx.model.films
+    if slope_films.own_mesh:
+        return
+    # First the whole iteration on the slope's coarser films (their balances ~4 x cheaper): the correction
+    # there differs from the model's films' by 2-13 % of itself (BENCHMARKS "Large orbits"), so the rounds
+    # on the model's films start near their answer instead of at the linear fit's, 20-27 % off. Their Q_T
+    # lies about 1.7 % higher on 50 x 50: the flows are scaled by the Q_T ratio, so that near Q_T both
+    # meshes' films are at the same side of their kink and the same distance from it.
+    ctx.progress(0, ctx.total, "large orbits: rounds on coarser films")
+    coarse_films = SlopeFilms(ctx.chain, None, machine=slope_films.machine)
+    factor = flooded_thresholds(coarse_films.machine, ctx.chain.omega) / ctx.chain.q_threshold
+    _balance_rounds(ctx, state, _RoundsOn(coarse_films.machine, coarse_films, COARSE_ROUNDS, COARSE_TOL, factor),
+                    "coarse round")
+    slope_films.last = state["ob"]  # the fine rounds' coarse balances continue from here
+    state["defect"] = None
+
+
+def _balance_rounds(ctx: _FitContext, state: dict, on: _RoundsOn, label: str) -> bool:
+    """Rounds of balances on `on.machine`'s films (at the flows x `on.factor`) with slopes from `on.films`, from
+    the state's flows; True when they settled (the flows moved by less than `on.stop_tol` of Q_T or SIGMA_TOL of
+    their std)."""
+    taken = None  # the last of these rounds that took the slopes
+    for _ in range(on.limit):
+        state["rounds"] += 1
+        rnd = state["rounds"]
+
+        def sub(i, n, text, rnd=rnd):
+            ctx.progress(rnd - 1 + min(i / max(n, 1), 1.0), ctx.total, f"large orbits, {label} {rnd}: {text}")
+
+        defect, ob, taken = _round_correction(ctx, state, on, taken, sub)
+        if _refit(ctx, state, defect, ob).settled(on.stop_tol):
+            return True
+    return False
+
+
+def _round_correction(ctx: _FitContext, state: dict, on: _RoundsOn, taken: _SlopeTaken | None,
+                      progress: ProgressFn) -> tuple[ResponseDefect, OrbitBalance, _SlopeTaken | None]:
+    """One round's balance at the state's flows and the correction from it: with its slope taken again (the
+    scale's coupling folded in, the secant curvature since `taken` when that took its slopes the same way) when
+    `taken` is none or stale, else `taken`'s slope with the defect itself from here; and the slope last taken."""
+    chain, q, scale = ctx.chain, state["q"], state["scale"]
     qt = chain.q_threshold
+    exact = smooth_flows(chain, q)
+    smooth = len(exact) == 2
+    # how each flow's slope is taken (exact, or a difference over the step on its side of Q_T): the secant
+    # curvature is consistent between rounds that take every slope the same way
+    how = tuple((k in exact, bool(q[k] >= qt[k])) for k in range(2))
+    fresh = (smooth or taken is None or np.max(np.abs(q - taken.q) / qt) > SLOPE_REUSE
+             or np.any((q >= qt) != (taken.q >= qt)) or abs(scale / taken.scale - 1.0) > SCALE_TOL)
+    new, ob = orbit_defect(chain, q, start=state["ob"], slope=fresh, harmonics=ctx.harmonics, points=ctx.points,
+                           scale=scale, slope_films=on.films, machine=on.machine, flow_factor=on.factor,
+                           gap=state["gap"], progress=progress)
+    if not fresh:  # the slope from nearby flows, the defect itself from here
+        return dataclasses.replace(state["defect"], x=new.x, y=new.y, static=new.static, q0=new.q0), ob, taken
+    new = with_scale_coupling(chain, ctx.measured, state["theta"], new)
+    if taken is not None and taken.how == how:
+        new = secant_curvature(taken.defect, new)
+    return new, ob, _SlopeTaken(q=q.copy(), scale=scale, how=how, defect=new)
 
-    def rounds(machine, films, limit, stop_tol, label, factor=None):
-        """Rounds of balances on `machine`'s films (at the flows x `factor`) with slopes from `films`, from the
-        state's flows; True when they settled (the flows moved by less than `stop_tol` of Q_T or SIGMA_TOL of
-        their std)."""
-        q, theta, scale, ob = state["q"], state["theta"], state["scale"], state["ob"]
-        defect = state["defect"]
-        slope_at = scale_at = None
-        last_fresh = None  # (how the slopes were taken, the correction) of the last round that took them
-        settled = False
-        for _ in range(limit):
-            state["rounds"] += 1
-            rnd = state["rounds"]
 
-            def sub(i, n, text, rnd=rnd):
-                progress(rnd - 1 + min(i / max(n, 1), 1.0), total, f"large orbits, {label} {rnd}: {text}")
+def _refit(ctx: _FitContext, state: dict, defect: ResponseDefect, ob: OrbitBalance) -> _RoundMove:
+    """A round's local refit with the correction `defect` (of the balance `ob`) from the state's parameters, and
+    the unbalance's scale the record's 1X implies at its answer; the state moves there."""
+    q, scale = state["q"], state["scale"]
+    qt = ctx.chain.q_threshold
+    res = fit(ctx.chain.with_defect(defect), ctx.measured, intervals=False, start=state["theta"], **ctx.kw)
+    state["chi2"], state["ob_scale"] = res.chi2, scale  # the balance of this round ran at `scale`
+    theta = res.values.copy()
+    ctx.history.append(theta[:2].copy())
+    moved = float(np.max(np.abs(theta[:2] - q) / qt))
+    moved_sigma = float(np.max(np.abs(theta[:2] - q) / np.maximum(res.std[:2], 1e-300)))
+    new_scale = measured_scale(ctx.chain, ctx.measured, theta, defect)
+    state.update(q=theta[:2].copy(), theta=theta, scale=new_scale, ob=ob, defect=defect)
+    return _RoundMove(moved, moved_sigma, abs(new_scale / scale - 1.0))
 
-            exact = smooth_flows(chain, q)
-            smooth = len(exact) == 2
-            # how each flow's slope is taken (exact, or a difference over the step on its side of Q_T): the secant
-            # curvature is consistent between rounds that take every slope the same way
-            how = tuple((k in exact, bool(q[k] >= qt[k])) for k in range(2))
-            fresh = (smooth or slope_at is None or np.max(np.abs(q - slope_at) / qt) > SLOPE_REUSE
-                     or np.any((q >= qt) != (slope_at >= qt)) or abs(scale / scale_at - 1.0) > SCALE_TOL)
-            new, ob = orbit_defect(chain, q, start=ob, slope=fresh, harmonics=harmonics, points=points,
-                                   scale=scale, slope_films=films, machine=machine, flow_factor=factor,
-                                   gap=state["gap"], progress=sub)
-            if fresh:
-                new = with_scale_coupling(chain, measured, theta, new)
-                if last_fresh is not None and last_fresh[0] == how:
-                    new = secant_curvature(last_fresh[1], new)
-                last_fresh = (how, new)
-                defect, slope_at, scale_at = new, q.copy(), scale
-            else:  # the slope from nearby flows, the defect itself from here
-                defect = dataclasses.replace(defect, x=new.x, y=new.y, static=new.static, q0=new.q0)
-            res = fit(chain.with_defect(defect), measured, intervals=False, start=theta, **kw)
-            state["chi2"], state["ob_scale"] = res.chi2, scale  # the balance of this round ran at `scale`
-            theta = res.values.copy()
-            history.append(theta[:2].copy())
-            moved = float(np.max(np.abs(theta[:2] - q) / qt))
-            moved_sigma = float(np.max(np.abs(theta[:2] - q) / np.maximum(res.std[:2], 1e-300)))
-            q = theta[:2].copy()
-            new_scale = measured_scale(chain, measured, theta, defect)
-            scale_moved = abs(new_scale / scale - 1.0)
-            scale = new_scale
-            state.update(q=q, theta=theta, scale=scale, ob=ob, defect=defect)
-            if (moved < stop_tol or moved_sigma < SIGMA_TOL) and scale_moved < SCALE_TOL:
-                settled = True
-                break
-        return settled
 
-    if not slope_films.own_mesh:
-        # First the whole iteration on the slope's coarser films (their balances ~4 x cheaper): the correction
-        # there differs from the model's films' by 2-13 % of itself (BENCHMARKS "Large orbits"), so the rounds
-        # on the model's films start near their answer instead of at the linear fit's, 20-27 % off. Their Q_T
-        # lies about 1.7 % higher on 50 x 50: the flows are scaled by the Q_T ratio, so that near Q_T both
-        # meshes' films are at the same side of their kink and the same distance from it.
-        progress(0, total, "large orbits: rounds on coarser films")
-        coarse_films = SlopeFilms(chain, None, machine=slope_films.machine)
-        factor = flooded_thresholds(coarse_films.machine, chain.omega) / chain.q_threshold
-        rounds(coarse_films.machine, coarse_films, COARSE_ROUNDS, COARSE_TOL, "coarse round", factor)
-        slope_films.last = state["ob"]  # the fine rounds' coarse balances continue from here
-        state["defect"] = None
-    converged = rounds(None, slope_films, max_rounds, tol, "round")
+def _copied(state: dict) -> dict:
+    """The rounds' state, its arrays copied (a branch must not move another's)."""
+    return {key: (v.copy() if isinstance(v, np.ndarray) else v) for key, v in state.items()}
+
+
+def _run_time_rounds(ctx: _FitContext, state: dict, count: int, revolutions: int,
+                     converged: bool) -> tuple[tuple[TimeRound, ...], list[str], bool]:
+    """`count` time rounds from the state's answer (see `fit_large_orbit`), the state moved to each one's kept
+    branch: the rounds kept, the warnings, and whether the last kept branch's rounds settled (else `converged`)."""
     time_log = []
     time_warnings = []
-
-    def copied(d: dict) -> dict:  # the rounds' state, its arrays copied (a branch must not move another's)
-        return {key: (v.copy() if isinstance(v, np.ndarray) else v) for key, v in d.items()}
-
-    balance_intervals = None
-    if time_rounds:  # the balance's own intervals: those with time rounds are never narrower (below)
-        pre = fit(chain.with_defect(state["defect"]), measured, start=state["theta"], **kw)
-        balance_intervals = _truncation_union(
-            chain.with_defect(state["defect"]), measured, pre,
-            _slope_union(chain, measured, state["defect"], state["theta"], pre, kw), kw, full_budget)
-
-    for k in range(int(time_rounds)):
+    for k in range(count):
         t_round = time.perf_counter()
-        base = copied(state)
-        at = np.asarray(base["ob"].bearings.flows, dtype=float)  # the last balance's flows, within the rounds'
-        # tolerance of the answer: the gap is taken there
-        where = [at]  # there, and across Q_T from it for a flow near its kink
-        near = [j for j in range(2) if abs(at[j] / qt[j] - 1.0) < KINK_BAND]
-        if near:
-            other = at.copy()
-            for j in near:
-                side = 1.0 if at[j] >= qt[j] else -1.0
-                other[j] = qt[j] * (1.0 - side * max(KINK_MIRROR, abs(at[j] / qt[j] - 1.0)))
-            where.append(other)
+        base = _copied(state)
+        where, near = _time_round_flows(ctx.chain, base["ob"])
         branches = []
         for b, pt in enumerate(where):
-            state.clear()
-            state.update(copied(base))
-            done = state["rounds"]
             label = f"time round {k + 1}" + ("" if b == 0 else ", across Q_T")
-
-            def sub(i, n, text, label=label, done=done):
-                progress(done + min(i / max(n, 1), 1.0) * 0.99, total, f"large orbits, {label}: {text}")
-
-            try:
-                ob_pt = state["ob"] if b == 0 else _balance(chain, pt, state["ob"], harmonics, points, 1e-6,
-                                                            lambda i, n, t: sub(0, 1, f"balance, {t}"),
-                                                            state["ob_scale"])
-                gap, gap_pct, settled = time_gap(chain, ob_pt, state["ob_scale"], revolutions=time_revolutions,
-                                                 progress=lambda i, n, t: sub(i, n, f"integrating, {t}"))
-            except LubevizError as exc:
-                time_warnings.append(f"large orbits: {label} failed ({exc})")
-                continue
-            state["gap"], state["defect"] = gap, None
-            if b > 0:  # across Q_T the rounds start there, with that balance: from the answer they would cross the
-                # kink with the far side's slope and stop on Q_T (record 5 of the bench: 544.8 ml/min, Q_T 545)
-                theta_pt = state["theta"].copy()
-                theta_pt[:2] = pt
-                state.update(q=pt.copy(), theta=theta_pt, ob=ob_pt)
-            settled_rounds = rounds(None, slope_films, max_rounds, tol, f"{label}, balance")
-            consistent = all((state["q"][j] >= qt[j]) == (pt[j] >= qt[j]) for j in near)
-            branches.append(dict(state=copied(state), converged=settled_rounds, consistent=consistent,
-                                 round=TimeRound(flows_at=pt.copy(), flows_after=state["q"].copy(),
-                                                 gap_percent=gap_pct, settled_percent=settled, seconds=0.0,
-                                                 chi2=float(state["chi2"]), consistent=consistent)))
+            branch = _time_branch(ctx, state, base, pt, b > 0, near, label, revolutions, time_warnings)
+            if branch is not None:
+                branches.append(branch)
         state.clear()
         if not branches:  # every integration failed: the answer before this round stands
             state.update(base)
             time_warnings[-1] += f"; the flows are the {'balance' if k == 0 else 'last time round'}'s"
             break
-        pick = min(branches, key=lambda br: (not br["consistent"], br["round"].chi2))
-        state.update(pick["state"])
-        converged = pick["converged"]
-        others = tuple(br["round"] for br in branches if br is not pick)
-        time_log.append(dataclasses.replace(pick["round"], seconds=time.perf_counter() - t_round, others=others))
-    q, theta, ob, defect = state["q"], state["theta"], state["ob"], state["defect"]
-    scale_used = state["ob_scale"]  # the size the last balance ran at
-    progress(total - 1, total, "large orbits: intervals")
+        pick = min(branches, key=lambda br: (not br.consistent, br.round.chi2))
+        state.update(pick.state)
+        converged = pick.converged
+        others = tuple(br.round for br in branches if br is not pick)
+        time_log.append(dataclasses.replace(pick.round, seconds=time.perf_counter() - t_round, others=others))
+    return tuple(time_log), time_warnings, converged
+
+
+def _time_round_flows(chain: ForwardChain, ob: OrbitBalance) -> tuple[list[np.ndarray], list[int]]:
+    """Where a time round integrates (at the last balance `ob`'s flows, and across Q_T from them), and the
+    flows within KINK_BAND of their Q_T."""
+    qt = chain.q_threshold
+    at = np.asarray(ob.bearings.flows, dtype=float)  # the last balance's flows, within the rounds'
+    # tolerance of the answer: the gap is taken there
+    where = [at]  # there, and across Q_T from it for a flow near its kink
+    near = [j for j in range(2) if abs(at[j] / qt[j] - 1.0) < KINK_BAND]
+    if near:
+        other = at.copy()
+        for j in near:
+            side = 1.0 if at[j] >= qt[j] else -1.0
+            other[j] = qt[j] * (1.0 - side * max(KINK_MIRROR, abs(at[j] / qt[j] - 1.0)))
+        where.append(other)
+    return where, near
+
+
+def _time_branch(ctx: _FitContext, state: dict, base: dict, pt: np.ndarray, across: bool, near: list[int],
+                 label: str, revolutions: int, time_warnings: list[str]) -> _Branch | None:
+    """One branch of a time round, in `state` from the state `base`: the time integration at `pt` (the last
+    balance's flows, or with `across` a balance at `pt` across Q_T from them), its gap held in the correction and
+    the balance's rounds again. None, with a warning, when the balance or the integration failed."""
+    qt = ctx.chain.q_threshold
+    state.clear()
+    state.update(_copied(base))
+    done = state["rounds"]
+
+    def sub(i, n, text):
+        ctx.progress(done + min(i / max(n, 1), 1.0) * 0.99, ctx.total, f"large orbits, {label}: {text}")
+
+    try:
+        ob_pt = state["ob"] if not across else _balance(ctx.chain, pt, state["ob"], ctx.harmonics, ctx.points, 1e-6,
+                                                        lambda i, n, t: sub(0, 1, f"balance, {t}"),
+                                                        state["ob_scale"])
+        gap, gap_pct, settled = time_gap(ctx.chain, ob_pt, state["ob_scale"], revolutions=revolutions,
+                                         progress=lambda i, n, t: sub(i, n, f"integrating, {t}"))
+    except LubevizError as exc:
+        time_warnings.append(f"large orbits: {label} failed ({exc})")
+        return None
+    state["gap"], state["defect"] = gap, None
+    if across:  # across Q_T the rounds start there, with that balance: from the answer they would cross the
+        # kink with the far side's slope and stop on Q_T (record 5 of the bench: 544.8 ml/min, Q_T 545)
+        theta_pt = state["theta"].copy()
+        theta_pt[:2] = pt
+        state.update(q=pt.copy(), theta=theta_pt, ob=ob_pt)
+    settled_rounds = _balance_rounds(ctx, state, ctx.model, f"{label}, balance")
+    consistent = all((state["q"][j] >= qt[j]) == (pt[j] >= qt[j]) for j in near)
+    return _Branch(state=_copied(state), converged=settled_rounds, consistent=consistent,
+                   round=TimeRound(flows_at=pt.copy(), flows_after=state["q"].copy(), gap_percent=gap_pct,
+                                   settled_percent=settled, seconds=0.0, chi2=float(state["chi2"]),
+                                   consistent=consistent))
+
+
+def _intervals_at(ctx: _FitContext, state: dict, budget: ModelBudget) -> tuple[Fit, dict, dict]:
+    """The refit at the state's answer with its intervals, the flows' intervals from the slope's union
+    (`_slope_union`), and those widened by the balance's truncation under the whole `budget`
+    (`_truncation_union`)."""
+    chain, measured, kw, defect, theta = ctx.chain, ctx.measured, ctx.kw, state["defect"], state["theta"]
     final = fit(chain.with_defect(defect), measured, start=theta, **kw)
     intervals = _slope_union(chain, measured, defect, theta, final, kw)
-    # the time rounds' own intervals, without the truncation term they take out and the balance's union: reported
-    # so that their coverage can be measured (`bench coverage --large-orbit --orbit-time-rounds`), never shown as
-    # the answer's
-    own = {n: intervals[n] for n in chain.names[:2] if n in intervals} if time_log else None
-    intervals = _truncation_union(chain.with_defect(defect), measured, final, intervals, kw, full_budget)
-    if balance_intervals is not None:  # near Q_T the time rounds can end on the kink with a narrow interval (record
-        # 5 of the bench: Q2 +2.8 % with sigma 0.9 %); until their own sigma is measured, the balance's bounds it
-        intervals = _interval_union(intervals, balance_intervals)
-    final = _with_std_of(final, intervals)
-    warnings = list(final.warnings) + time_warnings
+    return final, intervals, _truncation_union(chain.with_defect(defect), measured, final, intervals, kw, budget)
+
+
+def _answer_checks(ctx: _FitContext, state: dict, converged: bool) -> tuple[Stability, OrbitStability, list[str]]:
+    """The stability of the equilibrium and of the periodic orbit at the state's answer, and the warnings on the
+    answer: the rounds did not settle, either is unstable, the orbit is too large for its harmonics."""
+    chain, q, ob = ctx.chain, state["q"], state["ob"]
+    warnings = []
     if not converged:
-        warnings.append(f"large orbits: the flows still moved by more than {100 * tol:g} % of Q_T after "
-                        f"{max_rounds} balances")
+        warnings.append(f"large orbits: the flows still moved by more than {100 * ctx.model.stop_tol:g} % of Q_T "
+                        f"after {ctx.model.limit} balances")
     stability = equilibrium_stability(chain.rotor, film_bearings(chain.machine, [float(v) for v in q], chain.omega,
                                                                  previous=ob.bearings))
     if stability.unstable:
         warnings.append(f"large orbits: at the flows found the model is {stability.describe()}; the periodic orbit "
                         "fitted is then not what the machine would show (a sub-synchronous line would grow)")
-    progress(total - 1, total, "large orbits: the orbit's stability")
+    ctx.progress(ctx.total - 1, ctx.total, "large orbits: the orbit's stability")
     orbit_stab = orbit_stability(chain.rotor, ob.bearings, ob)  # a few seconds: the films along it, Hill's method
     if orbit_stab.unstable:
         warnings.append(f"large orbits: the periodic orbit fitted is unstable, {orbit_stab.describe()}; the machine "
@@ -587,12 +730,7 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     if ob.max_eccentricity > 0.8:
         warnings.append(f"large orbits: the journal reaches {ob.max_eccentricity:.2f} of the clearance; "
                         f"{ob.harmonics} harmonics may not hold such an orbit")
-    final = dataclasses.replace(final, warnings=tuple(warnings), seconds=time.perf_counter() - t0)
-    progress(total, total, "large orbits: done")
-    return OrbitFit(fit=final, plain=plain, orbit=ob, defect=defect, history=tuple(history),
-                    converged=converged, seconds=time.perf_counter() - t0, stability=stability,
-                    unbalance_scale=scale_used, orbit_stability=orbit_stab, time_rounds=tuple(time_log),
-                    time_round_intervals=own)
+    return stability, orbit_stab, warnings
 
 
 def _slope_union(chain: ForwardChain, measured, defect: ResponseDefect, theta, final: Fit, kw) -> dict:
