@@ -110,7 +110,7 @@ def run_bench(args) -> dict:
         return bench_table(args.machine, points=args.points, identify_record=record if record.exists() else None,
                            progress=StderrBar())
     if args.what == "broken":
-        from ..verification.broken import bench_broken
+        from ..bench.broken import bench_broken
 
         if args.records < 1:
             raise ValueError(f"--records {args.records}: expected at least 1")
