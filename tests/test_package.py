@@ -13,11 +13,42 @@ def test_numerics_import_without_the_ui_stack():
             "lubeviz.cli.main, lubeviz.bench.film, lubeviz.identify.paper.maps, lubeviz.identify.batch, "
             "lubeviz.signals.records, lubeviz.signals.synthesize, lubeviz.rotor.stability, lubeviz.effects, "
             "lubeviz.identify.forward.chain, lubeviz.identify.fit.least_squares, lubeviz.diagnose, lubeviz.diagnose.report, "
-            "lubeviz.verification, lubeviz.cli.diagnose_cmd; "
+            "lubeviz.verification, lubeviz.cli.diagnose_cmd, lubeviz.api, lubeviz.identify.forward.explore; "
             "bad = [m for m in ('panel', 'bokeh', 'holoviews') if m in sys.modules]; "
             "assert not bad, bad")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
+
+
+PACKAGE = __import__("pathlib").Path(__file__).resolve().parents[1] / "lubeviz"
+
+
+def test_no_function_is_longer_than_120_lines_outside_numba_kernels():
+    """The house rule (issue 35): a function a reader cannot hold in view is split into named steps; numba
+    kernels (`@njit`, `@jit`) may stay whole, since splitting them costs calls inside the hot loop."""
+    import ast
+
+    long = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                kernel = any("jit" in ast.unparse(d) for d in node.decorator_list)
+                size = node.end_lineno - node.lineno + 1
+                if size > 120 and not kernel:
+                    long.append(f"{path.relative_to(PACKAGE.parent)}:{node.lineno} {node.name} ({size} lines)")
+    assert not long, long
+
+
+def test_unit_conversions_go_through_units():
+    """m^3/s <-> ml/min is written once, in `lubeviz.units`; everywhere else uses its constants."""
+    import re
+
+    typed_factor = re.compile(r"(?<![\w.])" + "6" + r"e7(?![\w.])")  # spelled apart: this line is scanned too
+    typed = [f"{path.relative_to(PACKAGE.parent)}:{n}" for path in sorted(PACKAGE.parent.joinpath("tests").rglob("*.py"))
+             + sorted(PACKAGE.rglob("*.py")) if path.name != "units.py"
+             for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1)
+             if typed_factor.search(line.split("#")[0])]
+    assert not typed, typed
 
 
 def test_app_page_builds():

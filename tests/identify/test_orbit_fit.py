@@ -16,6 +16,7 @@ from lubeviz.model.machine import DEFAULT_MACHINE
 from lubeviz.verification import IndependentSpec
 from lubeviz.verification.independent import make_record
 from lubeviz.verification.orbit_record import make_orbit_records
+from lubeviz.units import MLMIN_PER_M3S
 
 pytestmark = pytest.mark.slow
 
@@ -49,7 +50,7 @@ def weaker(orbit_records):
 
 def _inside(interval, q):
     low, high = interval
-    return low * 6e7 <= q <= (np.inf if high is None else high * 6e7)
+    return low * MLMIN_PER_M3S <= q <= (np.inf if high is None else high * MLMIN_PER_M3S)
 
 
 def test_the_linear_fit_is_biased_and_flagged_the_large_orbit_fit_recovers_the_flows(machine, independent):
@@ -66,10 +67,10 @@ def test_the_linear_fit_is_biased_and_flagged_the_large_orbit_fit_recovers_the_f
     rec, truth = independent.record, independent.truth
     assert min(truth["ratio_2x"]) > 0.08  # a large orbit: a 2X the linear model lacks
     plain = identify_record(rec, machine).result
-    plain_err = np.abs(plain.q * 6e7 / np.array(Q) - 1)
+    plain_err = np.abs(plain.q * MLMIN_PER_M3S / np.array(Q) - 1)
     assert not plain.model_explains_data and plain_err.max() > 0.1
     r = identify_record(rec, machine, FIVE, effects=(parse_effect("large_orbit"),)).result
-    err = np.abs(r.q * 6e7 / np.array(Q) - 1)
+    err = np.abs(r.q * MLMIN_PER_M3S / np.array(Q) - 1)
     assert err.max() < 0.05
     assert r.model_explains_data  # the residual back to noise + model level
     assert _inside(r.intervals[0], Q[0]) and _inside(r.intervals[1], Q[1])
@@ -97,11 +98,11 @@ def test_the_diagnosis_names_large_orbits_at_a_smaller_unbalance_and_reads_its_s
     inputs = diagnosis_inputs([weaker.record], machine)
     d = diagnose(inputs.chains, inputs.measured, lines=inputs.lines)
     assert not d.before.explained
-    assert np.abs(d.before.values[:2] * 6e7 / q_true - 1).max() > 0.05
+    assert np.abs(d.before.values[:2] * MLMIN_PER_M3S / q_true - 1).max() > 0.05
     assert d.added is not None and d.added.label == "large_orbit" and not d.ambiguous
     assert d.explained
     assert d.added.unbalance_scale == pytest.approx(0.6, rel=0.05)
-    err = np.abs(d.final.values[:2] * 6e7 / q_true - 1)
+    err = np.abs(d.final.values[:2] * MLMIN_PER_M3S / q_true - 1)
     assert err.max() < 0.02
     assert all(_inside(d.final.intervals[n], q_true[k]) for k, n in enumerate(("q1", "q2")))
     assert "2X" in d.verdict and "film" in d.verdict and "x the declared unbalance" in d.verdict
@@ -115,7 +116,7 @@ def test_the_correction_s_own_error_is_within_its_budget_term(machine):
     from lubeviz.identify.forward.budget import ModelBudget
 
     chain = ForwardChain(machine, 75.0, (6, 20))
-    q = np.array(Q) / 6e7
+    q = np.array(Q) / MLMIN_PER_M3S
     a, _ = orbit_defect(chain, q, slope=False)
     b, _ = orbit_defect(chain, q, slope=False, harmonics=6, points=36)
     size = np.linalg.norm(np.concatenate([b.x, b.y]))
@@ -146,7 +147,7 @@ def test_the_unbalance_s_size_is_read_from_the_record(machine, tmp_path, moment_
                      .replace('phase_deg = 0.0\n\n# Two', f'phase_deg = {phase_deg!r}\n\n# Two'))
     ind = make_record(IndependentSpec(speed_hz=75.0, q1_mlmin=450.0, q2_mlmin=520.0, seed=11, machine=str(model)))
     chain = ForwardChain(machine, 75.0, ind.record.nodes)
-    q = np.array([450.0, 520.0]) / 6e7
+    q = np.array([450.0, 520.0]) / MLMIN_PER_M3S
     assert measured_scale(chain, measure(ind.record), q) == pytest.approx(moment_scale, rel=0.03)
 
 
@@ -212,7 +213,7 @@ def test_on_the_time_integration_s_record_the_intervals_hold_the_flows(machine, 
     assert truth["half_order"] < 0.05
     assert min(truth["ratio_2x"]) > 0.1
     r = identify_record(rec, machine, FIVE, effects=(parse_effect("large_orbit"),)).result
-    err = np.abs(r.q * 6e7 / q - 1)
+    err = np.abs(r.q * MLMIN_PER_M3S / q - 1)
     assert r.model_explains_data
     assert all(_inside(r.intervals[k], q[k]) for k in range(2))
     assert err.max() < 0.015
@@ -233,7 +234,7 @@ def test_with_16_harmonics_the_flows_come_within_1_percent_on_the_time_integrati
     q = np.array(WEAKER_Q)
     r = identify_record(rec, machine, effects=(parse_effect("large_orbit"),)).result
     assert r.effects["large_orbit"]["harmonics"] == 16
-    err = np.abs(r.q * 6e7 / q - 1)
+    err = np.abs(r.q * MLMIN_PER_M3S / q - 1)
     assert err.max() < 0.01
     assert r.model_explains_data and all(_inside(r.intervals[k], q[k]) for k in range(2))
     for k in range(2):  # the +- shown claims no more than the intervals
@@ -289,9 +290,9 @@ def test_a_time_round_with_a_better_orbit_model_standing_in_brings_the_five_harm
     assert len(rounds) == 1 and len(calls) == 1 and not rounds[0]["not_kept"]
     kept = rounds[0]
     # the gap is taken at the last balance's flows (the 5-harmonic answer, within the rounds' tolerance)
-    np.testing.assert_allclose(np.asarray(kept["flows_at_mlmin"]) / 6e7, calls[0][0], rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(kept["flows_at_mlmin"]) / MLMIN_PER_M3S, calls[0][0], rtol=1e-12)
     before = np.abs(np.asarray(kept["flows_at_mlmin"]) / q - 1)
-    after = np.abs(r.q * 6e7 / q - 1)
+    after = np.abs(r.q * MLMIN_PER_M3S / q - 1)
     assert before.max() > 0.006  # the 5-harmonic answer's truncation
     assert after.max() < 0.6 * before.max() and after.max() < 0.006
     assert 0.5 < max(kept["gap_1x_percent"]) < 10.0  # the truncation in the 1X: a few %, not a convention's 100 %
@@ -302,6 +303,6 @@ def test_a_time_round_with_a_better_orbit_model_standing_in_brings_the_five_harm
     assert len(own) == 2
     for k, (lo, hi) in enumerate(own):
         hi = np.inf if hi is None else hi
-        shown_hi = np.inf if r.intervals[k][1] is None else r.intervals[k][1] * 6e7
-        assert lo <= r.q[k] * 6e7 <= hi
-        assert r.intervals[k][0] * 6e7 <= lo * (1 + 1e-12) and hi <= shown_hi * (1 + 1e-12)
+        shown_hi = np.inf if r.intervals[k][1] is None else r.intervals[k][1] * MLMIN_PER_M3S
+        assert lo <= r.q[k] * MLMIN_PER_M3S <= hi
+        assert r.intervals[k][0] * MLMIN_PER_M3S <= lo * (1 + 1e-12) and hi <= shown_hi * (1 + 1e-12)

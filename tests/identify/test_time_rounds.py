@@ -11,6 +11,7 @@ import pytest
 from lubeviz.identify.forward.chain import ForwardChain
 from lubeviz.identify.fit.large_orbit import _balance, time_gap
 from lubeviz.progress import silent
+from lubeviz.units import MLMIN_PER_M3S
 
 pytestmark = pytest.mark.slow
 
@@ -25,7 +26,7 @@ def test_the_time_integration_s_gap_to_a_small_orbit_s_balance_is_its_time_step_
     tens of %; the integration has settled (its last two revolutions against the two before)."""
     chain = ForwardChain(machine, 75.0, (6, 20))
     scale = 0.1
-    ob = _balance(chain, Q / 6e7, None, 16, 64, 1e-8, silent, scale=scale)
+    ob = _balance(chain, Q / MLMIN_PER_M3S, None, 16, 64, 1e-8, silent, scale=scale)
     (gx, gy, gs), pct, settled = time_gap(chain, ob, scale, revolutions=4, steps=64)
     assert pct.shape == (4,) and np.all(pct < 0.2) and np.all(pct > 0.0)
     assert settled < 0.2
