@@ -319,7 +319,8 @@ class DiagnosePage(pn.viewable.Viewer):
         self._download.disabled = False
 
     def _flows_text(self, d, s, truth, record_name: str) -> str:
-        qt = d.before.q_threshold
+        declared = d.before.q_threshold  # the plain model's flows are judged against the declared bearings
+        qt = d.q_threshold if d.q_threshold is not None else declared  # the others against the machine as diagnosed
         cols = [("plain model", d.before, s["before"])] + ([("with " + plain(d.added.label), d.after, s["after"])]
                                                           if d.after is not None else [])
         head = "| bearing | " + " | ".join(f"{name}: flow (95 % interval) | verdict" for name, _, _ in cols) + \
@@ -333,14 +334,17 @@ class DiagnosePage(pn.viewable.Viewer):
                 iv_text = "" if iv is None else f" ({iv[0]:.0f}–{'∞' if iv[1] is None else f'{iv[1]:.0f}'})"
                 cells.append(f"**Q{k + 1} = {fd[f'q{k + 1}_mlmin']:.0f} ± {fd[f'q{k + 1}_std_mlmin']:.0f} ml/min**"
                              f"{iv_text}")
-                cells.append(_verdict_badge(lubrication_verdict(f.values[k], qt[k])))
+                cells.append(_verdict_badge(lubrication_verdict(f.values[k], (declared if f is d.before else qt)[k])))
             if truth:
                 cells.append(f"{truth['q_mlmin'][k]:.0f} ml/min")
             lines.append("| " + " | ".join(cells) + " |")
         lines.append("")
         lines.append("; ".join(f"{name}: χ² = {fd['chi2']:.1f} for {fd['dof']} dof (p = {fd['p_value']:.2g})"
                                for name, _, fd in cols) + f". Q_T = {qt[0] / M3S_PER_MLMIN:.0f} / "
-                     f"{qt[1] / M3S_PER_MLMIN:.0f} ml/min. Diagnosis in {d.seconds:.1f} s.")
+                     f"{qt[1] / M3S_PER_MLMIN:.0f} ml/min"
+                     + ("" if np.allclose(qt, declared, rtol=0.01) else
+                        f" as diagnosed (declared: {declared[0] / M3S_PER_MLMIN:.0f} / {declared[1] / M3S_PER_MLMIN:.0f})")
+                     + f". Diagnosis in {d.seconds:.1f} s.")
         if d.ambiguous:
             lines += ["", f"**Look-alikes**: {plain(', '.join(d.ambiguous))} fit as well. To tell them apart: "
                           f"{plain('; or '.join(d.separated_by))}."]

@@ -677,7 +677,10 @@ class RotorPage(pn.viewable.Viewer):
         spec = s["spectrum"]
         zf, zb, phi = s["zf"], s["zb"], math.degrees(s["phi"])
         modal = s["modal"]
-        q = [f"{q / M3S_PER_MLMIN:.0f} ml/min ({q / qt:.2f} Q_T)" for q, qt in zip(s["flows"], s["q_threshold"])]
+        q = [f"{q / M3S_PER_MLMIN:.0f} ml/min ({q / qt:.2f} Q_T" + ("" if abs(qt / qt0 - 1) < 0.01 else
+                                                               f" of the bearing with the effect, Q_T = "
+                                                               f"{qt / M3S_PER_MLMIN:.0f} ml/min") + ")"
+             for q, qt, qt0 in zip(s["flows"], s["q_threshold"], s["q_threshold_declared"])]
         fr = ", ".join(f"{f:.1f}" for f in modal.damped_frequencies_hz[:4])
         return "\n".join([
             f"#### Node {s['node']} at {s['speed']:.1f} Hz",

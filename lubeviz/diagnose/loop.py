@@ -27,6 +27,8 @@ import numpy as np
 
 from ..errors import LubevizError
 from ..identify.fit.least_squares import Z95, Fit, fit
+from ..identify.fit.result import lubrication_verdict
+from ..identify.forward.chain import bearing_changes
 from ..progress import ProgressFn, silent
 from ..units import MLMIN_PER_M3S
 
@@ -91,6 +93,14 @@ class Diagnosis:
     # until a measurement separates the causes. None when nothing is ambiguous.
     set_intervals: tuple | None = None
     findings: tuple = ()  # identify.fit.plausibility.Finding: the record(s) checked against the machine as declared
+    # each bearing's flooded threshold Q_T (m^3/s) for the machine as diagnosed (a worn bearing's own, a hotter
+    # oil's): what the verdicts and the advice judge the flows against. None: no flows are claimed.
+    q_threshold: np.ndarray | None = None
+
+    @property
+    def q_threshold_declared(self) -> np.ndarray | None:
+        """The declared bearings' Q_T (with the record's declared effects, e.g. an oil temperature reading)."""
+        return getattr(self.before, "q_threshold", None)
 
     @property
     def final(self) -> Fit:
@@ -174,7 +184,10 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         out = _added_outcome(chains, before, best, after, passing, ambiguity_aic)
     else:
         out = _unexplained_outcome(before, tried, refused)
-    verdict = out.pop("verdict") + _line_words(lines, orbit_tried)
+    added = out["added"]
+    changes = () if added is None or added.defect is not None else (fitted_effect(added, out["after"])[0],)
+    thresholds = diagnosed_thresholds(chains[0], changes)
+    verdict = out.pop("verdict") + _threshold_words(thresholds, before.q_threshold) + _line_words(lines, orbit_tried)
     stability = None
     sub = [line for line in lines if line.kind == "sub"]
     if sub:  # what the model's own stability at the flows found says of it
@@ -186,7 +199,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
                         "unbalance orbit): the flows above rest on the 1X part of a transient and on a steady model, "
                         "so take them as indicative; their intervals do not carry this.")
     return Diagnosis(**{**common, "seconds": time.perf_counter() - t0}, candidates=tuple(tried),
-                     verdict=_finding_words(findings) + verdict, stability=stability, **out)
+                     verdict=_finding_words(findings) + verdict, stability=stability, q_threshold=thresholds, **out)
 
 
 def _fault_words(before: Fit, broken) -> str:
@@ -279,9 +292,9 @@ def _added_outcome(chains, before, best, after, passing, ambiguity_aic) -> dict:
                    f"Until a measurement tells them apart the flows are known only within "
                    f"{_interval_words(set_intervals)}. To tell them apart: {'; or '.join(separated)}.")
     else:
-        verdict = (f"{_story(best)}{_oil_words(chains, best)} explains the record (chi2 {before.chi2:.1f} -> "
-                   f"{after.chi2:.1f} for "
-                   f"{after.dof} dof). Flows re-identified with it: Q1 = {after.values[0] * MLMIN_PER_M3S:.0f}, "
+        verdict = (f"{_story(best, after, chains[0].machine)}{_oil_words(chains, best, after)}: this explains the "
+                   f"record (chi2 {before.chi2:.1f} -> {after.chi2:.1f} for {after.dof} dof). Flows re-identified "
+                   f"with it: Q1 = {after.values[0] * MLMIN_PER_M3S:.0f}, "
                    f"Q2 = {after.values[1] * MLMIN_PER_M3S:.0f} ml/min (plain model: {_flows_words(before)})."
                    + (ORBIT_REFINE if best.defect is not None else ""))
     return dict(added=best, after=after, explained=True, ambiguous=ambiguous, separated_by=separated,
@@ -301,6 +314,17 @@ def _unexplained_outcome(before, tried, refused) -> dict:
                " Do not trust the flows; check the machine and the measurement.")
     return dict(added=None, after=None, explained=False, ambiguous=(), separated_by=(), set_intervals=None,
                 verdict=verdict)
+
+
+def _threshold_words(diagnosed, declared) -> str:
+    """' Bearing 1's own flooded threshold, as diagnosed: Q_T = 992 ml/min (declared bearing: 545).' where the
+    diagnosed machine's Q_T differs from the declared one's: the flows are judged against it."""
+    if declared is None:
+        return ""
+    words = [f"bearing {k + 1}'s is Q_T = {a * MLMIN_PER_M3S:.0f} ml/min (declared bearing: {b * MLMIN_PER_M3S:.0f})"
+             for k, (a, b) in enumerate(zip(diagnosed, declared)) if abs(a / b - 1) > 0.01]
+    return (" The flooded thresholds the flows are judged against are those of the machine as diagnosed: "
+            + "; ".join(words) + ".") if words else ""
 
 
 def _line_words(lines, orbit_tried: bool) -> str:
@@ -435,22 +459,39 @@ ORBIT_REFINE = (" These flows come from a 5-harmonic balance, coarser than ident
                 "BENCHMARKS.md \"Rates over time-integration records\").")
 
 
-def _story(c: Candidate) -> str:
-    p = c.parameters()
-    main = ", ".join(f"{k} = {p[k]:.4g} +/- {p.get(k + '_std', float('nan')):.2g}" for k in c.effect.diagnose_free
-                     if k in p)
+def fitted_effect(c: Candidate, f: Fit):
+    """The candidate's effect at the values of fit `f` (the winner's refined fit), and their std."""
+    free = {p.name: p for p in f.params if p.free and not p.is_flow and p.name in c.effect.continuous}
+    return c.effect.copy(**{n: p.value for n, p in free.items()}), {n: p.std for n, p in free.items()}
+
+
+def _story(c: Candidate, f: Fit, machine) -> str:
+    """What the winner says of the machine, in an engineer's words with its fitted values (`Effect.told`)."""
     if c.defect is not None:
         size = ("" if c.unbalance_scale is None else
                 f"; the orbit's size implies {c.unbalance_scale:.2f} x the declared unbalance")
-        return f"{c.label} (the film force along the orbit, not its linearization{size})"
-    return f"{c.label} ({main or c.effect.summary()})" if (main or c.effect.summary()) else c.label
+        return f"Large orbits: the film force along the orbit, not its linearization{size}"
+    effect, std = fitted_effect(c, f)
+    return effect.told(std, machine).rstrip(".") or c.label
 
 
-def _oil_words(chains, c: Candidate) -> str:
+def diagnosed_thresholds(chain, effects=()) -> np.ndarray:
+    """Each bearing's flooded threshold Q_T (m^3/s) for the machine as diagnosed: the chain's declared effects
+    and `effects` at their values change a bearing's viscosity or clearance, and with them its Q_T (a worn
+    bearing needs more oil to fill its larger gap: Q_T ~ c). The declared bearings' Q_T without them."""
+    effects = tuple(chain.effects) + tuple(effects)
+    out = []
+    for k, src in enumerate(chain.sources):
+        factor, clearance = bearing_changes(effects, k, src.bearing.clearance)
+        out.append(src.view(float(factor), float(clearance)).q_threshold)
+    return np.array(out)
+
+
+def _oil_words(chains, c: Candidate, f: Fit) -> str:
     """', i.e. oil at about 49 °C instead of the declared 38 °C (ISO VG 100)' for a viscosity factor, when
     the model file declares its oil; '' otherwise."""
     oil = getattr(chains[0].machine, "oil", None)
-    factor = c.parameters().get("factor")
+    factor = getattr(fitted_effect(c, f)[0], "factor", None)
     if c.effect.effect_name != "viscosity" or oil is None or factor is None:
         return ""
     t = float(oil.temperature_for_factor(float(factor)))
@@ -490,6 +531,11 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
            "separated_by": list(d.separated_by), "verdict": d.verdict, "seconds": d.seconds,
            "lines_beyond_1x": [line.as_dict() for line in d.lines],
            "record_findings": [f.as_dict() for f in d.findings],
+           "q_threshold_mlmin": None if d.q_threshold is None else (d.q_threshold * MLMIN_PER_M3S).tolist(),
+           "q_threshold_declared_mlmin": None if d.q_threshold_declared is None else
+           (np.asarray(d.q_threshold_declared) * MLMIN_PER_M3S).tolist(),
+           "verdicts": None if d.q_threshold is None else [lubrication_verdict(d.final.values[k], d.q_threshold[k])
+                                                           for k in range(len(d.q_threshold))],
            "stability_at_flows": None if d.stability is None else {
                "text": d.stability.describe(), "unstable": d.stability.unstable,
                "least_stable_mode_hz": d.stability.frequency_hz, "growth_per_s": d.stability.growth,

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import math
-import re
 from html import escape
 from pathlib import Path
 from typing import Sequence
@@ -26,6 +25,7 @@ import numpy as np
 
 from .. import __version__
 from ..identify.forward.budget import ModelBudget
+from .loop import fitted_effect
 from ..identify.fit.result import VERDICT_BAND as BAND, lubrication_verdict
 from ..model.quantity import Quantity
 from ..units import M3S_PER_MLMIN, MLMIN_PER_M3S
@@ -78,7 +78,8 @@ def _interval(fit, k: int) -> str:
 
 
 def _q_threshold(d) -> np.ndarray | None:
-    qt = getattr(d.before, "q_threshold", None)
+    """Each bearing's Q_T for the machine as diagnosed (a worn bearing's own), what its flows are judged against."""
+    qt = d.q_threshold if getattr(d, "q_threshold", None) is not None else getattr(d.before, "q_threshold", None)
     return None if qt is None else np.asarray(qt, dtype=float)
 
 
@@ -100,25 +101,6 @@ def _effect_parameters(c) -> str:
     names = {p.name for p in fitted}
     held = [f"{escape(n)} = {escape(_fmt(v))}" for n, v in c.effect.values().items() if n not in names]
     return "; ".join(parts) + (f" <span class='small'>(held: {', '.join(held)})</span>" if held else "")
-
-
-def _story(effect) -> str:
-    """The effect's physical story (first sentence of its description) with its parameter names, quoted
-    as `name` in the docstring, replaced by the fitted values: 'The probe pair of plane 1 sits 4.99 ...'."""
-    first = effect.describe().split(". ")[0].rstrip(".") + "."
-
-    def value(m):
-        name = m.group(1)
-        if name not in effect.param:
-            return name
-        v = getattr(effect, name)
-        if name in effect.placement:  # "plane 1", but "Bearing 1" where the text already names it
-            before = m.string[:m.start()].rstrip().rsplit(" ", 1)[-1].lower()
-            return str(v) if before == name else f"{name} {v}"
-        unit = effect.unit(name)
-        return f"{_fmt(v)} {unit}".strip() if v is not None else f"(declared {name})"
-
-    return re.sub(r"`(\w+)`", value, first)
 
 
 # --- what to do --------------------------------------------------------------------------------------
@@ -145,7 +127,8 @@ def _actions(d, nodes) -> list[str]:
                       "; over all of them the flows are known only within " + escape(_set_words(d.set_intervals))
                       + "."))
     elif d.added is not None:
-        story = escape(_story(d.added.effect))
+        effect, std = (d.added.effect, {}) if d.after is None else fitted_effect(d.added, d.after)
+        story = escape(effect.told(std))
         sep = escape(type(d.added.effect).separated_by)
         out.append(f"<b>The model needed {escape(d.added.label)}</b>: {story} Confirm it"
                    + (f" by {sep}." if sep else "."))
@@ -156,7 +139,10 @@ def _actions(d, nodes) -> list[str]:
             q = f.values[k]
             v = lubrication_verdict(q, qt[k])
             where = f"Bearing {k + 1}" + (f" (node {nodes[k]})" if nodes else "")
-            ratio = f"{q / qt[k]:.0%} of its flooded threshold Q_T = {_mlmin(qt[k]):.0f} ml/min"
+            own = (d.q_threshold_declared is not None and abs(qt[k] / d.q_threshold_declared[k] - 1) > 0.01)
+            ratio = (f"{q / qt[k]:.0%} of its flooded threshold Q_T = {_mlmin(qt[k]):.0f} ml/min"
+                     + (" (its own, as diagnosed; the declared bearing's is "
+                        f"{_mlmin(d.q_threshold_declared[k]):.0f})" if own else ""))
             if v == "starved":
                 out.append(f"<b>{where} is starved</b>: {_mlmin(q):.0f} ml/min, {ratio}. Check its oil supply "
                            "(filter, orifice, supply pressure and line) and restore the flow to at least Q_T.")
@@ -346,9 +332,10 @@ def _flows_table(d, nodes, truth) -> str:
     for k in range(2):
         cells = [f"{k + 1}" + (f" (node {nodes[k]})" if nodes else "")]
         for f in [d.before] + ([d.after] if d.after is not None else []):
-            v = lubrication_verdict(f.values[k], qt[k]) if qt is not None else "–"
+            ref = d.q_threshold_declared if f is d.before else qt  # the plain model: the bearings as declared
+            v = lubrication_verdict(f.values[k], ref[k]) if ref is not None else "–"
             cells += [f"<td class='num'>{_flow(f, k)}</td>", f"<td class='num'>{_interval(f, k)}</td>",
-                      f"<td class='{v}'>{v}" + (f" ({f.values[k] / qt[k]:.2f} Q_T)" if qt is not None else "") + "</td>"]
+                      f"<td class='{v}'>{v}" + (f" ({f.values[k] / ref[k]:.2f} Q_T)" if ref is not None else "") + "</td>"]
         if truth is not None:
             cells.append(f"<td class='num'>{truth[k]:.0f} ml/min</td>")
         rows.append("<tr><td>" + cells[0] + "</td>" + "".join(cells[1:]) + "</tr>")
@@ -356,9 +343,12 @@ def _flows_table(d, nodes, truth) -> str:
     foot = "; ".join(f"{w}: χ² = {f.chi2:.1f} for {f.dof} dof, p = {f.p_value:.3g}"
                      + (" (explains the record)" if f.explained else " (does <b>not</b> explain the record)")
                      for w, f in stats)
-    qt_text = "" if qt is None else (f" Flooded thresholds of the declared bearings: Q_T = {_mlmin(qt[0]):.0f} and "
-                                     f"{_mlmin(qt[1]):.0f} ml/min; starved below {BAND[0]:g} Q_T, over-supplied "
-                                     f"above {BAND[1]:g} Q_T.")
+    declared = d.q_threshold_declared
+    changed = declared is not None and qt is not None and np.any(np.abs(qt / declared - 1) > 0.01)
+    qt_text = "" if qt is None else (
+        f" Flooded thresholds of the bearings as diagnosed: Q_T = {_mlmin(qt[0]):.0f} and {_mlmin(qt[1]):.0f} ml/min"
+        + (f" (as declared: {_mlmin(declared[0]):.0f} and {_mlmin(declared[1]):.0f})" if changed else "")
+        + f"; starved below {BAND[0]:g} Q_T, over-supplied above {BAND[1]:g} Q_T.")
     return ("<table><tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr>" + "".join(rows) + "</table>"
             + f"<p class='small'>{foot}.{qt_text} “unbounded”: the record does not limit the flow from above "
               "(a flooded bearing changes little as more oil arrives).</p>")

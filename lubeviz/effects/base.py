@@ -191,6 +191,39 @@ class Effect(param.Parameterized):
     def describe(self) -> str:
         return (type(self).__doc__ or "").strip().split("\n\n")[0]
 
+    def told(self, std: dict | None = None, machine=None) -> str:
+        """The effect in an engineer's words: its story (the description's first sentence) with each parameter
+        quoted there as `name` replaced by its value, +- its std where `std` has one, and the declared value
+        where `machine` gives one: 'Bearing 1 has radial clearance 149.7 +- 1.3 um (declared 120 um) instead of
+        the declared one.'"""
+        std = std or {}
+        first = self.describe().split(". ")[0].rstrip(".") + "."
+
+        def value(m):
+            name = m.group(1)
+            if name not in self.param:
+                return name
+            v = getattr(self, name)
+            if name in self.placement:  # "plane 1", but "Bearing 1" where the text already names it
+                before = m.string[:m.start()].rstrip().rsplit(" ", 1)[-1].lower()
+                return str(v) if before == name else f"{name} {v}"
+            if v is None:
+                return f"(declared {name})"
+            unit = f" {self.unit(name)}" if self.unit(name) else ""
+            s = std.get(name)
+            text = f"{_told(v)}{'' if s is None else ' +- ' + format(s, '.2g')}{unit}"
+            if machine is not None and name in self.continuous and type(self).declared is not Effect.declared:
+                text += f" (declared {_told(self.declared(name, machine))}{unit})"  # the machine file's value
+            return text
+
+        import re
+
+        return re.sub(r"`(\w+)`", value, first)
+
+
+def _told(v) -> str:
+    return f"{v:.4g}" if isinstance(v, float) else str(v)
+
 
 def _fmt(v) -> str:
     if isinstance(v, float):

@@ -246,6 +246,10 @@ DIAGNOSE = {
     "seconds": "number",
     "lines_beyond_1x": ["dict"],  # empty for this record
     "record_findings": ["dict"],  # likewise
+    # issue 36: Q_T of the machine as diagnosed (a worn bearing's own), the declared one, the verdicts against it
+    "q_threshold_mlmin": PAIR,
+    "q_threshold_declared_mlmin": PAIR,
+    "verdicts": ("str", "str"),
     "stability_at_flows": "null|dict",
     "q1_interval_set_mlmin": "null",  # a record of no set
     "q2_interval_set_mlmin": "null",

@@ -132,3 +132,36 @@ def test_a_worn_bearing_at_one_speed_reports_flows_that_hold_the_truth(chain):
         out = diagnosis_dict(d)
         assert out["q1_interval_set_mlmin"][0] <= q[0]
     assert _held(d, np.array(q) / MLMIN_PER_M3S)
+
+
+def test_a_worn_bearing_is_judged_against_its_own_flooded_threshold(chain, machine):
+    """Issue 36 item 6: bearing 1 worn to 150 um and fed its declared Q_T. The diagnosis names the wear; the
+    verdicts, the JSON and the report's advice then use the worn bearing's own Q_T (the film's flooded
+    threshold at the fitted clearance, solved here directly), not the declared bearing's, which would tell
+    the engineer that a starved bearing is fed normally."""
+    import math
+
+    from lubeviz.diagnose.report import report_html
+    from lubeviz.effects import Clearance
+    from lubeviz.film.equilibrium import flooded_threshold
+    from lubeviz.rotor.statics import bearing_static_loads
+
+    q_declared = chain.q_threshold * MLMIN_PER_M3S
+    q = (float(q_declared[0]), 580.0)  # bearing 1 gets what the declared bearing would need
+    spec = IndependentSpec(speed_hz=75.0, q1_mlmin=q[0], q2_mlmin=q[1], effects=("clearance:bearing=1,clearance_um=150",),
+                           seed=3, total_s=8.0)
+    d = diagnose(chain, measure(make_record(spec).record), candidates=[Clearance], truth={"q_mlmin": list(q)})
+    assert d.added is not None and d.added.label == "clearance[bearing=1]" and d.explained
+    fitted_um = next(p.value for p in d.after.params if p.name == "clearance_um")
+    assert abs(fitted_um - 150.0) < 3.0
+    worn = machine.bearings[0].copy(clearance=fitted_um * 1e-6)
+    own, _ = flooded_threshold(worn, 2 * math.pi * 75.0, bearing_static_loads(machine)[0])
+    assert d.q_threshold[0] == pytest.approx(own, rel=0.01)  # the table's view against a direct flooded solve
+    assert d.q_threshold[0] > 1.1 * chain.q_threshold[0]  # a larger gap needs more oil to fill
+    assert d.q_threshold[1] == pytest.approx(chain.q_threshold[1], rel=1e-9)  # bearing 2 as declared
+    out = diagnosis_dict(d)
+    assert out["verdicts"][0] == "starved"  # against its own Q_T; against the declared one it reads "normal"
+    assert out["q_threshold_declared_mlmin"][0] == pytest.approx(q_declared[0])
+    assert "Bearing 1 has radial clearance" in d.verdict and "(declared 120 um)" in d.verdict
+    html = report_html(d, bearing_nodes=[b.node for b in machine.bearings])
+    assert "Bearing 1 (node 6) is starved" in html and f"Q_T = {own * MLMIN_PER_M3S:.0f} ml/min" in html

@@ -51,3 +51,10 @@ def test_the_spectrum_s_1x_line_is_the_orbit_s_forward_component(machine, setup)
     assert abs(s["spectrum"].line(-1.0)) == pytest.approx(abs(s["zb"]), rel=0.3)
     e = np.hypot(*np.asarray(s["static0"]).T) / np.asarray(s["clearance"])
     assert np.all(e < 1.0)
+
+
+def test_a_worn_bearing_s_flows_are_judged_against_its_own_threshold(machine, setup):
+    """The Rotor page's Q/Q_T with a worn bearing switched on uses that bearing's own flooded threshold."""
+    s = state(machine, setup, machine.bearings[0].node, *parse_effects(["clearance:bearing=1,clearance_um=150"]))
+    assert s["q_threshold"][0] > 1.1 * s["q_threshold_declared"][0]
+    assert s["q_threshold"][1] == s["q_threshold_declared"][1]

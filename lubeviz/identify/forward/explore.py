@@ -59,6 +59,7 @@ def rotor_state(machine, tables, rotor, flows, node: int, effect=None, *, snr_db
     clearance = [b.clearance for b in machine.bearings]
     static0 = planes.output(theta).static - np.stack([np.zeros(len(clearance)), clearance], -1)
     static, clearance_eff, coefs = static0, clearance, None
+    q_threshold = q_threshold0 = [tab.q_threshold for tab in tables]
     if effect is not None:
         effects = (effect,)
         prepare(planes, effects, progress)
@@ -74,6 +75,8 @@ def rotor_state(machine, tables, rotor, flows, node: int, effect=None, *, snr_db
             o = chain_for((node, *centres[1:])).with_effects(shown).output(theta)
             x, y = o.x[0], o.y[0]
         coefs = [planes.sources[j].evaluate(theta[j], *changes[j])[:2] for j in range(len(clearance))]
+        # a worn bearing or another oil has its own flooded threshold: Q/Q_T is judged against it
+        q_threshold = [planes.sources[j].view(*changes[j]).q_threshold for j in range(len(clearance))]
     fs = SAMPLES_PER_REV * speed
     t = np.arange(SAMPLES_PER_REV * REVOLUTIONS) / fs
     clean = steady_signals(np.array([x]), np.array([y]), omega, t)
@@ -86,7 +89,7 @@ def rotor_state(machine, tables, rotor, flows, node: int, effect=None, *, snr_db
     zf0, zb0 = directional_components(base_x, base_y)
     return dict(resp=resp, node=node, x=x, y=y, base_x=base_x, base_y=base_y, t=t, clean=clean[0],
                 noisy=noisy[0], fs=fs, speed=speed, spectrum=spec, modal=modal, flows=flows,
-                q_threshold=[tab.q_threshold for tab in tables], effect=effect,
+                q_threshold=q_threshold, q_threshold_declared=q_threshold0, effect=effect,
                 zf=complex(zf), zb=complex(zb), phi=float(orbit_angle(zf, zb)), zf0=complex(zf0),
                 zb0=complex(zb0), phi0=float(orbit_angle(zf0, zb0)), static=static, static0=static0,
                 clearance=clearance, clearance_eff=clearance_eff)
