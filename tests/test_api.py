@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from lubeviz import api
+from lubeviz.units import MLMIN_PER_M3S
 
 SAMPLE = Path(__file__).resolve().parents[1] / "assets" / "sample_record.csv"
 
@@ -51,3 +52,28 @@ def test_a_diagnosis_draws_its_maps_when_its_settings_ask(machine):
     assert title == "plain model" and np.shape(chi2) == (6, 6) and fit is run.diagnosis.before
     assert np.nanmin(chi2) >= 0.0
     assert api.diagnose([api.read_record(SAMPLE)], machine, candidates=[api.EFFECTS["probe_gain"]]).maps == ()
+
+
+def test_the_oil_range_interval_holds_its_own_answer(machine):
+    """A record one speed explains with the declared oil and with another as well: the flows over any oil in
+    the range are reported, and that interval holds the answer it goes with (issue 36: "Q1 in [429, 509]" was
+    printed beside an answer of 414)."""
+    import re
+
+    d = api.diagnose([api.read_record(SAMPLE)], machine, candidates=[api.EFFECTS["probe_gain"]]).diagnosis
+    assert d.outcome == "explained" and d.set_intervals is not None
+    for k, (low, high) in enumerate(d.set_intervals):
+        assert low <= d.before.values[k] and (high is None or d.before.values[k] <= high)
+    printed = re.findall(r"Q(\d) in \[(\d+), (\d+|open)\]", d.verdict)
+    assert len(printed) == 2
+    for k, low, high in printed:
+        q = d.before.values[int(k) - 1] * MLMIN_PER_M3S
+        assert float(low) <= round(q) and (high == "open" or round(q) <= float(high))
+
+
+def test_a_union_of_intervals_holds_each_and_keeps_an_open_end_open():
+    from lubeviz.identify.fit.result import union_interval
+
+    assert union_interval((429.0, 509.0), (410.0, 418.0)) == (410.0, 509.0)  # the answer's own joins the range
+    assert union_interval((429.0, None), (410.0, 418.0)) == (410.0, None)
+    assert union_interval(None, (1.0, 2.0)) == (1.0, 2.0) and union_interval(None, None) is None

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..errors import LubevizError
 from ..identify.fit.least_squares import Z95, Fit, fit
-from ..identify.fit.result import lubrication_verdict
+from ..identify.fit.result import lubrication_verdict, union_interval
 from ..identify.forward.chain import bearing_changes
 from ..progress import ProgressFn, silent
 from ..units import MLMIN_PER_M3S
@@ -441,16 +441,17 @@ def _oil_look_alike(chains, meas, before: Fit, names, budget, level):
         wide = fit([c.adding(oil) for c in chains], meas, names=names, budget=budget, level=level)
     except LubevizError:
         return None
-    ranges, wider = [], False
+    ranges, wider, ivs = [], False, []
     for k, n in enumerate(("q1", "q2")):
         lo_w, hi_w = wide.intervals[n]
         lo_n, hi_n = before.intervals[n]
         top = chains[0].bounds()[1][k]
         wider |= ((top if hi_w is None else hi_w) - lo_w) > 2 * ((top if hi_n is None else hi_n) - lo_n)
-        ranges.append(f"[{lo_w * MLMIN_PER_M3S:.0f}, "
-                      f"{'open' if hi_w is None else format(hi_w * MLMIN_PER_M3S, '.0f')}]")
-    ivs = tuple(wide.intervals[n] for n in ("q1", "q2"))
-    return ("viscosity[bearing=both]", oil, *ranges, ivs) if wider else None
+        # over any oil in the range, the declared oil included: never an interval that leaves out the answer
+        low, high = union_interval(wide.intervals[n], before.intervals[n])
+        ivs.append((low, high))
+        ranges.append(f"[{low * MLMIN_PER_M3S:.0f}, {'open' if high is None else format(high * MLMIN_PER_M3S, '.0f')}]")
+    return ("viscosity[bearing=both]", oil, *ranges, tuple(ivs)) if wider else None
 
 
 # a diagnosis fits large orbits with the 5-harmonic balance; identification's default is 16 (more time a record)

@@ -19,7 +19,7 @@ from .tables.cache import machine_tables
 from .forward.model import ALL_FEATURES, ForwardModel
 from .forward.measured import measure
 from .paper.newton import identify
-from .fit.result import Identification
+from .fit.result import Identification, union_interval
 from .fit.oil_reading import budget_with_reading, oil_reading
 from .fit.settings import IdentificationSettings
 from ..units import MLMIN_PER_M3S
@@ -202,7 +202,8 @@ def _oil_check(out: Identification, res, chain, measured, settings, budget) -> I
         return dataclasses.replace(out, warnings=out.warnings + (f"oil check skipped: {exc}",))
     j = wide.names.index("viscosity.factor")
     corr = wide.correl[j, :2]
-    iv = tuple(wide.intervals.get(n) for n in ("q1", "q2"))
+    # over any oil in the range, the declared oil included: never an interval that leaves out the answer
+    iv = tuple(union_interval(wide.intervals.get(n), own) for n, own in zip(("q1", "q2"), out.intervals))
     warnings = out.warnings
     width = [(b if b is not None else chain.bounds(settings.lower, settings.upper)[1][k]) - a
              for k, (a, b) in enumerate(iv)]

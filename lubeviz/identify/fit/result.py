@@ -120,6 +120,17 @@ def _alternatives(result):
     return [(a[0][:2], a[1]) for a in result.alternatives]  # Fit: (parameter vector, chi2)
 
 
+def union_interval(*intervals) -> tuple[float, float | None] | None:
+    """The smallest interval holding every given one ((low, high or None: open); None entries skipped): the
+    flows over several explanations, and never an interval that leaves out its own answer's."""
+    given = [iv for iv in intervals if iv is not None]
+    if not given:
+        return None
+    low = min(float(iv[0]) for iv in given)
+    high = None if any(iv[1] is None for iv in given) else max(float(iv[1]) for iv in given)
+    return low, high
+
+
 def parameter(params, key: str) -> FitParameter | None:
     """The parameter called `key` (`q1`, `probe_rotation.angle_deg`), None when the result has none."""
     return next((p for p in params if p.key == key), None)
