@@ -6,6 +6,7 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "OMP_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
+import collections
 import math
 
 import numpy as np
@@ -39,3 +40,53 @@ def plain_bearing(l_over_d: float, n_circ: int = 120, n_axial: int = 40) -> Bear
     """A plain (groove-less) bearing with the paper's radius and clearance and the given L/D."""
     return Bearing(length=2 * 0.045 * l_over_d, groove_length=0.0, groove_width=0.0,
                    n_circumferential=n_circ, n_axial=n_axial)
+
+
+# --- the order in which xdist's workers get the files ---------------------------------------------------------------
+# Under the README's `-n auto --dist loadfile` each file runs whole on one worker and the files are handed out in
+# turn. xdist's own order is by the number of tests, most first, so files of a few tests that take minutes (a
+# time-integration record made by a fixture) went out late (`test_time_rounds.py`, one test, last of 80) and the
+# run waited for them on one core while the other idled. Here the files below go out first, longest first, then
+# the others in xdist's order: the short files fill the end on both cores. The figures are each file's seconds on
+# a fresh clone (caches built) with `--durations=0` under the README's command on this 2-core machine; only their
+# order matters. A file renamed or gone from here stops the run (UsageError), so that the list cannot drift.
+LONG_FILES = {
+    "tests/identify/test_orbit_fit.py": 407,  # the time integration's record (3-4 min), then three fits on it
+    "tests/diagnose/test_loop.py": 218,
+    "tests/app/test_start_and_layout.py": 143,
+    "tests/identify/test_fit_independent.py": 143,  # 8 independent records (2 min)
+    "tests/diagnose/test_broken_records.py": 131,
+    "tests/identify/test_orbit_fit_balance.py": 129,  # two 200 x 200 balance records, side by side
+    "tests/identify/test_answer_independent_of_cache.py": 123,
+    "tests/rotor/test_orbit_balance.py": 122,
+    "tests/rotor/test_whirl.py": 113,
+    "tests/app/test_pages.py": 96,
+    "tests/app/test_consistency.py": 79,
+    "tests/verification/test_independent.py": 65,
+    "tests/rotor/test_film_transient.py": 56,
+    "tests/app/test_uploads.py": 52,
+    "tests/app/test_hostile_browser.py": 51,
+}
+
+
+def _distributed(config) -> bool:
+    """True in an xdist worker, and in the controller of a run that hands out whole files (or classes)."""
+    return hasattr(config, "workerinput") or getattr(config.option, "dist", "no") in ("loadfile", "loadscope")
+
+
+def pytest_configure(config):
+    if _distributed(config) and not hasattr(config, "workerinput"):
+        config.option.loadscopereorder = False  # the controller keeps the workers' order (below)
+
+
+@pytest.hookimpl(trylast=True)  # after -m and -k have deselected
+def pytest_collection_modifyitems(config, items):
+    if not _distributed(config):
+        return
+    gone = [name for name in LONG_FILES if not (config.rootpath / name).is_file()]
+    if gone:
+        raise pytest.UsageError(f"tests/conftest.py LONG_FILES names {', '.join(gone)}, which no longer exist")
+    files = [item.nodeid.split("::", 1)[0] for item in items]
+    count = collections.Counter(files)
+    order = sorted(range(len(items)), key=lambda k: (-LONG_FILES.get(files[k], 0), -count[files[k]], k))
+    items[:] = [items[k] for k in order]

@@ -1,7 +1,8 @@
 """The large_orbit effect: a record of the periodic orbit on the p-theta films (harmonic balance, another
 path than the identification's linear tables), what the linear identification and the diagnosis make of
 it, and the refusals where the effect cannot be used (the chain; with other effects). The identification and
-the diagnosis with the effect: tests/identify/test_orbit_fit.py, on records from another path."""
+the diagnosis with the effect: tests/identify/test_orbit_fit_balance.py and test_orbit_fit.py, on records
+from another path."""
 
 import numpy as np
 import pytest
