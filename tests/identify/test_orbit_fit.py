@@ -104,7 +104,7 @@ def test_a_time_round_with_a_better_orbit_model_standing_in_brings_the_five_harm
         calls.append((np.asarray(ob.bearings.flows, dtype=float).copy(), scale))
         # the 16-harmonic balance on the model's films, its Newton started from the same balance on the slopes'
         # coarser films: the same orbit (the gap agrees to 5e-8 of itself) in 4 steps after 15 there, 47 s, against
-        # 21 shortened steps and 174 s from the 5-harmonic orbit (measured quiet)
+        # 21 shortened steps and 174 s from the 5-harmonic orbit (measured, one other process on the 2 cores)
         coarse = _balance(chain, ob.bearings.flows, ob, 16, 64, 1e-5, silent, scale=scale,
                           machine=_with_mesh(chain.machine, SLOPE_MESH))
         b = _balance(chain, ob.bearings.flows, coarse, 16, 64, 1e-8, silent, scale=scale)
