@@ -28,7 +28,6 @@ from ..effects import EFFECTS
 from ..errors import LubevizError
 from ..identify.forward.chain import simulate
 from ..identify.forward.measured import measure
-from ..identify.fit.result import lubrication_verdict
 from ..model.machine import Machine
 from ..model.operating import OperatingPoint
 from ..progress import Cancelled
@@ -334,7 +333,7 @@ class DiagnosePage(pn.viewable.Viewer):
                 iv_text = "" if iv is None else f" ({iv[0]:.0f}–{'∞' if iv[1] is None else f'{iv[1]:.0f}'})"
                 cells.append(f"**Q{k + 1} = {fd[f'q{k + 1}_mlmin']:.0f} ± {fd[f'q{k + 1}_std_mlmin']:.0f} ml/min**"
                              f"{iv_text}")
-                cells.append(_verdict_badge(lubrication_verdict(f.values[k], (declared if f is d.before else qt)[k])))
+                cells.append(_verdict_badge(d.verdicts_for(f)[k]))
             if truth:
                 cells.append(f"{truth['q_mlmin'][k]:.0f} ml/min")
             lines.append("| " + " | ".join(cells) + " |")

@@ -96,11 +96,26 @@ class Diagnosis:
     # each bearing's flooded threshold Q_T (m^3/s) for the machine as diagnosed (a worn bearing's own, a hotter
     # oil's): what the verdicts and the advice judge the flows against. None: no flows are claimed.
     q_threshold: np.ndarray | None = None
+    # the same for the machine as declared, with the record's declared effects (an oil temperature reading)
+    q_threshold_plain: np.ndarray | None = None
 
     @property
     def q_threshold_declared(self) -> np.ndarray | None:
-        """The declared bearings' Q_T (with the record's declared effects, e.g. an oil temperature reading)."""
-        return getattr(self.before, "q_threshold", None)
+        """The declared machine's Q_T (with the record's declared effects, e.g. an oil temperature reading)."""
+        return self.q_threshold_plain if self.q_threshold_plain is not None else getattr(self.before, "q_threshold",
+                                                                                            None)
+
+    def thresholds_for(self, f: Fit) -> np.ndarray | None:
+        """The Q_T a fit's flows are judged against: the declared bearings' for the plain fit, the machine as
+        diagnosed for the fit with the effect. One rule for the JSON, the report and the page."""
+        if f is self.before or self.q_threshold is None:
+            return self.q_threshold_declared
+        return self.q_threshold
+
+    def verdicts_for(self, f: Fit) -> list[str] | None:
+        """'starved', 'normal' or 'over-supplied' per bearing for fit `f` (`thresholds_for`)."""
+        qt = self.thresholds_for(f)
+        return None if qt is None else [lubrication_verdict(f.values[k], qt[k]) for k in range(len(qt))]
 
     @property
     def final(self) -> Fit:
@@ -185,9 +200,12 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
     else:
         out = _unexplained_outcome(before, tried, refused)
     added = out["added"]
-    changes = () if added is None or added.defect is not None else (fitted_effect(added, out["after"])[0],)
-    thresholds = diagnosed_thresholds(chains[0], changes)
-    verdict = out.pop("verdict") + _threshold_words(thresholds, before.q_threshold) + _line_words(lines, orbit_tried)
+    # an ambiguity's members change the machine differently: the flows are judged against the declared bearings
+    named = added is not None and added.defect is None and not out["ambiguous"]
+    changes = (fitted_effect(added, out["after"])[0],) if named else ()
+    plain = diagnosed_thresholds(chains[0])
+    thresholds = diagnosed_thresholds(chains[0], changes) if changes else plain
+    verdict = out.pop("verdict") + _threshold_words(thresholds, plain) + _line_words(lines, orbit_tried)
     stability = None
     sub = [line for line in lines if line.kind == "sub"]
     if sub:  # what the model's own stability at the flows found says of it
@@ -199,7 +217,8 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
                         "unbalance orbit): the flows above rest on the 1X part of a transient and on a steady model, "
                         "so take them as indicative; their intervals do not carry this.")
     return Diagnosis(**{**common, "seconds": time.perf_counter() - t0}, candidates=tuple(tried),
-                     verdict=_finding_words(findings) + verdict, stability=stability, q_threshold=thresholds, **out)
+                     verdict=_finding_words(findings) + verdict, stability=stability, q_threshold=thresholds,
+                     q_threshold_plain=plain, **out)
 
 
 def _fault_words(before: Fit, broken) -> str:
@@ -317,8 +336,8 @@ def _unexplained_outcome(before, tried, refused) -> dict:
 
 
 def _threshold_words(diagnosed, declared) -> str:
-    """' Bearing 1's own flooded threshold, as diagnosed: Q_T = 992 ml/min (declared bearing: 545).' where the
-    diagnosed machine's Q_T differs from the declared one's: the flows are judged against it."""
+    """' ... bearing 1's is Q_T = 992 ml/min (declared bearing: 545).' where the diagnosed machine's Q_T differs
+    from the declared one's: the flows are judged against it."""
     if declared is None:
         return ""
     words = [f"bearing {k + 1}'s is Q_T = {a * MLMIN_PER_M3S:.0f} ml/min (declared bearing: {b * MLMIN_PER_M3S:.0f})"
@@ -535,8 +554,7 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
            "q_threshold_mlmin": None if d.q_threshold is None else (d.q_threshold * MLMIN_PER_M3S).tolist(),
            "q_threshold_declared_mlmin": None if d.q_threshold_declared is None else
            (np.asarray(d.q_threshold_declared) * MLMIN_PER_M3S).tolist(),
-           "verdicts": None if d.q_threshold is None else [lubrication_verdict(d.final.values[k], d.q_threshold[k])
-                                                           for k in range(len(d.q_threshold))],
+           "verdicts": None if d.q_threshold is None else d.verdicts_for(d.final),
            "stability_at_flows": None if d.stability is None else {
                "text": d.stability.describe(), "unstable": d.stability.unstable,
                "least_stable_mode_hz": d.stability.frequency_hz, "growth_per_s": d.stability.growth,

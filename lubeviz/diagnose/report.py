@@ -26,7 +26,7 @@ import numpy as np
 from .. import __version__
 from ..identify.forward.budget import ModelBudget
 from .loop import fitted_effect
-from ..identify.fit.result import VERDICT_BAND as BAND, lubrication_verdict
+from ..identify.fit.result import VERDICT_BAND as BAND
 from ..model.quantity import Quantity
 from ..units import M3S_PER_MLMIN, MLMIN_PER_M3S
 
@@ -132,12 +132,12 @@ def _actions(d, nodes) -> list[str]:
         sep = escape(type(d.added.effect).separated_by)
         out.append(f"<b>The model needed {escape(d.added.label)}</b>: {story} Confirm it"
                    + (f" by {sep}." if sep else "."))
-    qt = _q_threshold(d)
+    f = d.final
+    qt = d.thresholds_for(f)
     if qt is not None and outcome != "unexplained":
-        f = d.final
-        for k in range(2):
+        for k in range(len(qt)):
             q = f.values[k]
-            v = lubrication_verdict(q, qt[k])
+            v = d.verdicts_for(f)[k]
             where = f"Bearing {k + 1}" + (f" (node {nodes[k]})" if nodes else "")
             own = (d.q_threshold_declared is not None and abs(qt[k] / d.q_threshold_declared[k] - 1) > 0.01)
             ratio = (f"{q / qt[k]:.0%} of its flooded threshold Q_T = {_mlmin(qt[k]):.0f} ml/min"
@@ -216,9 +216,11 @@ def residual_svg(names: Sequence[str], before: np.ndarray, after: np.ndarray | N
     return _svg(width, height, body, "residual of each feature in sigma, before and after the effect")
 
 
-def flows_svg(before, after, q_threshold, *, truth_mlmin=None, width: int = 760, height: int = 190) -> str:
+def flows_svg(before, after, q_threshold, *, truth_mlmin=None, width: int = 760, height: int = 190,
+              q_threshold_before=None) -> str:
     """Each bearing's flow on a Q/Q_T axis (0.25-2) shaded starved / normal / over-supplied: the plain
-    fit (grey) and the fit with the effect (blue), each with its 95 % interval; the truth when known."""
+    fit (grey, against `q_threshold_before`, the declared bearings', when given) and the fit with the effect
+    (blue, against `q_threshold`, the machine as diagnosed), each with its 95 % interval; the truth when known."""
     left, right = 90, 20
     pw = width - left - right
     lo, hi = 0.25, 2.0
@@ -227,7 +229,7 @@ def flows_svg(before, after, q_threshold, *, truth_mlmin=None, width: int = 760,
         return left + (min(max(r, lo), hi) - lo) / (hi - lo) * pw
 
     body = []
-    rows = [(k, 45 + 70 * k) for k in range(2)]
+    rows = [(k, 45 + 70 * k) for k in range(len(q_threshold))]
     for k, yc in rows:
         for a, b, v in ((lo, BAND[0], "starved"), (BAND[0], BAND[1], "normal"), (BAND[1], hi, "over-supplied")):
             body.append(f'<rect x="{x(a):.1f}" y="{yc - 22}" width="{x(b) - x(a):.1f}" height="44" '
@@ -236,11 +238,12 @@ def flows_svg(before, after, q_threshold, *, truth_mlmin=None, width: int = 760,
         fits = [("plain fit", before, BEFORE_COLOUR, -9)] + ([("with the effect", after, AFTER_COLOUR, 9)]
                                                              if after is not None else [])
         for which, f, colour, dy in fits:
-            r = f.values[k] / q_threshold[k]
-            iv = f.intervals.get(("q1", "q2")[k]) if f.intervals else None
+            qt = q_threshold_before if (f is before and q_threshold_before is not None) else q_threshold
+            r = f.values[k] / qt[k]
+            iv = f.intervals.get(f"q{k + 1}") if f.intervals else None
             if iv is not None:
-                a = iv[0] / q_threshold[k]
-                b = hi if iv[1] is None else iv[1] / q_threshold[k]
+                a = iv[0] / qt[k]
+                b = hi if iv[1] is None else iv[1] / qt[k]
                 body.append(f'<line x1="{x(a):.1f}" x2="{x(b):.1f}" y1="{yc + dy}" y2="{yc + dy}" '
                             f'stroke="{colour}" stroke-width="2"/>')
                 if iv[1] is None:
@@ -332,8 +335,8 @@ def _flows_table(d, nodes, truth) -> str:
     for k in range(2):
         cells = [f"{k + 1}" + (f" (node {nodes[k]})" if nodes else "")]
         for f in [d.before] + ([d.after] if d.after is not None else []):
-            ref = d.q_threshold_declared if f is d.before else qt  # the plain model: the bearings as declared
-            v = lubrication_verdict(f.values[k], ref[k]) if ref is not None else "–"
+            ref = d.thresholds_for(f)  # the plain model: the bearings as declared; with the effect: as diagnosed
+            v = d.verdicts_for(f)[k] if ref is not None else "–"
             cells += [f"<td class='num'>{_flow(f, k)}</td>", f"<td class='num'>{_interval(f, k)}</td>",
                       f"<td class='{v}'>{v}" + (f" ({f.values[k] / ref[k]:.2f} Q_T)" if ref is not None else "") + "</td>"]
         if truth is not None:
@@ -437,7 +440,7 @@ def report_html(diagnosis, *, record=None, title: str = "Lubrication diagnosis",
              "<ul class='actions'>" + "".join(f"<li>{a}</li>" for a in _actions(d, nodes)) + "</ul>",
              "<h2>Supply flows</h2>", _flows_table(d, nodes, truth)]
     if qt is not None:
-        parts.append(flows_svg(d.before, d.after, qt, truth_mlmin=truth))
+        parts.append(flows_svg(d.before, d.after, qt, truth_mlmin=truth, q_threshold_before=d.q_threshold_declared))
     names = list(d.before.features_names)
     after = None
     if d.after is not None:

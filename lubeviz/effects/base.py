@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 from typing import ClassVar
 
 import numpy as np
@@ -215,8 +216,6 @@ class Effect(param.Parameterized):
             if machine is not None and name in self.continuous and type(self).declared is not Effect.declared:
                 text += f" (declared {_told(self.declared(name, machine))}{unit})"  # the machine file's value
             return text
-
-        import re
 
         return re.sub(r"`(\w+)`", value, first)
 
