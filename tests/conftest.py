@@ -8,6 +8,9 @@ for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "OMP_NUM_THREADS"):
 
 import collections
 import math
+import shutil
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -74,9 +77,52 @@ def _distributed(config) -> bool:
     return hasattr(config, "workerinput") or getattr(config.option, "dist", "no") in ("loadfile", "loadscope")
 
 
+# --- seeds: the suite's independent records and film tables, made once ------------------------------------------
+# The records along another path than the model (200 x 200 films, the time integration) and the dimensionless slices
+# cost ~6 min of a fresh clone's run; `tests/seeds/` holds the cache files a run on an empty cache built, and the
+# controller copies each one into the cache directory where that file is missing, before any test. Nothing is
+# trusted for being a seed: every file carries the key of its inputs (the source of the code that made it
+# included) and is read as any cache file is, so after a change to that code the seeds no longer match, are not
+# read, and the records are made again. The run then says so at its end: `bash tests/seeds/refresh.sh` makes the
+# seeds again from a run on an empty cache.
+SEEDS = Path(__file__).parent / "seeds"
+SEEDED = ("slices", "independent")
+
+
+def _cache_root() -> Path:
+    from lubeviz.identify.tables.cache import cache_dir
+
+    return cache_dir()
+
+
+def _plant_seeds() -> float:
+    root = _cache_root()
+    for sub in SEEDED:
+        for seed in sorted((SEEDS / sub).glob("*.npz")):
+            target = root / sub / seed.name
+            if not target.exists():
+                target.parent.mkdir(parents=True, exist_ok=True)
+                shutil.copyfile(seed, target)
+    return time.time()
+
+
 def pytest_configure(config):
+    if not hasattr(config, "workerinput"):  # the controller (or a run without xdist), before any worker starts
+        config._seeds_planted = _plant_seeds()
     if _distributed(config) and not hasattr(config, "workerinput"):
         config.option.loadscopereorder = False  # the controller keeps the workers' order (below)
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    start = getattr(config, "_seeds_planted", None)
+    if start is None:
+        return
+    built = [f for sub in SEEDED for f in (_cache_root() / sub).glob("*.npz")
+             if f.stat().st_mtime >= start and not (SEEDS / sub / f.name).exists()]
+    if built:
+        terminalreporter.write_line(
+            f"lubeviz: this run built {len(built)} cache file(s) the seeds lack (independent records, film "
+            f"slices): the seeds are stale or missing; `bash tests/seeds/refresh.sh` makes them again")
 
 
 @pytest.hookimpl(trylast=True)  # after -m and -k have deselected

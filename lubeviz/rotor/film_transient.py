@@ -176,9 +176,9 @@ class _JournalFilms:
                 "explicit coupling is only valid for orbits where the film stays near-linear (reduce the "
                 "unbalance or the time step)")
 
-    def residual(self, modal: _ModalStep, eta, k_step: int, tangents=None):
-        """r = f_film(e0 + q_b, q_b') - f_film(e0) + K0 q_b + C0 q_b' at the state eta (modal); with `tangents` (an
-        (2 n_b, 4 n_b) array) also dr/d(q_b, v_b) there."""
+    def residual(self, modal: _ModalStep, eta, k_step: int, implicit: bool = False):
+        """r = f_film(e0 + q_b, q_b') - f_film(e0) + K0 q_b + C0 q_b' at the state eta (modal). `implicit`: no
+        near-linear guard (the implicit step's Newton iteration says whether it holds)."""
         n_b = len(self.films)
         qb = (modal.Vq_b @ eta).real.reshape(n_b, 2)
         vb = (modal.Vv_b @ eta).real.reshape(n_b, 2)
@@ -188,35 +188,39 @@ class _JournalFilms:
             lin = K0 @ qb[j] + C0 @ vb[j]
             r[j] = sol.force - self.f0[j] + lin
             self.lin_size[j, k_step] = np.hypot(*lin)
-            if tangents is not None:  # dr/dq = dF/dq + K0, dr/dv = dF/dv + C0 (SOR carries none: the static ones)
-                dF = force_jacobian(sol) if sol.linear is not None else -np.hstack([K0, C0])
-                tangents[2 * j:2 * j + 2, 2 * j:2 * j + 2] = dF[:, :2] + K0
-                tangents[2 * j:2 * j + 2, 2 * n_b + 2 * j:2 * n_b + 2 * j + 2] = dF[:, 2:] + C0
-                continue  # the implicit step needs no guard: its Newton iteration says whether it holds
-            self.check_near_linear(j, k_step, r[j])
+            if not implicit:
+                self.check_near_linear(j, k_step, r[j])
         return r.ravel()
+
+    def tangents(self) -> np.ndarray:
+        """dr/d(q_b, v_b) ((2 n_b, 4 n_b)) at the films last solved: dr/dq = dF/dq + K0, dr/dv = dF/dv + C0 (SOR
+        carries none: the static ones). Asked for only where a Newton step needs it (a converged state's is not)."""
+        n_b = len(self.films)
+        T = np.zeros((2 * n_b, 4 * n_b))
+        for j, (sol, K0, C0) in enumerate(zip(self.films, self.K0, self.C0)):
+            dF = force_jacobian(sol) if sol.linear is not None else -np.hstack([K0, C0])
+            T[2 * j:2 * j + 2, 2 * j:2 * j + 2] = dF[:, :2] + K0
+            T[2 * j:2 * j + 2, 2 * n_b + 2 * j:2 * n_b + 2 * j + 2] = dF[:, 2:] + C0
+        return T
 
 
 def _implicit_step(films: _JournalFilms, modal: _ModalStep, eta, r_next, k_step: int, Gr, A, tol_r):
     """The residual force at the step's end solved for: Newton on E(r) = residual(eta(r)) - r = 0 from the
     extrapolation, a step that does not lower |E| halved (the film is piecewise smooth: its cavitation pattern
     switches, and a full step can cycle across a switch). The end residual and state."""
-    n_b = len(films.films)
-    T = np.zeros((2 * n_b, 4 * n_b))
-    E = films.residual(modal, eta, k_step, T) - r_next
+    E = films.residual(modal, eta, k_step, implicit=True) - r_next
     for _ in range(IMPLICIT_ITERATIONS):
         if np.abs(E).max() <= tol_r:
             break
-        step = np.linalg.solve(np.eye(2 * n_b) - T @ A, E)
+        step = np.linalg.solve(np.eye(E.size) - films.tangents() @ A, E)
         lam = 1.0
         for _ in range(5):
-            T_try = np.zeros_like(T)
             eta_try = eta + lam * (Gr @ step)
-            E_try = films.residual(modal, eta_try, k_step, T_try) - (r_next + lam * step)
+            E_try = films.residual(modal, eta_try, k_step, implicit=True) - (r_next + lam * step)
             if np.linalg.norm(E_try) < np.linalg.norm(E):
                 break
             lam *= 0.5
-        r_next, eta, E, T = r_next + lam * step, eta_try, E_try, T_try
+        r_next, eta, E = r_next + lam * step, eta_try, E_try
     else:  # near a pattern switch Newton can stall a little above the target: accept up to IMPLICIT_ACCEPT
         if np.abs(E).max() > tol_r * IMPLICIT_ACCEPT / IMPLICIT_TOL:
             raise ConvergenceError(f"the implicit step at t = {k_step * films.dt:.4g} s did not settle in "
