@@ -157,13 +157,12 @@ def chain(m: Machine, speed_hz: float, nodes, probe_angles_deg=None,
         return found
 
 
-def bearing_changes(effects, k: int, declared_clearance: float) -> tuple[float, float]:
-    """(viscosity factor, clearance m) of bearing k (0-based) after the bearings-stage `effects`, at their
-    current values: the chain's own rule."""
+def bearing_changes(effects, k: int, declared_clearance: float):
+    """The `BearingChange` (numbers) of bearing k (0-based) after the bearings-stage `effects`, at their current
+    values: the chain's own rule."""
     from ..identify.forward.chain import bearing_changes as chain_bearing_changes
 
-    factor, clearance = chain_bearing_changes(effects, k, declared_clearance)
-    return float(factor), float(clearance)
+    return chain_bearing_changes(effects, k, declared_clearance).as_floats()
 
 
 def prepare_views(c: ForwardChain, effects, progress: ProgressFn = silent) -> None:
@@ -171,9 +170,9 @@ def prepare_views(c: ForwardChain, effects, progress: ProgressFn = silent) -> No
     clearance change needs the film's tables at another Sommerfeld number (seconds the first time, then
     cached on disk and here)."""
     for k, src in enumerate(c.sources):
-        factor, clearance = bearing_changes(effects, k, src.bearing.clearance)
-        with _key_lock(("view", c.machine.source, round(c.speed_hz, 9), k, round(factor, 12), round(clearance, 15))):
-            src.view(factor, clearance, progress=progress)
+        change = bearing_changes(effects, k, src.bearing.clearance)
+        with _key_lock(("view", c.machine.source, round(c.speed_hz, 9), k, *src._key(*change))):
+            src.view(*change, progress=progress)
 
 
 def bearing_load(m: Machine, index: int) -> np.ndarray:

@@ -16,6 +16,7 @@ from .base import EFFECTS, STAGES, Effect, Registry, register
 from .viscosity import Viscosity
 from .oil_temperature import OilTemperature
 from .clearance import Clearance
+from .side_load import SideLoad
 from .unbalance2 import Unbalance2
 from .pedestals import Pedestals
 from .probe_rotation import ProbeRotation
@@ -35,5 +36,5 @@ def parse_effects(texts: Iterable[str]) -> tuple[Effect, ...]:
 
 
 __all__ = ["EFFECTS", "STAGES", "Bow", "Clearance", "Effect", "LargeOrbit", "OilTemperature", "Pedestals", "ProbeGain",
-           "ProbeRotation", "Registry", "Unbalance2", "Viscosity", "Wiring", "bow_shape", "parse_effect",
+           "ProbeRotation", "Registry", "SideLoad", "Unbalance2", "Viscosity", "Wiring", "bow_shape", "parse_effect",
            "parse_effects", "register"]

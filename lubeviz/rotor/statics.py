@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import InputError
 from .assembly import Rotor, as_bearings, bearing_matrices
-from .elements import DOF_PER_NODE, X, Y, node_dofs
+from .elements import DOF_PER_NODE, THETA_X, X, Y, node_dofs
 
 
 def _check_gravity(gravity: float) -> float:
@@ -45,22 +45,48 @@ class Reactions:
 
 def simple_support_reactions(rotor: Rotor, gravity: float = 9.81, nodes=None) -> Reactions:
     """Reactions of the rotor pinned (x = y = 0) at the bearing nodes, under its own weight.
-
     With two supports this is statically determinate: the reactions depend on the mass distribution
     only. Solved on the FE model (x, y fixed at the supports, rotations free), so it also handles a
     bearing placed on a stubby element or more than two supports.
     """
     nodes = tuple(rotor.bearing_nodes if nodes is None else nodes)
+    fy = support_reactions(rotor, gravity_load(rotor, gravity), nodes)[:, 1]
+    return Reactions(nodes=nodes, forces=fy, weight=weight(rotor, gravity))
+
+
+def support_reactions(rotor: Rotor, F: np.ndarray, nodes) -> np.ndarray:
+    """(n_supports, 2) forces (N, X and Y) the supports at `nodes` exert on the rotor pinned there (x = y = 0,
+    rotations free) under the static load `F` (all DOFs, N and N m): with two supports the lever rule, with more
+    the shaft's stiffness shares it."""
+    nodes = tuple(nodes)
     if len(nodes) < 2:
         raise InputError(f"support nodes {list(nodes)}: need at least two supports for a static solution")
     fixed = np.array([node_dofs(rotor.check_node(n, "support node"))[[X, Y]] for n in nodes]).ravel()
     free = np.setdiff1d(np.arange(rotor.n_dof), fixed)
-    F = gravity_load(rotor, gravity)
     q = np.zeros(rotor.n_dof)
     q[free] = np.linalg.solve(rotor.K[np.ix_(free, free)], F[free])
     r = rotor.K @ q - F  # support forces on the rotor
-    fy = r[[node_dofs(n)[Y] for n in nodes]]
-    return Reactions(nodes=nodes, forces=fy, weight=weight(rotor, gravity))
+    return r[fixed].reshape(len(nodes), 2)
+
+
+def load_shares(rotor: Rotor, node: int, nodes=None) -> np.ndarray:
+    """The share of a static force at `node` each support at `nodes` (default the bearings) carries: (n,), summing
+    to 1; negative where the force lifts the shaft off that support (a force outboard of the others)."""
+    nodes = tuple(rotor.bearing_nodes if nodes is None else nodes)
+    F = np.zeros(rotor.n_dof)
+    F[node_dofs(rotor.check_node(node, "load node"))[Y]] = -1.0
+    return support_reactions(rotor, F, nodes)[:, 1]
+
+
+def moment_shares(rotor: Rotor, node: int, nodes=None) -> np.ndarray:
+    """The change of each support's load (N, along the weight) under a unit couple (1 N m) in the vertical plane at
+    `node`, summing to 0; its sign chosen so that the first support's is >= 0 (a couple that loads the first
+    bearing more is positive)."""
+    nodes = tuple(rotor.bearing_nodes if nodes is None else nodes)
+    F = np.zeros(rotor.n_dof)
+    F[node_dofs(rotor.check_node(node, "load node"))[THETA_X]] = 1.0
+    r = support_reactions(rotor, F, nodes)[:, 1]
+    return r if r[0] >= 0 else -r
 
 
 @dataclass(frozen=True)

@@ -22,6 +22,12 @@ physics lives where the record is built (`independent.py`), each hook a few line
   a seal or a rub at a node, with cross-coupled stiffness K[x, y] += kxy, K[y, x] -= kxy and direct
   stiffness K[x, x] += kxx, K[y, y] += kxx. (Cross-coupling alone destabilizes the whirl mode before it
   shows in 1X; the direct part moves the critical speed, which 1X shows.)
+- `side_load` (node, force_n, moment_nm = 0, angle_deg = 0): a static force of force_n at `node`, pointing
+  angle_deg from straight down towards +X (0: along the weight), and a couple of moment_nm in the vertical plane
+  made of two opposite vertical forces at the node and its neighbour on the finer rotor (> 0: the one that loads
+  bearing 1 more). The bearings' static loads are the reactions of the finer rotor pinned at its journals, each
+  film solved at its own load, in its own direction (a horizontal part turns the film's load line: the
+  diagnosis's tables hold vertical loads only, so such a record is outside its library).
 
 Nodes are given in the machine's own numbering (the paper's 1..21), whatever the independent rotor's
 finer mesh. Effects compose: a list of them is applied in order (gains multiply, rotations add,
@@ -48,6 +54,7 @@ EFFECTS: dict[str, dict[str, object]] = {
     "probe_gain": {"channel": REQUIRED, "gain": REQUIRED},
     "bow": {"node": REQUIRED, "amplitude_um": REQUIRED, "phase_deg": 0.0},
     "seal": {"node": REQUIRED, "kxy_n_m": REQUIRED, "kxx_n_m": 0.0},
+    "side_load": {"node": REQUIRED, "force_n": REQUIRED, "moment_nm": 0.0, "angle_deg": 0.0},
 }
 CHANNELS = ("x1", "y1", "x2", "y2")
 
@@ -93,6 +100,10 @@ def _check(name: str, p: dict) -> dict:
     elif name == "clearance":
         p["clearance_um"] = _number(name, "clearance_um", p["clearance_um"], positive=True)
         p["bearing"] = _bearing(name, p["bearing"])
+    elif name == "side_load":
+        p["node"] = _integer(name, "node", p["node"])
+        for key in ("force_n", "moment_nm", "angle_deg"):
+            p[key] = _number(name, key, p[key])
     elif name in ("unbalance2", "bow", "seal"):
         p["node"] = _integer(name, "node", p["node"])
         if name == "unbalance2":

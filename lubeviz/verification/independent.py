@@ -164,15 +164,48 @@ def _xy(node: int) -> np.ndarray:
     return DOF_PER_NODE * (node - 1) + np.array([0, 1])
 
 
-def _static_shape(rotor: Rotor, gravity: float, journal_positions) -> np.ndarray:
-    """Static shaft (all DOFs) under gravity with each journal's x, y held at the given position."""
+def _static_shape(rotor: Rotor, gravity: float, journal_positions, extra=None) -> np.ndarray:
+    """Static shaft (all DOFs) under gravity (and the static force `extra`, all DOFs) with each journal's x, y held
+    at the given position."""
     fixed = np.concatenate([_xy(b) for b in rotor.bearing_nodes])
     free = np.setdiff1d(np.arange(rotor.n_dof), fixed)
     q = np.zeros(rotor.n_dof)
     q[fixed] = np.ravel(journal_positions)
     F = gravity_load(rotor, gravity) - rotor.K[:, fixed] @ q[fixed]
+    if extra is not None:
+        F = F + extra
     q[free] = np.linalg.solve(rotor.K[np.ix_(free, free)], F[free])
     return q
+
+
+def _pinned_reactions(rotor: Rotor, F: np.ndarray) -> np.ndarray:
+    """(n_bearings, 2) forces the journals, pinned at the bearing centres, exert on the rotor under the static
+    force F (all DOFs)."""
+    fixed = np.concatenate([_xy(b) for b in rotor.bearing_nodes])
+    free = np.setdiff1d(np.arange(rotor.n_dof), fixed)
+    q = np.zeros(rotor.n_dof)
+    q[free] = np.linalg.solve(rotor.K[np.ix_(free, free)], F[free])
+    return (rotor.K @ q - F)[fixed].reshape(-1, 2)
+
+
+def _side_force(spec, rotor: Rotor) -> np.ndarray | None:
+    """The static force (all DOFs of the finer rotor) of the spec's `side_load` effects, or None."""
+    loads = [p for name, p in spec.effects if name == "side_load"]
+    if not loads:
+        return None
+    F = np.zeros(rotor.n_dof)
+    for p in loads:
+        n = rotor.check_node(fine_node(p["node"]), "side_load node")
+        a = math.radians(p["angle_deg"])
+        F[_xy(n)] += p["force_n"] * np.array([math.sin(a), -math.cos(a)])
+        if p["moment_nm"]:  # two opposite vertical forces, the node and its neighbour
+            m = n + 1 if n < rotor.n_nodes else n - 1
+            couple = np.zeros(rotor.n_dof)
+            d = abs(rotor.node_z[m - 1] - rotor.node_z[n - 1])
+            couple[_xy(n)[1]], couple[_xy(m)[1]] = -1.0 / d, 1.0 / d
+            sign = 1.0 if _pinned_reactions(rotor, couple)[0, 1] >= 0 else -1.0  # > 0 loads bearing 1 more
+            F += sign * p["moment_nm"] * couple
+    return F
 
 
 def _bow_shape(rotor: Rotor, node: int) -> tuple[np.ndarray, np.ndarray]:
@@ -270,6 +303,10 @@ def _system(spec: IndependentSpec, rotor: Rotor, machine, omega: float, films) -
 def _films(spec: IndependentSpec, machine, rotor: Rotor, omega: float, use_cache: bool):
     """Each bearing on the fine mesh with the effects' viscosity/clearance, solved at its supply."""
     reactions = simple_support_reactions(rotor, machine.gravity).forces
+    loads = np.stack([np.zeros_like(reactions), -reactions], axis=-1)  # what each film carries (N)
+    side = _side_force(spec, rotor)
+    if side is not None:
+        loads = loads - _pinned_reactions(rotor, side)
     changes = [{"viscosity": b.viscosity, "clearance": b.clearance} for b in machine.bearings]
     for name, p in spec.effects:
         for k in bearings_of(p) if name in ("viscosity", "clearance") else ():
@@ -278,9 +315,9 @@ def _films(spec: IndependentSpec, machine, rotor: Rotor, omega: float, use_cache
             else:
                 changes[k]["clearance"] = 1e-6 * p["clearance_um"]
     flows = (spec.q1_mlmin / MLMIN_PER_M3S, spec.q2_mlmin / MLMIN_PER_M3S)
-    films = [equilibria.film_point(equilibria.fine_bearing(b, **ch), omega, (0.0, -w), q, use_cache=use_cache)
-             for b, ch, w, q in zip(machine.bearings, changes, reactions, flows)]
-    return films, changes, reactions
+    films = [equilibria.film_point(equilibria.fine_bearing(b, **ch), omega, tuple(w), q, use_cache=use_cache)
+             for b, ch, w, q in zip(machine.bearings, changes, loads, flows)]
+    return films, changes, -loads[:, 1]
 
 
 def _probes(spec: IndependentSpec):
@@ -336,8 +373,8 @@ def _truth(spec: IndependentSpec, prepared) -> dict:
     # static positions (relative to the bearing centres' line) at the planes, running and at rest
     pos = np.array([f.position for f in films])
     clear = [ch["clearance"] for ch in changes]
-    p_run = _static_shape(rotor, machine.gravity, pos)[np.array(shaft)]
-    p_rest = _static_shape(rotor, machine.gravity, [(0.0, -c) for c in clear])[np.array(shaft)]
+    p_run = _static_shape(rotor, machine.gravity, pos, _side_force(spec, rotor))[np.array(shaft)]
+    p_rest = _static_shape(rotor, machine.gravity, [(0.0, -c) for c in clear], _side_force(spec, rotor))[np.array(shaft)]
 
     angles, gain = _probes(spec)
     u = np.stack([np.cos(angles), np.sin(angles)], axis=-1)  # (plane, probe, xy): where each probe points

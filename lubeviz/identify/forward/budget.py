@@ -148,13 +148,13 @@ def _dynamic_perturbations(chain, theta, budget: ModelBudget) -> list[np.ndarray
     out = []
     w = chain.omega
     for k, src in enumerate(chain.sources):
-        factor, clearance = chain.bearing_changes(k, np.asarray(theta), ())
-        K, C, _ = src.evaluate(theta[k], factor, clearance)
+        bearing = chain.bearing_changes(k, np.asarray(theta), ()).as_floats()
+        K, C, _ = src.evaluate(theta[k], *bearing)
         sl = slice(2 * k, 2 * k + 2)
         # Q_T of the bearing as it is (a viscosity or clearance change moves it). Not with large orbits (a
         # defect correction): along such an orbit the film cavitates and refills even above Q_T
         if budget.flooded_mesh < 1.0 and chain.defect is None:
-            u = float(np.clip((theta[k] / src.view(float(factor), float(clearance)).q_threshold - 1.0) / 0.1, 0.0, 1.0))
+            u = float(np.clip((theta[k] / src.view(*bearing).q_threshold - 1.0) / 0.1, 0.0, 1.0))
         else:
             u = 0.0
         mesh = budget.calibration * (1.0 - (1.0 - budget.flooded_mesh) * u * u * (3.0 - 2.0 * u))
@@ -172,12 +172,10 @@ def _dynamic_perturbations(chain, theta, budget: ModelBudget) -> list[np.ndarray
             d = np.zeros((4, 4), dtype=complex)
             if s > 0:
                 try:
-                    if change == "viscosity":
-                        Kp, Cp, _ = src.evaluate(theta[k], factor * (1 + s), clearance)
-                        Km, Cm, _ = src.evaluate(theta[k], factor * (1 - s), clearance)
-                    else:
-                        Kp, Cp, _ = src.evaluate(theta[k], factor, clearance * (1 + s))
-                        Km, Cm, _ = src.evaluate(theta[k], factor, clearance * (1 - s))
+                    field = "viscosity_factor" if change == "viscosity" else "clearance"
+                    base = getattr(bearing, field)
+                    Kp, Cp, _ = src.evaluate(theta[k], *bearing._replace(**{field: base * (1 + s)}))
+                    Km, Cm, _ = src.evaluate(theta[k], *bearing._replace(**{field: base * (1 - s)}))
                 except InputError as exc:  # outside the tables: say so rather than drop the term silently
                     raise InputError(f"model budget: the {change} tolerance of bearing {k + 1} reaches outside "
                                      f"the coefficient tables ({exc})") from None

@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
+from typing import NamedTuple, Sequence
 
 import numpy as np
 
@@ -71,42 +71,44 @@ class BearingSource:
             self._views[self._key(1.0, self.bearing.clearance)] = table
 
     @staticmethod
-    def _key(factor: float, clearance: float):
-        return (round(float(factor), 12), round(float(clearance), 15))
+    def _key(factor: float, clearance: float, load_factor: float = 1.0):
+        return (round(float(factor), 12), round(float(clearance), 15), round(float(load_factor), 12))
 
-    def view(self, factor: float = 1.0, clearance: float | None = None, *,
+    def view(self, factor: float = 1.0, clearance: float | None = None, load_factor: float = 1.0, *,
              progress: ProgressFn | None = None) -> CoefficientTable:
-        """The coefficient table of this bearing with viscosity x `factor` and radial clearance `clearance` (m);
-        `progress` reports a table build when one is needed (default: the source's own callback)."""
+        """The coefficient table of this bearing with viscosity x `factor`, radial clearance `clearance` (m) and
+        static load x `load_factor` (`BearingChange`); `progress` reports a table build when one is needed
+        (default: the source's own callback)."""
         clearance = self.bearing.clearance if clearance is None else float(clearance)
-        key = self._key(factor, clearance)
+        key = self._key(factor, clearance, load_factor)
         if key not in self._views:
             bearing = self.bearing
             changed = key != self._key(1.0, self.bearing.clearance)
+            load = self.load * float(load_factor)
             view = None
             if changed and self._table is not None:  # from the slices in memory: ~0.6 ms, not ~2 ms
                 from ..tables.cache import scaled_view
 
-                view = scaled_view(self._table, self.bearing, self.load, self.omega, float(factor), clearance,
+                view = scaled_view(self._table, self.bearing, load, self.omega, float(factor), clearance,
                                    index=self.index)
             if view is None:
                 from ..tables.cache import bearing_view
 
                 if changed:
                     bearing = self.bearing.copy(viscosity=self.bearing.viscosity * float(factor), clearance=clearance)
-                view = bearing_view(bearing, self.load, self.omega,
+                view = bearing_view(bearing, load, self.omega,
                                     progress=self.progress if progress is None else progress)
                 if changed:
-                    self._remember_slices(bearing)
+                    self._remember_slices(bearing, load)
             self._views.setdefault(key, view)
         return self._views[key]
 
-    def _remember_slices(self, bearing) -> None:
+    def _remember_slices(self, bearing, load) -> None:
         """Keep the slices the view of `bearing` (this one, changed) was made from, for `cache.scaled_view`."""
         from ..tables import cache
 
         try:
-            table = cache.loaded_table(bearing, self.load, self.omega)
+            table = cache.loaded_table(bearing, load, self.omega)
         except InputError:
             return
         if self._table is None or self._table.geometry != table.geometry:
@@ -125,44 +127,58 @@ class BearingSource:
     def nominal(self) -> CoefficientTable:
         return self.view()
 
-    def evaluate(self, q, factor=1.0, clearance=None):
-        """K, C (... 2, 2) and journal position (..., 2) at flows q (m^3/s) with the given bearing changes."""
+    def evaluate(self, q, factor=1.0, clearance=None, load_factor=1.0):
+        """K, C (... 2, 2) and journal position (..., 2) at flows q (m^3/s) with the given bearing changes
+        (`BearingChange`: each a number or an array of the batch's shape)."""
         q = np.asarray(q, dtype=float)
         factor = np.asarray(factor, dtype=float)
         clearance = np.asarray(self.bearing.clearance if clearance is None else clearance, dtype=float)
-        if factor.ndim == 0 and clearance.ndim == 0:  # one bearing for the whole batch: one table read
-            t = self.view(float(factor), float(clearance))
+        load_factor = np.asarray(load_factor, dtype=float)
+        if factor.ndim == 0 and clearance.ndim == 0 and load_factor.ndim == 0:  # one bearing for the batch
+            t = self.view(float(factor), float(clearance), float(load_factor))
             v = t._values(np.clip(q, t.q_min, t.q_max))
             return (v[..., 0:4].reshape(q.shape + (2, 2)), v[..., 4:8].reshape(q.shape + (2, 2)), v[..., 8:10])
-        factor = np.broadcast_to(factor, q.shape)
-        clearance = np.broadcast_to(clearance, q.shape)
         K = np.empty(q.shape + (2, 2))
         C = np.empty(q.shape + (2, 2))
         pos = np.empty(q.shape + (2,))
-        pairs = np.stack([factor.ravel(), clearance.ravel()], axis=1)
-        uniq, inverse = np.unique(pairs, axis=0, return_inverse=True)
+        changes = np.stack([np.broadcast_to(a, q.shape).ravel() for a in (factor, clearance, load_factor)], axis=1)
+        uniq, inverse = np.unique(changes, axis=0, return_inverse=True)
         qf = q.ravel()
         Kf, Cf, Pf = K.reshape(-1, 2, 2), C.reshape(-1, 2, 2), pos.reshape(-1, 2)
-        for j, (f, c) in enumerate(uniq):
+        for j, (f, c, w) in enumerate(uniq):
             sel = np.flatnonzero(inverse.ravel() == j)
-            t = self.view(f, c)
+            t = self.view(f, c, w)
             qq = np.clip(qf[sel], t.q_min, t.q_max)
             Kf[sel], Cf[sel] = t.coefficients(qq)
             Pf[sel] = t.journal_position(qq)
         return K, C, pos
 
 
-def bearing_changes(effects, k: int, declared_clearance: float, values=lambda e: {}, shape=()) -> tuple:
-    """(viscosity factor, clearance m) of bearing k (0-based) after the bearings-stage `effects`: factors
+class BearingChange(NamedTuple):
+    """What the bearings-stage effects change of one bearing: its oil's viscosity (x `viscosity_factor`), its
+    radial clearance (m) and the static load it carries (x `load_factor`); numbers, or arrays of a batch's shape.
+    `BearingSource.view(*change)` and `.evaluate(q, *change)` take it as it is."""
+
+    viscosity_factor: object
+    clearance: object
+    load_factor: object = 1.0
+
+    def as_floats(self) -> "BearingChange":
+        return BearingChange(*(float(v) for v in self))
+
+
+def bearing_changes(effects, k: int, declared_clearance: float, values=lambda e: {}, shape=()) -> BearingChange:
+    """The `BearingChange` of bearing k (0-based) after the bearings-stage `effects`: viscosity and load factors
     multiply, the last clearance given wins. `values(effect)` gives trial values of its free parameters
     (default: none, i.e. the effects' own values)."""
-    factor, clearance = 1.0, declared_clearance
+    factor, clearance, load = 1.0, declared_clearance, 1.0
     for e in effects:
         if e.stage == "bearings":
             change = e.bearing_change(k, values(e), shape)
             factor = factor * change.get("viscosity_factor", 1.0)
             clearance = change.get("clearance", clearance)
-    return factor, clearance
+            load = load * change.get("load_factor", 1.0)
+    return BearingChange(factor, clearance, load)
 
 
 # --- the chain -----------------------------------------------------------------------------------
@@ -325,8 +341,8 @@ class ForwardChain:
     def _values(self, theta: np.ndarray, effect) -> dict:
         return {p: theta[..., 2 + j] for j, (e, p) in enumerate(self._slots) if e is effect}
 
-    def bearing_changes(self, k: int, theta, shape=()) -> tuple:
-        """(viscosity factor, clearance) of bearing k at parameters theta (`bearing_changes`)."""
+    def bearing_changes(self, k: int, theta, shape=()) -> BearingChange:
+        """The `BearingChange` of bearing k at parameters theta (`bearing_changes`)."""
         return bearing_changes(self.effects, k, self.sources[k].bearing.clearance,
                                lambda e: self._values(theta, e), shape)
 
@@ -383,8 +399,9 @@ class ForwardChain:
         housing = [None, None]
         static = np.zeros(shape + (2, 2))
         for k, src in enumerate(self.sources):
-            factor, clearance = self.bearing_changes(k, theta, shape)
-            K, C, pos = src.evaluate(theta[..., k], factor, clearance)
+            change = self.bearing_changes(k, theta, shape)
+            clearance = change.clearance
+            K, C, pos = src.evaluate(theta[..., k], *change)
             B = K + 1j * omega * C
             for e in self.effects:
                 if e.applies(k):
@@ -461,9 +478,9 @@ class ForwardChain:
         for j, k in enumerate(extra):
             hdofs[k] = n0 + 2 * j + np.arange(2)
         for k, src in enumerate(self.sources):
-            factor, clearance = self.bearing_changes(k, theta, ())
-            clearance = float(clearance)
-            K, C, pos = src.evaluate(theta[k], factor, clearance)
+            change = self.bearing_changes(k, theta, ()).as_floats()
+            clearance = change.clearance
+            K, C, pos = src.evaluate(theta[k], *change)
             B = K + 1j * omega * C
             jd = node_dofs(rotor.bearing_nodes[k])[[X, Y]]
             other = hdofs.get(k)

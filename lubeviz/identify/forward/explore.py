@@ -34,8 +34,7 @@ def prepare_views(chain: ForwardChain, effects, progress: ProgressFn = silent) -
     """Build the coefficient views a chain with `effects` needs (a viscosity or clearance change: the film's
     tables at another Sommerfeld number, seconds the first time, then cached)."""
     for k, src in enumerate(chain.sources):
-        factor, clearance = bearing_changes(effects, k, src.bearing.clearance)
-        src.view(float(factor), float(clearance), progress=progress)
+        src.view(*bearing_changes(effects, k, src.bearing.clearance).as_floats(), progress=progress)
 
 
 def rotor_state(machine, tables, rotor, flows, node: int, effect=None, *, snr_db: float, seed: int,
@@ -61,11 +60,12 @@ def rotor_state(machine, tables, rotor, flows, node: int, effect=None, *, snr_db
     static, clearance_eff, coefs = static0, clearance, None
     q_threshold = q_threshold0 = [tab.q_threshold for tab in tables]
     if effect is not None:
+        effect = effect.bind(machine)
         effects = (effect,)
         prepare(planes, effects, progress)
         out = planes.with_effects(effects).output(theta)
-        changes = [tuple(float(v) for v in bearing_changes(effects, j, clearance[j])) for j in range(len(clearance))]
-        clearance_eff = [c for _, c in changes]
+        changes = [bearing_changes(effects, j, clearance[j]).as_floats() for j in range(len(clearance))]
+        clearance_eff = [c.clearance for c in changes]
         static = out.static - np.stack([np.zeros(len(clearance)), clearance_eff], -1)
         if node in centres:
             j = centres.index(node)
