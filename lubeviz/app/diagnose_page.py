@@ -23,7 +23,7 @@ import param
 from ..api import DiagnosisSettings, diagnose
 from ..diagnose import diagnosis_dict
 from ..diagnose.settings import REPORT_MAP_POINTS
-from ..diagnose.report import AFTER_COLOUR as AFTER, BEFORE_COLOUR as BEFORE, report_html, report_maps
+from ..diagnose.report import AFTER_COLOUR as AFTER, BEFORE_COLOUR as BEFORE, report_html, report_maps, scan_svg
 from ..effects import EFFECTS
 from ..errors import LubevizError
 from ..identify.forward.chain import simulate
@@ -117,6 +117,7 @@ class DiagnosePage(pn.viewable.Viewer):
         self._candidates = pn.Column(sizing_mode="stretch_width")  # a Tabulator made afresh per result
         self._residuals = pn.pane.HoloViews(self._residual_plot(None), sizing_mode="stretch_width",
                                             linked_axes=False, css_classes=["lubeviz-residuals"])
+        self._scans = pn.Column(sizing_mode="stretch_width")  # each node scan's profile (diagnose.report.scan_svg)
         self._maps = pn.FlexBox(flex_wrap="wrap")  # the two χ² maps side by side, or one above the other when narrow
         flows = [quantity_slider(self.sample, n, start=0.3 * 546 * M3S_PER_MLMIN, end=2.0 * 546 * M3S_PER_MLMIN,
                                  step=M3S_PER_MLMIN, label=f"Sample: true flow Q{k + 1} (ml/min)",
@@ -136,7 +137,7 @@ class DiagnosePage(pn.viewable.Viewer):
         self._layout = pn.Column(
             pn.Row(controls, results, sizing_mode="stretch_width"),
             pn.pane.Markdown("### Candidate effects, best first", sizing_mode="stretch_width"), self._candidates,
-            self._maps, pn.pane.Markdown(EXPLAIN, sizing_mode="stretch_width"), sizing_mode="stretch_width")
+            self._scans, self._maps, pn.pane.Markdown(EXPLAIN, sizing_mode="stretch_width"), sizing_mode="stretch_width")
         self.param.watch(lambda e: self._choose_effect(e.new), "effect_name")
         self._choose_effect(self.effect_name)
 
@@ -164,6 +165,7 @@ class DiagnosePage(pn.viewable.Viewer):
         self._verdict.visible = False
         self._flows.object = ""
         self._candidates.objects = []
+        self._scans.objects = []
         self._maps.objects = []
         self._residuals.object = self._residual_plot(None)
         self._download.disabled = True
@@ -313,6 +315,10 @@ class DiagnosePage(pn.viewable.Viewer):
                                                          sizing_mode="stretch_width",
                                                          formatters=plain_text_formatters(table),
                                                          css_classes=["lubeviz-candidates"])]
+        self._scans.objects = ([pn.pane.Markdown("### Where along the shaft", sizing_mode="stretch_width")] + [
+            pn.Column(pn.pane.HTML(scan_svg(sc), css_classes=["lubeviz-node-scan"]),
+                      pn.pane.Markdown(plain(sc.words()[0].upper() + sc.words()[1:]) + ".",
+                                       sizing_mode="stretch_width")) for sc in d.scans]) if d.scans else []
         self._maps.objects = [pn.pane.HoloViews(self._map_plot(title, grid, fit, r["truth"]), linked_axes=False,
                                                 css_classes=["lubeviz-diagnose-map"]) for title, grid, fit in r["maps"]]
         self._download.disabled = False

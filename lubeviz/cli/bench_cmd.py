@@ -11,7 +11,7 @@ def register(sub) -> None:
     p = sub.add_parser("bench", help="performance figures of BENCHMARKS.md")
     add_common(p)
     p.add_argument("what", choices=("film", "mesh", "smoothness", "rotor", "stability", "identify", "table",
-                                    "coverage", "budget", "diagnose", "read", "broken"),
+                                    "coverage", "budget", "diagnose", "read", "broken", "loop"),
                    help="film: solver timings; mesh: mesh study; smoothness: roughness of K, C over Q; "
                         "rotor: assembly, response, modes, 15 s record (ROSS alongside); stability: critical speed and "
                         "instability threshold across 50-150 %% Q_T; "
@@ -26,7 +26,10 @@ def register(sub) -> None:
                         "read: the record reader's peak memory on a ~195 MB CSV and .npz, each read in a fresh process; "
                         "broken: --records independent records broken as a measurement breaks (columns exchanged or "
                         "negated, a copied channel, units slips, mains pickup, or clean), diagnosed: right / wrong "
-                        "alone / intervals holding")
+                        "alone / intervals holding; "
+                        "loop: the residual loop's rates over >= 150 independent cases (clean, each effect at two "
+                        "strengths, sets, pairs, out of the library): confusion matrix, rates with Wilson intervals, "
+                        "silent wrong answers, time per diagnosis")
     p.add_argument("--records", type=int, default=120, help="coverage: independent records (default 120)")
     p.add_argument("--static", action="store_true",
                    help="coverage: records with the static shaft position and the oil's viscosity x0.7-1.3 of the "
@@ -42,7 +45,7 @@ def register(sub) -> None:
     p.add_argument("--orbit-workers", type=int, default=1, metavar="N",
                    help="coverage --large-orbit: records identified on N processes at once (default 1)")
     p.add_argument("--seed", type=int, default=2026,
-                   help="coverage, budget: the corpus seed (2026: the budget's calibration corpus; another seed "
+                   help="coverage, budget, loop: the corpus seed (2026: the budget's calibration corpus; another seed "
                         "is a held-out check)")
     p.add_argument("--calibrations", default="",
                    help="coverage: other budget calibration factors to try on the same records, comma-separated")
@@ -58,6 +61,12 @@ def register(sub) -> None:
                         "the source's 200 x 200 films (diagnose's default), or the time integration on the declared "
                         "films (coverage's default; every harmonic; minutes "
                         "per record, cached)")
+    p.add_argument("--n-clean", type=int, default=40, help="loop: clean records among the cases (default 40)")
+    p.add_argument("--processes", type=int, default=2,
+                   help="loop: cases made and diagnosed at once, one worker process each (default 2)")
+    p.add_argument("--limit", type=int, default=None,
+                   help="loop: only the first N cases (drawn round-robin over the kinds; the same cases as the "
+                        "full run's)")
     p.add_argument("--no-ross", action="store_true", help="rotor: skip the side-by-side ROSS timings")
     p.add_argument("--reproduce", action="store_true",
                    help="identify: also time the paper's whole protocol, both locations, both modes (cold tables)")
@@ -115,6 +124,18 @@ def run_bench(args) -> dict:
         if args.records < 1:
             raise ValueError(f"--records {args.records}: expected at least 1")
         return bench_broken(args.machine, n=args.records, seed=args.seed, progress=StderrBar())
+    if args.what == "loop":
+        from ..bench.loop import bench_loop
+
+        if args.n_clean < 0:
+            raise ValueError(f"--n-clean {args.n_clean}: expected 0 or more")
+        if args.processes < 1:
+            raise ValueError(f"--processes {args.processes}: expected at least 1")
+        if args.limit is not None and args.limit < 1:
+            raise ValueError(f"--limit {args.limit}: expected at least 1")
+        args.json = True  # rows and nested rates: only JSON reads them (stdout, with or without --json)
+        return bench_loop(args.machine, n_clean=args.n_clean, seed=args.seed, processes=args.processes,
+                          limit=args.limit, progress=StderrBar())
     if args.what in ("coverage", "budget", "diagnose"):
         from ..bench import records as vb
 

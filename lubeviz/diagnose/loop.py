@@ -7,6 +7,9 @@
    flows (`Effect.candidate`: its main parameters free, the rest at typical values; phases from three
    starts), scored by AIC = chi^2 + 2 k (k free parameters: the penalty for what an effect adds) and by
    whether what it leaves is noise (p > level). Ranked by AIC.
+   When no single candidate leaves noise, pairs of the best PAIR_FROM singles (different effects) are fitted
+   together; a pair is added to the ranking only when it passes and beats every single by more than
+   `ambiguity_aic`, and is then named as the pair.
 3. Outcomes, never forced:
    - the plain model passes: explained, nothing added;
    - one passing candidate is better than every other by more than `ambiguity_aic` (4, "considerably
@@ -29,6 +32,7 @@ from ..errors import LubevizError
 from ..identify.fit.least_squares import Z95, Fit, fit
 from ..identify.fit.result import lubrication_verdict, union_interval
 from ..identify.forward.chain import bearing_changes
+from .scan import SCREEN_STRIDE, NodeSweep
 from ..progress import ProgressFn, silent
 from ..units import MLMIN_PER_M3S
 
@@ -36,6 +40,11 @@ AMBIGUITY_AIC = 4.0
 OUTCOMES = ("explained", "effect added", "ambiguous", "unexplained", "effect added, still not explained",
             "measurement fault")
 REFITS = 3  # passing candidates refined in turn until one still explains the record
+PAIR_FROM = 4  # pairs are tried among this many of the best single candidates (different effects)
+# a pair is named only with this many degrees of freedom left: one record at one speed (6 features) minus two flows
+# and a pair of 2 + 2 parameters leaves none, and with one left almost any pair fits it (measured: a worn bearing 2
+# with a probe's gain error named as "a second unbalance + bearing 1 at 84 um", flows 64 % off, chi2 0.4 for 1 dof)
+PAIR_DOF = 2
 
 
 @dataclass(frozen=True)
@@ -48,6 +57,20 @@ class Candidate:
     error: str = ""
     defect: object = None  # large orbits: the balance's correction its fit used (`identify.forward.chain.ResponseDefect`)
     unbalance_scale: float | None = None  # large orbits: the unbalance's size the record's 1X implies (x declared)
+    partners: tuple = ()  # a pair (`_try_pairs`): the other effect(s) fitted with `effect`
+
+    @property
+    def effects(self) -> tuple:
+        """The effect(s) of this candidate: one, or a pair's two."""
+        return (self.effect, *self.partners)
+
+    @property
+    def separated_by(self) -> tuple[str, ...]:
+        return tuple(dict.fromkeys(type(e).separated_by for e in self.effects if type(e).separated_by))
+
+    @property
+    def forcing(self) -> bool:
+        return all(type(e).forcing for e in self.effects)
 
     @property
     def aic(self) -> float:
@@ -67,8 +90,9 @@ class Candidate:
             if p.free and not p.is_flow:
                 out[p.name] = p.value
                 out[p.name + "_std"] = p.std
-        for p, v in self.effect.values().items():
-            out.setdefault(p, v)
+        for e in self.effects:
+            for p, v in e.values().items():
+                out.setdefault(p, v)
         if self.unbalance_scale is not None:
             out["unbalance_scale"] = float(self.unbalance_scale)
         return out
@@ -98,6 +122,7 @@ class Diagnosis:
     q_threshold: np.ndarray | None = None
     # the same for the machine as declared, with the record's declared effects (an oil temperature reading)
     q_threshold_plain: np.ndarray | None = None
+    scans: tuple = ()  # diagnose.scan.NodeScan: each effect that acts at a node, fitted at every node it can
 
     @property
     def q_threshold_declared(self) -> np.ndarray | None:
@@ -135,20 +160,22 @@ class Diagnosis:
         return "unexplained"
 
 
-def _fit_candidate(base_chain, measured, effect, names, budget, level, starts_phase) -> Candidate:
+def _fit_candidate(base_chain, measured, effect, names, budget, level, starts_phase, start=None) -> Candidate:
+    """One effect in one placement fitted with the flows: from each of three phases when it has one (and
+    `starts_phase`), or from `start` (a parameter vector: a node scan's neighbour) once."""
     cand = effect.candidate()
     label = cand.label()
     chains = [c.adding(cand) for c in base_chain]
     best = None
     phases = [p for p in cand.free if p.endswith("phase_deg")]
-    trials = [0.0, 120.0, 240.0] if (phases and starts_phase) else [None]
+    trials = [0.0, 120.0, 240.0] if (phases and starts_phase and start is None) else [None]
     try:
         for ph in trials:
             trial = cand if ph is None else cand.copy(**{phases[0]: ph})
             if ph is not None:
                 trial._free = cand.free
                 chains = [c.adding(trial) for c in base_chain]
-            res = fit(chains, measured, names=names, budget=budget, level=level, intervals=False)
+            res = fit(chains, measured, names=names, budget=budget, level=level, intervals=False, start=start)
             if best is None or res.chi2 < best[1].chi2:
                 best = (trial, res)
     except LubevizError as exc:
@@ -180,15 +207,30 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         return Diagnosis(**{**common, "seconds": time.perf_counter() - t0}, candidates=(), added=None, after=None,
                          explained=False, ambiguous=(), verdict=_fault_words(before, broken))
     oil_known = _oil_declared(chains)
-    pool, orbit = _candidate_pool(candidates, oil_known)
-    tried = []
-    for n, e in enumerate(pool, start=1):
-        progress(n, len(pool), e.label())
-        tried.append(_fit_candidate(chains, meas, e, names, budget, level, phase_starts))
+    pool, orbit = _candidate_pool(candidates, oil_known, chains[0].rotor)
+    tried, scans = [], []
+    total, done = sum(len(e) if isinstance(e, list) else 1 for e in pool), 0
+    for e in pool:
+        def fit_one(effect, start=None):
+            nonlocal done
+            done += 1
+            progress(min(done, total), total, effect.label())
+            return _fit_candidate(chains, meas, effect, names, budget, level, phase_starts, start)
+
+        if isinstance(e, list):  # where along the shaft: every 2nd node now, all of them if the verdict names it
+            sweep = NodeSweep(e, fit_one)
+            best, profile = sweep.run(SCREEN_STRIDE)
+            tried.append(best)
+            scans.append((sweep, profile))
+        else:
+            tried.append(fit_one(e))
     orbit_tried = orbit is not None and bool(_two_x(lines)) and len(chains) == 1 and not before.explained
     if orbit_tried:
         tried.append(_fit_orbit(chains[0], meas[0], orbit, names, budget, level, progress))
     tried.sort(key=lambda c: c.aic)
+    if not before.explained and not any(c.passes for c in tried):
+        tried += _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progress)
+        tried.sort(key=lambda c: c.aic)
     passing = [c for c in tried if c.passes]
     best, after, refused = (None, None, []) if before.explained else _refine(chains, meas, passing, names, budget,
                                                                               level)
@@ -197,12 +239,14 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         out = _explained_outcome(chains, meas, before, names, budget, level, oil_known, passing)
     elif best is not None:
         out = _added_outcome(chains, before, best, after, passing, ambiguity_aic)
+        if not out["ambiguous"] and not oil_known and best.defect is None:
+            _oil_after_effect(out, chains, meas, best, names, budget, level)
     else:
         out = _unexplained_outcome(before, tried, refused)
     added = out["added"]
     # an ambiguity's members change the machine differently: the flows are judged against the declared bearings
     named = added is not None and added.defect is None and not out["ambiguous"]
-    changes = (fitted_effect(added, out["after"])[0],) if named else ()
+    changes = tuple(e for e, _ in fitted_effects(added, out["after"])) if named else ()
     plain = diagnosed_thresholds(chains[0])
     thresholds = diagnosed_thresholds(chains[0], changes) if changes else plain
     verdict = out.pop("verdict") + _threshold_words(thresholds, plain) + _line_words(lines, orbit_tried)
@@ -216,9 +260,29 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
             verdict += (" Above the threshold the machine is not in a steady state (the whirl grows on top of the "
                         "unbalance orbit): the flows above rest on the 1X part of a transient and on a steady model, "
                         "so take them as indicative; their intervals do not carry this.")
+    scans = _complete_scans(scans, out["added"], out["ambiguous"])
+    verdict += _scan_words(scans, out["added"], out["ambiguous"])
     return Diagnosis(**{**common, "seconds": time.perf_counter() - t0}, candidates=tuple(tried),
                      verdict=_finding_words(findings) + verdict, stability=stability, q_threshold=thresholds,
-                     q_threshold_plain=plain, **out)
+                     q_threshold_plain=plain, scans=tuple(scans), **out)
+
+
+def _named_effects(added, ambiguous) -> set:
+    named = {e.effect_name for e in added.effects} if added is not None else set()
+    return named | {part.split("[", 1)[0] for label in ambiguous for part in label.split(" + ")}
+
+
+def _complete_scans(scans, added, ambiguous) -> list:
+    """Each scan's profile; at every node for the effects the verdict names or keeps in an ambiguity."""
+    named = _named_effects(added, ambiguous)
+    return [sweep.run(1)[1] if profile.effect_name in named else profile for sweep, profile in scans]
+
+
+def _scan_words(scans, added, ambiguous) -> str:
+    """Where a named (or ambiguous) effect that acts at a node sits, as far as the record says."""
+    named = _named_effects(added, ambiguous)
+    words = [s.words() for s in scans if s.effect_name in named]
+    return "".join(f" Where: {w}." for w in words)
 
 
 def _fault_words(before: Fit, broken) -> str:
@@ -229,9 +293,10 @@ def _fault_words(before: Fit, broken) -> str:
             "record (or leave that plane out) and diagnose again.")
 
 
-def _candidate_pool(candidates, oil_known: bool) -> tuple[list, object]:
-    """Every placement of every candidate a diagnosis fits, and the response-model candidate (large orbits,
-    tried only when the record shows their 2X), or None."""
+def _candidate_pool(candidates, oil_known: bool, rotor) -> tuple[list, object]:
+    """Every placement of every candidate a diagnosis fits (an effect scanned over nodes, `Effect.scan_nodes`: a
+    list of it at each node), and the response-model candidate (large orbits, tried only when the record shows
+    their 2X), or None."""
     from ..effects import EFFECTS
 
     pool, orbit = [], None
@@ -244,8 +309,60 @@ def _candidate_pool(candidates, oil_known: bool) -> tuple[list, object]:
             continue
         if oil_known and e.oil_viscosity:  # an oil temperature reading settles the viscosity
             continue
-        pool.extend(e.placements())
+        nodes = e.scan_nodes(rotor)
+        if nodes:
+            pool.append([e.copy(node=n) for n in nodes])
+        else:
+            pool.extend(e.placements())
     return pool, orbit
+
+
+def _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progress=silent) -> list:
+    """Pairs of the best PAIR_FROM single candidates (different effects; not large orbits) fitted together from
+    their single fits' values; returned (to join the ranking) only when the best passes and beats every single
+    by more than `ambiguity_aic`: a pair has more freedom, and is named only when the record asks for it."""
+    import itertools
+
+    tops, seen = [], set()
+    for c in tried:
+        if c.fit is None or c.defect is not None or c.effect.effect_name in seen:
+            continue
+        seen.add(c.effect.effect_name)
+        tops.append(c)
+        if len(tops) == PAIR_FROM:
+            break
+    pairs = list(itertools.combinations(tops, 2))
+    found = []
+    for n, (a, b) in enumerate(pairs, start=1):
+        label = f"{a.label} + {b.label}"
+        progress(n, len(pairs), label)
+        ea, eb = a.effect.candidate(), b.effect.candidate()
+        try:
+            res = fit([c.adding(ea, eb) for c in chains], meas, names=names, budget=budget, level=level,
+                      intervals=False)
+        except LubevizError as exc:
+            found.append(Candidate(label=label, effect=ea, partners=(eb,), fit=None, error=str(exc)))
+            continue
+        pair = Candidate(label=label, effect=ea, partners=(eb,), fit=res)
+        (ea, _), (eb, _) = fitted_effects(pair, res)
+        found.append(Candidate(label=label, effect=ea, partners=(eb,), fit=res))
+    best_single = min((c.aic for c in tried), default=math.inf)
+    good = sorted((c for c in found if c.passes and c.aic < best_single - ambiguity_aic
+                   and c.fit.dof >= PAIR_DOF and not _at_bound(c.fit)), key=lambda c: c.aic)
+    # every pair within `ambiguity_aic` of the best: several pairs that fit are an ambiguity, not a name
+    return [c for c in good if c.aic - good[0].aic < ambiguity_aic] if good else []
+
+
+def _at_bound(f: Fit) -> bool:
+    """Whether a fitted effect parameter stopped at its bound (a pair that needs oil 2.5 x as viscous, the edge
+    of the search, is pressed there by a misfit, not found)."""
+    for p in f.params:
+        if not p.free or p.is_flow:
+            continue
+        for b in p.bounds:
+            if b is not None and abs(p.value - b) <= 1e-6 * max(abs(b), 1.0):
+                return True
+    return False
 
 
 def _two_x(lines) -> list:
@@ -261,7 +378,8 @@ def _refine(chains, meas, passing, names, budget, level):
     refused = []
     for cand in passing[:REFITS]:
         refit = cand.fit if cand.defect is not None else fit(
-            [c.adding(cand.effect.candidate()) for c in chains], meas, names=names, budget=budget, level=level,
+            [c.adding(*(e.candidate() for e in cand.effects)) for c in chains], meas, names=names, budget=budget,
+            level=level,
             start=cand.fit.values)
         if refit.explained:
             return cand, refit, refused
@@ -279,7 +397,7 @@ def _explained_outcome(chains, meas, before, names, budget, level, oil_known, pa
                         f"(chi2 = {before.chi2:.1f} for {before.dof} dof); no effect is needed."))
     others = _look_alikes(before, passing)
     if others:  # the plain model passes, but an effect fits better with other flows: its interval alone would lie
-        separated = tuple(dict.fromkeys(type(c.effect).separated_by for c in others if type(c.effect).separated_by))
+        separated = tuple(dict.fromkeys(w for c in others for w in c.separated_by))
         ivs = _set_intervals(before, others)
         out.update(ambiguous=tuple(c.label for c in others), set_intervals=ivs, separated_by=separated)
         out["verdict"] += (" But " + "; ".join(f"{c.label} (Q1, Q2 = {_flows_words(c.fit)} ml/min)" for c in others)
@@ -296,6 +414,26 @@ def _explained_outcome(chains, meas, before, names, budget, level, oil_known, pa
                            f"{OIL_RANGE[1]:.2f} as viscous as declared explains it as well, with Q1 in {look_alike[2]} "
                            f"and Q2 in {look_alike[3]} ml/min. To tell them apart: {separated[0]}.")
     return out
+
+
+def _oil_after_effect(out: dict, chains, meas, best, names, budget, level) -> None:
+    """A named effect's flows rest on the declared oil as much as the plain model's do: from one record without
+    the static position, oil of another viscosity with the same effect fits as well at other flows (the hot oil
+    and turned probe pair the issue measured: the probe alone explained it, flows 20 % low). When the flows'
+    intervals with the viscosity free are more than twice as wide, the verdict gives them, over any oil in the
+    range and the declared one."""
+    if any(e.oil_viscosity for e in best.effects):
+        return
+    look_alike = _oil_look_alike([c.adding(*(e.candidate() for e in best.effects)) for c in chains], meas,
+                                 out["after"], names, budget, level)
+    if look_alike is None:
+        return
+    out["set_intervals"] = look_alike[4]
+    out["separated_by"] = tuple(dict.fromkeys((*out["separated_by"], type(look_alike[1]).separated_by)))
+    out["verdict"] += (f" But the oil's viscosity is not pinned by this record: with {best.label}, oil "
+                       f"x{OIL_RANGE[0]:g}-{OIL_RANGE[1]:.2f} as viscous as declared explains it as well, with Q1 in "
+                       f"{look_alike[2]} and Q2 in {look_alike[3]} ml/min. To pin it: "
+                       f"{type(look_alike[1]).separated_by}.")
 
 
 def _look_alikes(before: Fit, passing) -> list:
@@ -317,10 +455,9 @@ def _look_alikes(before: Fit, passing) -> list:
 def _added_outcome(chains, before, best, after, passing, ambiguity_aic) -> dict:
     close = [c for c in passing if c is not best and c.aic - best.aic < ambiguity_aic]
     ambiguous = tuple(c.label for c in close)
-    separated = tuple(dict.fromkeys(type(c.effect).separated_by for c in [best, *close]
-                                     if type(c.effect).separated_by))
+    separated = tuple(dict.fromkeys(w for c in [best, *close] for w in c.separated_by))
     set_intervals = None
-    if len(chains) == 1 and all(type(c.effect).forcing for c in [best, *close]):
+    if len(chains) == 1 and all(c.forcing for c in [best, *close]):
         # one speed: a fitted 1X force stands for any 1X force, also one from an effect not in the library
         ambiguous = ambiguous + (OTHER_FORCE,)
         separated = separated + (FORCE_SEPARATION,)
@@ -414,8 +551,8 @@ def _whirl_words(chain, added, final: Fit, line):
     from ..rotor.whirl import mode_stability, whirl_reading
 
     c = chain
-    if added is not None and added.defect is None and added.effect.stage == "bearings":
-        c = chain.adding(added.effect.candidate())
+    if added is not None and added.defect is None and any(e.stage == "bearings" for e in added.effects):
+        c = chain.adding(*(e.candidate() for e in added.effects if e.stage == "bearings"))
     theta = np.asarray(final.values, dtype=float)
     coefficients = []
     for k, src in enumerate(c.sources):
@@ -506,9 +643,19 @@ ORBIT_REFINE = (" These flows come from a 5-harmonic balance, coarser than ident
 
 
 def fitted_effect(c: Candidate, f: Fit):
-    """The candidate's effect at the values of fit `f` (the winner's refined fit), and their std."""
-    free = {p.name: p for p in f.params if p.free and not p.is_flow and p.name in c.effect.continuous}
-    return c.effect.copy(**{n: p.value for n, p in free.items()}), {n: p.std for n, p in free.items()}
+    """The candidate's (first) effect at the values of fit `f` (the winner's refined fit), and their std."""
+    return fitted_effects(c, f)[0]
+
+
+def fitted_effects(c: Candidate, f: Fit) -> list:
+    """[(effect at the values of fit `f`, {parameter: std})] for each of the candidate's effects (a pair's two)."""
+    out = []
+    for e in c.effects:
+        owners = {e.effect_name, e.label()}
+        free = {p.name: p for p in f.params
+                if p.free and not p.is_flow and p.name in e.continuous and (len(c.effects) == 1 or p.owner in owners)}
+        out.append((e.copy(**{n: p.value for n, p in free.items()}), {n: p.std for n, p in free.items()}))
+    return out
 
 
 def _story(c: Candidate, f: Fit, machine) -> str:
@@ -517,8 +664,10 @@ def _story(c: Candidate, f: Fit, machine) -> str:
         size = ("" if c.unbalance_scale is None else
                 f"; the orbit's size implies {c.unbalance_scale:.2f} x the declared unbalance")
         return f"Large orbits: the film force along the orbit, not its linearization{size}"
-    effect, std = fitted_effect(c, f)
-    return effect.told(std, machine).rstrip(".") or c.label
+    told = [effect.told(std, machine).rstrip(".") or effect.label() for effect, std in fitted_effects(c, f)]
+    if len(told) == 1:
+        return told[0]
+    return "Two effects at once: " + "; and ".join(t[0].lower() + t[1:] for t in told)
 
 
 def diagnosed_thresholds(chain, effects=()) -> np.ndarray:
@@ -537,7 +686,7 @@ def _oil_words(chains, c: Candidate, f: Fit) -> str:
     the model file declares its oil; '' otherwise."""
     oil = getattr(chains[0].machine, "oil", None)
     factor = getattr(fitted_effect(c, f)[0], "factor", None)
-    if c.effect.effect_name != "viscosity" or oil is None or factor is None:
+    if c.effect.effect_name != "viscosity" or c.partners or oil is None or factor is None:
         return ""
     t = float(oil.temperature_for_factor(float(factor)))
     return (f", i.e. oil at about {t:.0f} °C instead of the declared {oil.temperature_c:g} °C"
@@ -562,7 +711,7 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
             out[f"{p.key}_interval_mlmin"] = None if p.interval is None else list(p.interval)
         return out
 
-    effects = [{"name": c.effect.effect_name, "label": c.label, "parameters": c.parameters(),
+    effects = [{"name": " + ".join(e.effect_name for e in c.effects), "label": c.label, "parameters": c.parameters(),
                 "residual_after": None if c.fit is None else c.fit.chi2,
                 "evidence": None if c.fit is None else {"aic": c.fit.aic, "delta_aic": c.aic - d.candidates[0].aic,
                                                          "dof": c.fit.dof, "p_value": c.fit.p_value,
@@ -580,6 +729,7 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
            "q_threshold_declared_mlmin": None if d.q_threshold_declared is None else
            (np.asarray(d.q_threshold_declared) * MLMIN_PER_M3S).tolist(),
            "verdicts": None if d.q_threshold is None else d.verdicts_for(d.final),
+           "node_scans": [s.as_dict() for s in d.scans],
            "stability_at_flows": None if d.stability is None else {
                "text": d.stability.describe(), "unstable": d.stability.unstable,
                "least_stable_mode_hz": d.stability.frequency_hz, "growth_per_s": d.stability.growth,

@@ -158,7 +158,7 @@ def _actions(d, nodes) -> list[str]:
 
 def _svg(width: int, height: int, body: list[str], label: str) -> str:
     return (f'<svg width="{width}" height="{height}" '
-            f'viewBox="0 0 {width} {height}" role="img" aria-label="{escape(label)}" '
+            f'viewBox="0 0 {width} {height}" role="img" aria-label="{escape(label)}" style="max-width:100%;height:auto" '
             f'font-family="Helvetica,Arial,sans-serif" font-size="11">' + "".join(body) + "</svg>")
 
 
@@ -214,6 +214,40 @@ def residual_svg(names: Sequence[str], before: np.ndarray, after: np.ndarray | N
     if top >= RESIDUAL_CLIP:
         body.append(_text(left + pw, 18, f"bars cut at ±{RESIDUAL_CLIP:g} σ", anchor="end", size=10, colour="#777"))
     return _svg(width, height, body, "residual of each feature in sigma, before and after the effect")
+
+
+def scan_svg(scan, *, width: int = 760, height: int = 170) -> str:
+    """A node scan's profile: each node's chi2 above the best node's (bars, cut at 30), the line at SCAN_DCHI2
+    below which a node fits the record as well (green bars)."""
+    from .scan import SCAN_DCHI2
+
+    low = min(scan.chi2)
+    top = 30.0
+    left, right, up, down = 50, 10, 24, 34
+    pw, ph = width - left - right, height - up - down
+    slot = pw / max(len(scan.nodes), 1)
+
+    def y(v):
+        return up + ph - min(max(v, 0.0), top) / top * ph
+
+    body = [_text(left, 14, f"{scan.effect_name}: chi2 at each node above the best node's", anchor="start"),
+            f'<line x1="{left}" x2="{left + pw}" y1="{y(SCAN_DCHI2):.1f}" y2="{y(SCAN_DCHI2):.1f}" stroke="#3a7a3a" '
+            'stroke-dasharray="4 3"/>',
+            _text(left + pw, y(SCAN_DCHI2) - 3, f"+{SCAN_DCHI2:g}: fits as well", anchor="end", size=10,
+                  colour="#3a7a3a"),
+            f'<line x1="{left}" x2="{left + pw}" y1="{y(0):.1f}" y2="{y(0):.1f}" stroke="#555"/>']
+    for t in (10, 20, 30):
+        body.append(_text(left - 5, y(t) + 4, f"{t:g}", anchor="end", size=10))
+    fitting = set(scan.fitting)
+    for i, (node, c) in enumerate(zip(scan.nodes, scan.chi2)):
+        d = c - low if math.isfinite(c) else top
+        colour = "#3a9a3a" if node in fitting else "#999"
+        x = left + i * slot + 0.15 * slot
+        body.append(f'<rect x="{x:.1f}" y="{y(d):.1f}" width="{0.7 * slot:.1f}" height="{max(y(0) - y(d), 0.5):.1f}" '
+                    f'fill="{colour}"><title>node {node}: chi2 {c:.1f}</title></rect>')
+        body.append(_text(left + (i + 0.5) * slot, up + ph + 14, node, size=10))
+    body.append(_text(left + pw / 2, height - 4, "node", size=10))
+    return _svg(width, height, body, f"{scan.effect_name}: fit over the nodes")
 
 
 def flows_svg(before, after, q_threshold, *, truth_mlmin=None, width: int = 760, height: int = 190,
@@ -458,6 +492,11 @@ def report_html(diagnosis, *, record=None, title: str = "Lubrication diagnosis",
                      "<p class='small'>χ² over the flows (darker: better fit); lines: the fits' search paths, "
                      "ending at the answer; ✕: the true flows when known.</p>")
     parts += ["<h2>Candidate effects</h2>", _candidates_table(d)]
+    if d.scans:
+        parts += ["<h2>Where along the shaft</h2>",
+                  "<p>Each effect that acts at a place was fitted at every node where it can act.</p>"]
+        for sc in d.scans:
+            parts += [scan_svg(sc), f"<p class='small'>{escape(sc.words()[0].upper() + sc.words()[1:])}.</p>"]
     if d.ambiguous or d.separated_by:
         sep = "".join(f"<li>{escape(s)}</li>" for s in d.separated_by)
         parts += ["<h2>Telling look-alikes apart</h2>",

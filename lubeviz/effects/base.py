@@ -185,6 +185,11 @@ class Effect(param.Parameterized):
         """Every placement of this effect (each bearing, plane, channel...): the candidates to try."""
         return [self]
 
+    def scan_nodes(self, rotor) -> tuple[int, ...]:
+        """The rotor nodes where this effect can act, when where it acts is a node a diagnosis should scan
+        (`diagnose.scan`): every one is fitted and the profile kept. () (the default): no scan, `placements`."""
+        return ()
+
     def summary(self) -> str:
         """What this effect in its placement is, in a few words, when its fitted values do not say it ('' then)."""
         return ""

@@ -13,6 +13,9 @@ from ..model.quantity import Quantity
 from .base import Effect, as_array, register
 
 
+BOW_REACH = 0.05  # a bow's amplitude is given at a node where its shape is at least this share of its peak
+
+
 def bow_shape(rotor, node: int) -> np.ndarray:
     """Complex nodal shape (n_dof) of a unit bow turning with the shaft, 1 m at `node`.
 
@@ -27,7 +30,7 @@ def bow_shape(rotor, node: int) -> np.ndarray:
     s = np.where(inside, np.sin(math.pi * (z - z1) / span), 0.0)
     ds = np.where(inside, math.pi / span * np.cos(math.pi * (z - z1) / span), 0.0)
     s_node = s[node - 1]
-    if abs(s_node) < 0.05:
+    if abs(s_node) < BOW_REACH:
         raise InputError(f"bow amplitude node {node} lies at or outside the bearings (the bow there is "
                          f"{s_node:.3f} of its peak); expected a node between the bearings")
     q = np.zeros(rotor.n_dof, dtype=complex)
@@ -71,3 +74,14 @@ class Bow(Effect):
         ph = np.radians(as_array(values, self, "phase_deg", shape))
         return (a * np.exp(1j * ph))[..., None]
 
+    def scan_nodes(self, rotor) -> tuple[int, ...]:
+        """The nodes between the bearings where the bow's shape is at least BOW_REACH of its peak (where its
+        amplitude can be given)."""
+        out = []
+        for n in range(1, rotor.n_nodes + 1):
+            try:
+                bow_shape(rotor, n)
+            except InputError:
+                continue
+            out.append(n)
+        return tuple(out)

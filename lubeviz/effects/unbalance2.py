@@ -43,6 +43,6 @@ class Unbalance2(Effect):
         ph = np.radians(as_array(values, self, "phase_deg", shape))
         return (r * np.exp(1j * ph))[..., None]
 
-
-    def placements(self):
-        return [self.copy(node=n) for n in (10, 15)]
+    def scan_nodes(self, rotor) -> tuple[int, ...]:
+        """Every node: a coupling half, a fan, a loose part or a bow of one section can sit anywhere."""
+        return tuple(range(1, rotor.n_nodes + 1))

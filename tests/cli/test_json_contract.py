@@ -251,8 +251,11 @@ DIAGNOSE = {
     "q_threshold_declared_mlmin": PAIR,
     "verdicts": ("str", "str"),
     "stability_at_flows": "null|dict",
-    "q1_interval_set_mlmin": "null",  # a record of no set
-    "q2_interval_set_mlmin": "null",
+    # issue 36: the flows over every explanation that fits (an ambiguity, or oil the record cannot pin: this one's
+    # turned probe pair is named from one record without the static position, so any oil in the range is given)
+    "q1_interval_set_mlmin": ["number"],
+    "q2_interval_set_mlmin": ["number"],
+    "node_scans": "list",  # issue 36: each effect that acts at a node, fitted at every node (none of them tried here)
     "file": "str",
     "warnings": ["str"],
     "report": "str",  # --report

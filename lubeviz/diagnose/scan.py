@@ -1,0 +1,122 @@
+"""Node scans: an effect that acts at a place (a second unbalance, a bow) fitted at every node where it can act.
+
+A record at one or two planes often cannot say where along the shaft a 1X force sits: near a mode's antinode the
+response barely changes from one node to the next, and a fit at the node a library happens to list would name a
+place the record does not support (issue 36: second unbalances at nodes 4 and 8 named at 10 or 15). So each
+node where the effect can act (`Effect.scan_nodes`) is fitted, the nodes warm-started from their neighbour's
+answer (the profile is smooth in the node), and the profile of the fit's chi2 over the nodes is kept. The nodes
+whose best fit lies within SCAN_DCHI2 of the best node's (chi2 with 1 dof at 95 %: the place is one more unknown)
+fit the record as well; when they reach beyond the best node's neighbours, the verdict says the location is not
+identifiable from this record and which nodes fit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+SCAN_DCHI2 = 3.84  # chi2 quantile, 1 dof, 95 %
+SCREEN_STRIDE = 2  # a diagnosis screens a scanned effect at every 2nd node (and the last); the effects its verdict
+# names or keeps in an ambiguity are then fitted at every node: the profile the verdict quotes is whole
+
+
+@dataclass(frozen=True)
+class NodeScan:
+    """The profile of one effect's fit over the nodes where it can act."""
+
+    effect_name: str
+    nodes: tuple[int, ...]
+    chi2: tuple[float, ...]  # of each node's fit (inf: no fit there)
+
+    @property
+    def best(self) -> int:
+        return self.nodes[min(range(len(self.nodes)), key=lambda i: self.chi2[i])]
+
+    @property
+    def fitting(self) -> tuple[int, ...]:
+        """The nodes whose fit is within SCAN_DCHI2 of the best one's."""
+        low = min(self.chi2)
+        return tuple(n for n, c in zip(self.nodes, self.chi2) if c - low <= SCAN_DCHI2)
+
+    @property
+    def identifiable(self) -> bool:
+        """Whether the nodes that fit are the best one and its neighbours at most."""
+        return all(abs(n - self.best) <= 1 for n in self.fitting)
+
+    def words(self) -> str:
+        """Where the effect acts, as far as this record says."""
+        fit = _ranges(self.fitting)
+        if self.identifiable:
+            return (f"{self.effect_name} fits best at node {self.best} (nodes {fit} within chi2 + {SCAN_DCHI2:g} of "
+                    "it)")
+        return (f"the location of {self.effect_name} is not identifiable from this record: node {self.best} fits "
+                f"best, but nodes {fit} fit as well (within chi2 + {SCAN_DCHI2:g}) of the {len(self.nodes)} where it "
+                "can act")
+
+    def as_dict(self) -> dict:
+        return {"effect": self.effect_name, "nodes": list(self.nodes),
+                "chi2": [None if not math.isfinite(c) else c for c in self.chi2], "best_node": self.best,
+                "fitting_nodes": list(self.fitting), "identifiable": self.identifiable, "delta_chi2": SCAN_DCHI2}
+
+
+def _ranges(nodes) -> str:
+    """'4-8, 12' for (4, 5, 6, 7, 8, 12)."""
+    out, run = [], []
+    for n in sorted(nodes):
+        if run and n != run[-1] + 1:
+            out.append(run)
+            run = []
+        run.append(n)
+    if run:
+        out.append(run)
+    return ", ".join(f"{r[0]}-{r[-1]}" if len(r) > 1 else f"{r[0]}" for r in out)
+
+
+class NodeSweep:
+    """The fits of one effect over the nodes where it can act, made as they are asked for (`run`): each node
+    refined from its nearest fitted neighbour's answer (the profile is smooth in the node), the first from its
+    own starts; a node that fits worse than a neighbour by more than SCAN_DCHI2 (a warm start that strayed into
+    a poorer basin) again from that neighbour's answer; the best node again from its own starts."""
+
+    def __init__(self, effects, fit_one, progress=lambda name: None):
+        self.effects = list(effects)  # one effect at each node, in node order
+        self.fit_one = fit_one  # (effect, start or None) -> Candidate
+        self.progress = progress
+        self.found: dict = {}  # index -> Candidate
+        self.own: set = set()  # indices fitted from their own starts
+
+    def _fit(self, i, start):
+        self.progress(self.effects[i].label())
+        c = self.fit_one(self.effects[i], start)
+        if start is None:
+            self.own.add(i)
+        if i not in self.found or c.aic < self.found[i].aic:
+            self.found[i] = c
+
+    def _values(self, i):
+        c = self.found.get(i)
+        return None if c is None or c.fit is None else c.fit.values
+
+    def run(self, stride: int = 1):
+        """(the best node's candidate, NodeScan) over every `stride`-th node and the last."""
+        n = len(self.effects)
+        keep = sorted(set(range(0, n, max(1, int(stride)))) | {n - 1})
+        for i in keep:
+            if i not in self.found:
+                near = [j for j in self.found if self._values(j) is not None]
+                self._fit(i, self._values(min(near, key=lambda j: abs(j - i))) if near else None)
+        for order in (keep, keep[::-1]):
+            for a, b in zip(order, order[1:]):
+                if self._values(a) is not None and self.found[b].aic > self.found[a].aic + SCAN_DCHI2:
+                    self._fit(b, self._values(a))
+        best = min(keep, key=lambda i: self.found[i].aic)
+        if math.isfinite(self.found[best].aic) and best not in self.own:
+            self._fit(best, None)
+        nodes = tuple(int(self.effects[i].node) for i in keep)
+        chi2 = tuple(self.found[i].fit.chi2 if self.found[i].fit is not None else math.inf for i in keep)
+        return self.found[best], NodeScan(self.effects[0].effect_name, nodes, chi2)
+
+
+def scan(effects, fit_one, stride: int = 1, progress=lambda name: None):
+    """(the best node's candidate, NodeScan) of `effects` over every `stride`-th node (`NodeSweep`)."""
+    return NodeSweep(effects, fit_one, progress).run(stride)

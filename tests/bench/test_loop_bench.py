@@ -1,0 +1,196 @@
+"""`lubeviz bench loop` (issue 36, "Build" 7): the cases it draws, how it judges a diagnosis, and a short run.
+
+The draw and the judging are fast; the run makes and diagnoses 6 independent cases (~10-60 s each: one is a
+set of three speeds), once for the module, and is marked slow."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from lubeviz.bench.loop import KINDS, ROW_KEYS, bench_loop, draw_cases, judge, rates
+from lubeviz.diagnose.loop import OUTCOMES
+from lubeviz.units import MLMIN_PER_M3S
+
+
+def _key(case):
+    return (case["kind"], case["group"], tuple(case["effects"]), tuple(case["speeds_hz"]), tuple(case["q_mlmin"]),
+            case["static"], case["seed"])
+
+
+@pytest.fixture(scope="module")
+def cases():
+    return draw_cases()
+
+
+def _params(text):
+    return dict(kv.split("=") for kv in text.split(":", 1)[1].split(","))
+
+
+# --- the draw (fast) --------------------------------------------------------------------------------------------
+
+def test_the_defaults_draw_at_least_150_cases_of_every_kind(cases):
+    assert len(cases) >= 150
+    kinds = [c["kind"] for c in cases]
+    assert {k: kinds.count(k) for k in KINDS} == {"clean": 40, "effect": 80, "set": 6, "pair": 12, "out": 12}
+    assert [c["id"] for c in cases] == list(range(1, len(cases) + 1))
+
+
+def test_the_cases_do_not_depend_on_the_limit(cases):
+    six, twelve = draw_cases(limit=6), draw_cases(limit=12)
+    assert [_key(c) for c in six] == [_key(c) for c in twelve[:6]] == [_key(c) for c in cases[:6]]
+    assert {c["kind"] for c in six} == set(KINDS)  # round-robin: a small limit still holds every kind
+    assert [_key(c) for c in draw_cases(seed=7, limit=6)] != [_key(c) for c in six]
+
+
+def test_clean_cases_have_no_truth_and_a_third_read_the_static_position(cases):
+    clean = [c for c in cases if c["kind"] == "clean"]
+    assert all(c["truth"] == [] and c["effects"] == [] for c in clean)
+    assert sum(c["static"] for c in clean) == 14  # every third of 40
+    for c in clean:
+        assert 50.0 <= c["speeds_hz"][0] <= 100.0
+        ratio = np.array(c["q_mlmin"]) / np.array(c["qt_mlmin"])
+        assert np.all((ratio >= 0.3) & (ratio <= 1.8))
+    assert len({round(c["speeds_hz"][0], 3) for c in clean}) > 30  # speeds drawn, not a few grid points
+
+
+def test_pairs_have_two_effects_and_out_of_library_cases_none_in_the_library(cases):
+    pairs = [c for c in cases if c["kind"] == "pair"]
+    assert all(len(c["effects"]) == 2 and len(set(c["truth"])) == 2 for c in pairs)
+    assert all([e.split(":")[0] for e in c["effects"]] == c["truth"] for c in pairs)
+    out = [c for c in cases if c["kind"] == "out"]
+    assert all(c["truth"] == [] for c in out)
+    assert {c["group"] for c in out} == {"seal", "side_load horizontal"}
+    for c in out:
+        if c["group"] == "side_load horizontal":
+            assert 60.0 <= float(_params(c["effects"][0])["angle_deg"]) <= 90.0
+
+
+def test_each_library_effect_has_two_strengths_and_placements_spread_over_the_rotor(cases):
+    effects = [c for c in cases if c["kind"] == "effect"]
+    for name in ("viscosity", "clearance", "unbalance2", "pedestals", "probe_rotation", "probe_gain", "bow",
+                 "side_load"):
+        mine = [c for c in effects if c["group"] == name]
+        assert len(mine) == 10 and {c["strength"] for c in mine} == {"weak", "strong"}
+        assert all(c["truth"] == [name] for c in mine)
+    nodes = [int(_params(c["effects"][0])["node"]) for c in effects if c["group"] == "unbalance2"]
+    assert len(set(nodes)) > 3 and any(n not in (10, 13, 15) for n in nodes)
+    bows = [int(_params(c["effects"][0])["node"]) for c in effects if c["group"] == "bow"]
+    assert len(set(bows)) > 3 and all(8 <= n <= 18 for n in bows)
+    loads = [_params(c["effects"][0]) for c in effects if c["group"] == "side_load"]
+    assert all(float(p["angle_deg"]) == 0.0 for p in loads)
+    assert len({p["node"] for p in loads}) > 3
+    bearings = {_params(c["effects"][0])["bearing"] for c in effects if c["group"] == "clearance"}
+    assert bearings == {"1", "2"}
+
+
+def test_sets_are_three_speeds_of_hot_oil_or_a_worn_bearing(cases):
+    sets = [c for c in cases if c["kind"] == "set"]
+    assert sorted(c["group"] for c in sets) == ["hot oil"] * 3 + ["worn bearing"] * 3
+    assert all(len(c["speeds_hz"]) == 3 == len(set(c["speeds_hz"])) for c in sets)
+    assert all(c["speeds_hz"] == [60.0, 75.0, 90.0] for c in sets if c["group"] == "hot oil")
+    assert {c["effects"][0] for c in sets if c["group"] == "hot oil"} == {"viscosity:factor=0.8"}
+
+
+# --- the judging (fast, on stand-in diagnoses) ------------------------------------------------------------------
+
+def _fit(q_mlmin, half_width_pct):
+    q = np.asarray(q_mlmin) / MLMIN_PER_M3S
+    w = half_width_pct / 100
+    return SimpleNamespace(values=np.concatenate([q, [1.0]]),
+                           intervals={f"q{k + 1}": (q[k] * (1 - w), q[k] * (1 + w)) for k in range(2)})
+
+
+def _diagnosis(outcome, *, added=None, ambiguous=(), explained=True, q=(500.0, 500.0), width=1.0):
+    f = _fit(q, width)
+    return SimpleNamespace(before=f, final=f, added=None if added is None else SimpleNamespace(label=added),
+                           ambiguous=tuple(ambiguous), explained=explained, outcome=outcome, set_intervals=None,
+                           scans=(), seconds=1.0, verdict="...")
+
+
+def test_an_explained_answer_whose_interval_misses_the_truth_is_silent_wrong():
+    case = {"truth": [], "effects": []}
+    wrong = judge(case, _diagnosis("explained", q=(520.0, 500.0)), [500.0, 500.0])
+    assert wrong["silent_wrong"] and not wrong["held"]
+    right = judge(case, _diagnosis("explained", q=(503.0, 500.0)), [500.0, 500.0])
+    assert right["held"] and not right["silent_wrong"]
+    flagged = judge(case, _diagnosis("unexplained", explained=False, q=(520.0, 500.0)), [500.0, 500.0])
+    assert not flagged["silent_wrong"]  # the user was warned
+
+
+def test_a_pair_is_right_only_with_both_names_and_a_single_confident_name_counts_against_it():
+    case = {"kind": "pair", "truth": ["viscosity", "probe_rotation"],
+            "effects": ["viscosity:factor=0.8", "probe_rotation:plane=1,angle_deg=5"]}
+    single = judge(case, _diagnosis("effect added", added="viscosity[bearing=both]"), [500.0, 500.0])
+    assert single["named"] == "viscosity" and not single["right_first"] and not single["right_in_set"]
+    both = judge(case, _diagnosis("ambiguous", added="viscosity[bearing=both]",
+                                  ambiguous=["probe_rotation[plane=1]"]), [500.0, 500.0])
+    assert both["named"] is None and both["right_in_set"] and both["placement_right"]
+    pair = judge(case, _diagnosis("effect added", added="viscosity[bearing=both]+probe_rotation[plane=1]"),
+                 [500.0, 500.0])
+    assert pair["right_first"] and pair["named"] == "probe_rotation+viscosity"
+    rows = [dict(r, kind="pair", failed=None, node=None) for r in (single, both, pair)]
+    r = rates(rows)
+    assert (r["pairs_right"]["k"], r["pairs_right"]["n"]) == (2, 3)
+    assert (r["pairs_never_single_confident"]["k"], r["pairs_never_single_confident"]["n"]) == (2, 3)
+
+
+def test_the_placement_is_judged_for_bearings_planes_and_channels():
+    case = {"truth": ["clearance"], "effects": ["clearance:bearing=2,clearance_um=150"]}
+    wrong = judge(case, _diagnosis("effect added", added="clearance[bearing=1]"), [500.0, 500.0])
+    assert wrong["right_first"] and wrong["placement_right"] is False
+    right = judge(case, _diagnosis("effect added", added="clearance[bearing=2]"), [500.0, 500.0])
+    assert right["placement_right"] is True
+
+
+# --- a short run (slow) -----------------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def run():
+    return bench_loop(limit=6, processes=1)
+
+
+@pytest.mark.slow
+def test_every_row_has_its_keys_and_ran(run):
+    rows = run["rows"]
+    assert [r["id"] for r in rows] == list(range(1, 7))
+    assert {r["kind"] for r in rows} == set(KINDS)
+    for r in rows:
+        assert set(ROW_KEYS) <= set(r), set(ROW_KEYS) - set(r)
+        assert r["failed"] is None, r["failed"]
+        assert r["outcome"] in OUTCOMES
+        assert r["silent_wrong"] == (r["explained"] and not r["held"])
+        assert len(r["flow_error_pct_before"]) == len(r["flow_error_pct_after"]) == 2
+        assert 0.0 < r["seconds"] <= r["case_seconds"]
+        if r["kind"] == "clean":
+            assert r["truth"]["effects"] == [] and not r["right_in_set"]
+        if r["kind"] == "pair":
+            assert len(r["truth"]["effects"]) == 2
+        if r["named"] is not None:
+            assert r["outcome"] != "ambiguous" and r["added"] is not None
+    assert run["summary"]["cases"] == 6 and run["summary"]["records"] == 8  # one set of three speeds
+
+
+@pytest.mark.slow
+def test_the_rates_are_counts_with_their_wilson_interval(run):
+    assert run["rates"]["silent_wrong_all"]["n"] == 6
+    assert run["rates"]["clean_explained"]["n"] == 2
+    for name, r in run["rates"].items():
+        assert 0 <= r["k"] <= r["n"], name
+        lo, hi = r["wilson95"]
+        assert 0.0 <= lo <= hi <= 1.0, name
+        if r["n"]:
+            assert r["rate"] == pytest.approx(r["k"] / r["n"]) and lo <= r["rate"] <= hi, name
+        else:
+            assert r["rate"] is None
+
+
+@pytest.mark.slow
+def test_the_confusion_matrix_and_the_silent_wrong_list_agree_with_the_rows(run):
+    rows = run["rows"]
+    assert sum(sum(v.values()) for v in run["confusion"].values()) == len(rows)
+    assert run["confusion"]["clean"] and sum(run["confusion"]["clean"].values()) == 2
+    assert [c["id"] for c in run["silent_wrong_cases"]] == [r["id"] for r in rows if r["silent_wrong"]]
+    s = run["summary"]
+    assert s["silent_wrong"] == len(run["silent_wrong_cases"])
+    assert 0.0 < s["diagnose_seconds_median"] <= s["diagnose_seconds_max"]
