@@ -160,7 +160,8 @@ class Diagnosis:
         return "unexplained"
 
 
-def _fit_candidate(base_chain, measured, effect, names, budget, level, starts_phase, start=None) -> Candidate:
+def _fit_candidate(base_chain, measured, effect, names, budget, level, starts_phase, start=None,
+                   screening: bool = True) -> Candidate:
     """One effect in one placement fitted with the flows: from each of three phases when it has one (and
     `starts_phase`), or from `start` (a parameter vector: a node scan's neighbour) once."""
     cand = effect.candidate()
@@ -175,7 +176,8 @@ def _fit_candidate(base_chain, measured, effect, names, budget, level, starts_ph
             if ph is not None:
                 trial._free = cand.free
                 chains = [c.adding(trial) for c in base_chain]
-            res = fit(chains, measured, names=names, budget=budget, level=level, intervals=False, start=start)
+            res = fit(chains, measured, names=names, budget=budget, level=level, intervals=False, start=start,
+                      screening=screening)
             if best is None or res.chi2 < best[1].chi2:
                 best = (trial, res)
     except LubevizError as exc:
@@ -211,11 +213,11 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
     tried, scans = [], []
     total, done = sum(len(e) if isinstance(e, list) else 1 for e in pool), 0
     for e in pool:
-        def fit_one(effect, start=None):
+        def fit_one(effect, start=None, screening=True):
             nonlocal done
             done += 1
             progress(min(done, total), total, effect.label())
-            return _fit_candidate(chains, meas, effect, names, budget, level, phase_starts, start)
+            return _fit_candidate(chains, meas, effect, names, budget, level, phase_starts, start, screening)
 
         if isinstance(e, list):  # where along the shaft: every 2nd node now, all of them if the verdict names it
             sweep = NodeSweep(e, fit_one)
@@ -275,7 +277,7 @@ def _named_effects(added, ambiguous) -> set:
 def _complete_scans(scans, added, ambiguous) -> list:
     """Each scan's profile; at every node for the effects the verdict names or keeps in an ambiguity."""
     named = _named_effects(added, ambiguous)
-    return [sweep.run(1)[1] if profile.effect_name in named else profile for sweep, profile in scans]
+    return [sweep.run(1, screening=False)[1] if profile.effect_name in named else profile for sweep, profile in scans]
 
 
 def _scan_words(scans, added, ambiguous) -> str:
@@ -339,7 +341,7 @@ def _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progres
         ea, eb = a.effect.candidate(), b.effect.candidate()
         try:
             res = fit([c.adding(ea, eb) for c in chains], meas, names=names, budget=budget, level=level,
-                      intervals=False)
+                      intervals=False, screening=True)
         except LubevizError as exc:
             found.append(Candidate(label=label, effect=ea, partners=(eb,), fit=None, error=str(exc)))
             continue

@@ -76,47 +76,60 @@ class NodeSweep:
     """The fits of one effect over the nodes where it can act, made as they are asked for (`run`): each node
     refined from its nearest fitted neighbour's answer (the profile is smooth in the node), the first from its
     own starts; a node that fits worse than a neighbour by more than SCAN_DCHI2 (a warm start that strayed into
-    a poorer basin) again from that neighbour's answer; the best node again from its own starts."""
+    a poorer basin) again from that neighbour's answer; the best node again from its own starts.
+
+    `fit_one(effect, start, screening)`: a `Candidate` (start None: its own starts; `screening`: the fit that only
+    ranks, `identify.fit.least_squares.fit`). A profile the verdict quotes is made with full fits: a screening
+    fit stops early, and a node it leaves short of its optimum would look like a node that does not fit."""
 
     def __init__(self, effects, fit_one, progress=lambda name: None):
         self.effects = list(effects)  # one effect at each node, in node order
-        self.fit_one = fit_one  # (effect, start or None) -> Candidate
+        self.fit_one = fit_one
         self.progress = progress
-        self.found: dict = {}  # index -> Candidate
-        self.own: set = set()  # indices fitted from their own starts
+        self.found: dict = {True: {}, False: {}}  # screening -> {index: Candidate}
+        self.own: dict = {True: set(), False: set()}  # screening -> indices fitted from their own starts
 
-    def _fit(self, i, start):
+    def _fit(self, i, start, screening):
         self.progress(self.effects[i].label())
-        c = self.fit_one(self.effects[i], start)
+        c = self.fit_one(self.effects[i], start, screening)
+        found = self.found[screening]
         if start is None:
-            self.own.add(i)
-        if i not in self.found or c.aic < self.found[i].aic:
-            self.found[i] = c
+            self.own[screening].add(i)
+        if i not in found or c.aic < found[i].aic:
+            found[i] = c
 
-    def _values(self, i):
-        c = self.found.get(i)
+    def _values(self, i, screening):
+        c = self.found[screening].get(i)
         return None if c is None or c.fit is None else c.fit.values
 
-    def run(self, stride: int = 1):
+    def run(self, stride: int = 1, screening: bool = True):
         """(the best node's candidate, NodeScan) over every `stride`-th node and the last."""
         n = len(self.effects)
         keep = sorted(set(range(0, n, max(1, int(stride)))) | {n - 1})
-        for i in keep:
-            if i not in self.found:
-                near = [j for j in self.found if self._values(j) is not None]
-                self._fit(i, self._values(min(near, key=lambda j: abs(j - i))) if near else None)
+        found = self.found[screening]
+        other = self.found[not screening]
+        seed = min(other, key=lambda i: other[i].aic) if other else keep[0]  # outwards from the best node known
+        for i in sorted(keep, key=lambda i: (abs(i - seed), i)):
+            if i in found:
+                continue
+            near = [j for j in found if self._values(j, screening) is not None]
+            if near:
+                start = self._values(min(near, key=lambda j: abs(j - i)), screening)
+            else:
+                start = self._values(i, not screening)
+            self._fit(i, start, screening)
         for order in (keep, keep[::-1]):
             for a, b in zip(order, order[1:]):
-                if self._values(a) is not None and self.found[b].aic > self.found[a].aic + SCAN_DCHI2:
-                    self._fit(b, self._values(a))
-        best = min(keep, key=lambda i: self.found[i].aic)
-        if math.isfinite(self.found[best].aic) and best not in self.own:
-            self._fit(best, None)
+                if self._values(a, screening) is not None and found[b].aic > found[a].aic + SCAN_DCHI2:
+                    self._fit(b, self._values(a, screening), screening)
+        best = min(keep, key=lambda i: found[i].aic)
+        if math.isfinite(found[best].aic) and best not in self.own[screening]:
+            self._fit(best, None, screening)
         nodes = tuple(int(self.effects[i].node) for i in keep)
-        chi2 = tuple(self.found[i].fit.chi2 if self.found[i].fit is not None else math.inf for i in keep)
-        return self.found[best], NodeScan(self.effects[0].effect_name, nodes, chi2)
+        chi2 = tuple(found[i].fit.chi2 if found[i].fit is not None else math.inf for i in keep)
+        return found[best], NodeScan(self.effects[0].effect_name, nodes, chi2)
 
 
-def scan(effects, fit_one, stride: int = 1, progress=lambda name: None):
+def scan(effects, fit_one, stride: int = 1, screening: bool = True, progress=lambda name: None):
     """(the best node's candidate, NodeScan) of `effects` over every `stride`-th node (`NodeSweep`)."""
-    return NodeSweep(effects, fit_one, progress).run(stride)
+    return NodeSweep(effects, fit_one, progress).run(stride, screening)

@@ -61,12 +61,14 @@ class Bow(Effect):
     separated_by = "a slow-roll record (a bow reads at low speed, an unbalance does not) or a second speed"
     forcing = True
 
-    node = param.Integer(13, bounds=(1, None), doc="Node where the bow's amplitude is given (between the bearings)")
+    node = param.Integer(None, allow_None=True, bounds=(1, None),
+                         doc="Node where the bow's amplitude is given (between the bearings); None: the node nearest "
+                             "midway between the first two bearings")
     amplitude_um = Quantity(10.0, unit="um", bounds=(0.0, 1000.0), doc="Bow at `node` (um)")
     phase_deg = Quantity(0.0, unit="deg", bounds=(-360.0, 360.0), doc="Its angle relative to the main unbalance (deg)")
 
     def forcing_shapes(self, rotor, omega: float, machine) -> list[np.ndarray]:
-        q = bow_shape(rotor, self.node) * np.exp(1j * machine.unbalance_phase)
+        q = bow_shape(rotor, self.amplitude_node(rotor)) * np.exp(1j * machine.unbalance_phase)
         return [rotor.K @ q]  # the shaft's elastic force towards the bent line (bearings excluded)
 
     def forcing_weights(self, values: dict, shape) -> np.ndarray:
@@ -74,14 +76,21 @@ class Bow(Effect):
         ph = np.radians(as_array(values, self, "phase_deg", shape))
         return (a * np.exp(1j * ph))[..., None]
 
-    def scan_nodes(self, rotor) -> tuple[int, ...]:
-        """The nodes between the bearings where the bow's shape is at least BOW_REACH of its peak (where its
-        amplitude can be given)."""
-        out = []
-        for n in range(1, rotor.n_nodes + 1):
-            try:
-                bow_shape(rotor, n)
-            except InputError:
-                continue
-            out.append(n)
-        return tuple(out)
+    def amplitude_node(self, rotor) -> int:
+        """`node`, or the node nearest midway between the first two bearings. The bow's shape is one sine between
+        them whatever the node: the node only says where its amplitude is quoted, so a diagnosis does not scan it
+        (every node would fit alike) and quotes it midway."""
+        if self.node is not None:
+            return int(self.node)
+        z = rotor.node_z
+        z1, z2 = (z[n - 1] for n in rotor.bearing_nodes[:2])
+        return int(np.argmin(np.abs(z - 0.5 * (z1 + z2)))) + 1
+
+    def values(self) -> dict:
+        v = super().values()
+        if v["node"] is None:  # not given: quoted midway, not written back as None
+            del v["node"]
+        return v
+
+    def told(self, std: dict | None = None, machine=None) -> str:
+        return super().told(std, machine).replace(" at node None", " midway between the bearings")

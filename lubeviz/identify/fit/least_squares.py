@@ -135,6 +135,10 @@ class _Problem:
         return noise + S @ S.T
 
 
+SCREENING_GAIN = 1e-3  # chi2: a screening fit's last step gains less (the ranking's AIC differences that matter are >= 2)
+SCREENING_ITER = 40
+
+
 def _lm(problem: _Problem, theta0, lo, hi, scale, max_iter=100, step_tol=1e-7, cost_tol=0.0):
     """Bounded Levenberg-Marquardt on the free parameters; returns (theta, r, J, iterations, status, path).
 
@@ -228,7 +232,7 @@ def _parts(chains, measured, names):
 
 def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBudget | None = None,
         level: float = 0.01, lower: float = 0.25, upper: float = 2.0, grid: int = 41, most_basins: int = 4,
-        intervals: bool = True, hold_flows=None, start=None) -> Fit:
+        intervals: bool = True, hold_flows=None, start=None, screening: bool = False) -> Fit:
     """Fit the chain's named parameters to `measured` (MeasuredFeatures-like: names, values, cov).
 
     `chain` and `measured` may be sequences (records of one `set:` at several speeds, one chain each, with
@@ -236,6 +240,10 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     correlated across the speeds. `names`: the features to use (default all the record holds).
     `start`: a parameter vector to refine from instead of the global search (a local model, e.g. the
     large-orbit correction round of `orbit_fit`, that holds only near its own point).
+    `screening`: a fit that only ranks (a diagnosis's candidates, refined with intervals once chosen): each
+    Levenberg-Marquardt run stops once a step lowers chi2 by less than SCREENING_GAIN or after SCREENING_ITER
+    steps, instead of crawling along a valley where the parameters are ill-determined (a forcing effect's phase
+    and size at a node that barely matters) for its full 100.
     """
     t0 = time.perf_counter()
     chains = list(chain) if isinstance(chain, (list, tuple)) else [chain]
@@ -277,16 +285,17 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     else:
         starts = [start]
     # 2. refine each basin, re-weighting once with the budget at the refined point
+    lm_options = dict(max_iter=SCREENING_ITER, cost_tol=SCREENING_GAIN) if screening else {}
     runs, iterations = [], 0
     for st in starts:
-        theta, r, J, it, status, path = _lm(problem, st, lo, hi, scale)
+        theta, r, J, it, status, path = _lm(problem, st, lo, hi, scale, **lm_options)
         iterations += it
         runs.append((float(r @ r), theta, status, path))
     runs.sort(key=lambda t: t[0])
     refined = []
     for chi2_0, theta, status, path in runs:
         prob = _Problem(parts, problem.model_cov(theta, budget, noise), free)
-        theta2, r, J, it, status, path2 = _lm(prob, theta, lo, hi, scale)
+        theta2, r, J, it, status, path2 = _lm(prob, theta, lo, hi, scale, **lm_options)
         iterations += it
         refined.append((float(r @ r), theta2, r, J, status, np.concatenate([path, path2[1:]]), prob))
     refined.sort(key=lambda t: t[0])
