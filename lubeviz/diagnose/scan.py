@@ -102,6 +102,37 @@ class NodeSweep:
         c = self.found[screening].get(i)
         return None if c is None or c.fit is None else c.fit.values
 
+    def _reach_gaps(self, keep, screening) -> None:
+        """A run of nodes that do not fit may be warm starts that could not cross a node where the effect can do
+        little (its size at its bound): the run's middle node is fitted from its own starts, and a fit found there
+        is carried to the run's other nodes. A node the profile says does not fit has then been tried from its
+        own starts or from a neighbour that fits."""
+        found = self.found[screening]
+        for _ in range(len(keep)):
+            low = min(found[i].aic for i in keep)
+            runs, run = [], []
+            for i in keep:
+                if found[i].aic > low + SCAN_DCHI2:
+                    run.append(i)
+                elif run:
+                    runs.append(run)
+                    run = []
+            if run:
+                runs.append(run)
+            todo = [r for r in runs if r[len(r) // 2] not in self.own[screening]]
+            if not todo:
+                return
+            for r in todo:
+                mid = r[len(r) // 2]
+                self._fit(mid, None, screening)
+                if found[mid].aic <= low + SCAN_DCHI2:
+                    at = r.index(mid)
+                    for order in (r[at + 1:], r[:at][::-1]):
+                        prev = mid
+                        for i in order:
+                            self._fit(i, self._values(prev, screening), screening)
+                            prev = i
+
     def run(self, stride: int = 1, screening: bool = True):
         """(the best node's candidate, NodeScan) over every `stride`-th node and the last."""
         n = len(self.effects)
@@ -125,6 +156,8 @@ class NodeSweep:
         best = min(keep, key=lambda i: found[i].aic)
         if math.isfinite(found[best].aic) and best not in self.own[screening]:
             self._fit(best, None, screening)
+        self._reach_gaps(keep, screening)
+        best = min(keep, key=lambda i: found[i].aic)
         nodes = tuple(int(self.effects[i].node) for i in keep)
         chi2 = tuple(found[i].fit.chi2 if found[i].fit is not None else math.inf for i in keep)
         return found[best], NodeScan(self.effects[0].effect_name, nodes, chi2)
