@@ -53,7 +53,7 @@ def plain_bearing(l_over_d: float, n_circ: int = 120, n_axial: int = 40) -> Bear
 # the others in xdist's order: the short files fill the end on both cores. The figures are each file's seconds on
 # a fresh clone (caches built) with `--durations=0` under the README's command on this 2-core machine; only their
 # order matters. A file renamed or gone from here stops the run (UsageError), so that the list cannot drift.
-LONG_FILES = {  # seconds at 3a54693 with the seeds (docs/notes/test-suite-time.md)
+LONG_FILES = {  # seconds at 8da80f2 with the seeds (docs/notes/test-suite-time.md)
     "tests/identify/test_orbit_fit.py": 149,  # three fits on the time integration's record (a seed)
     "tests/app/test_start_and_layout.py": 149,
     "tests/rotor/test_orbit_balance.py": 130,

@@ -353,13 +353,13 @@ class DiagnosePage(pn.viewable.Viewer):
         if d.ambiguous:
             lines += ["", f"**Look-alikes**: {plain(', '.join(d.ambiguous))} fit as well. To tell them apart: "
                           f"{plain('; or '.join(d.separated_by))}."]
-            if d.set_intervals is not None:
-                words = " and ".join(f"Q{k + 1} in [{lo / M3S_PER_MLMIN:.0f}, "
-                                     f"{'open' if hi is None else format(hi / M3S_PER_MLMIN, '.0f')}] ml/min"
-                                     for k, (lo, hi) in enumerate(d.set_intervals))
-                lines += ["", f"**Flows over all the look-alikes** (until a measurement separates them): {words}."]
         elif d.separated_by:
             lines += ["", f"To confirm it: {plain('; or '.join(d.separated_by))}."]
+        if d.set_intervals is not None:  # an ambiguity, or an oil the record cannot pin (the verdict says which)
+            words = " and ".join(f"Q{k + 1} in [{lo / M3S_PER_MLMIN:.0f}, "
+                                 f"{'open' if hi is None else format(hi / M3S_PER_MLMIN, '.0f')}] ml/min"
+                                 for k, (lo, hi) in enumerate(d.set_intervals))
+            lines += ["", f"**Flows over every explanation that fits** (until a measurement separates them): {words}."]
         return "\n".join(lines)
 
     @staticmethod

@@ -25,7 +25,7 @@ import numpy as np
 
 from .. import __version__
 from ..identify.forward.budget import ModelBudget
-from .loop import fitted_effect
+from .loop import fitted_effects
 from ..identify.fit.result import VERDICT_BAND as BAND
 from ..model.quantity import Quantity
 from ..units import M3S_PER_MLMIN, MLMIN_PER_M3S
@@ -127,11 +127,15 @@ def _actions(d, nodes) -> list[str]:
                       "; over all of them the flows are known only within " + escape(_set_words(d.set_intervals))
                       + "."))
     elif d.added is not None:
-        effect, std = (d.added.effect, {}) if d.after is None else fitted_effect(d.added, d.after)
-        story = escape(effect.told(std))
-        sep = escape(type(d.added.effect).separated_by)
+        told = ([(e, {}) for e in d.added.effects] if d.after is None else fitted_effects(d.added, d.after))
+        story = escape(" ".join(e.told(std) for e, std in told))
+        sep = escape("; or ".join(d.added.separated_by))
         out.append(f"<b>The model needed {escape(d.added.label)}</b>: {story} Confirm it"
                    + (f" by {sep}." if sep else "."))
+    if d.set_intervals is not None and outcome != "ambiguous":  # an explanation the record cannot rule out
+        out.append("<b>Other explanations fit as well</b> (the verdict says which): over all of them the flows are "
+                   "known only within " + escape(_set_words(d.set_intervals)) + ". Take one of the measurements "
+                   "listed under “Telling look-alikes apart” before acting on the flows below.")
     f = d.final
     qt = d.thresholds_for(f)
     if qt is not None and outcome != "unexplained":

@@ -161,8 +161,3 @@ class NodeSweep:
         nodes = tuple(int(self.effects[i].node) for i in keep)
         chi2 = tuple(found[i].fit.chi2 if found[i].fit is not None else math.inf for i in keep)
         return found[best], NodeScan(self.effects[0].effect_name, nodes, chi2)
-
-
-def scan(effects, fit_one, stride: int = 1, screening: bool = True, progress=lambda name: None):
-    """(the best node's candidate, NodeScan) of `effects` over every `stride`-th node (`NodeSweep`)."""
-    return NodeSweep(effects, fit_one, progress).run(stride, screening)

@@ -72,3 +72,7 @@ def test_hot_oil_and_a_turned_probe_get_intervals_that_hold(machine):
     assert d.set_intervals is not None and "not pinned" in d.verdict
     for (lo, hi), q in zip(d.set_intervals, Q):
         assert lo * MLMIN_PER_M3S <= q <= (np.inf if hi is None else hi * MLMIN_PER_M3S)
+    # the report's advice gives the same wider interval as the verdict, not the named effect's alone
+    from lubeviz.diagnose.report import report_html
+
+    assert "Other explanations fit as well" in report_html(d)

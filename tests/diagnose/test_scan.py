@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from lubeviz.diagnose import diagnose, diagnosis_dict
-from lubeviz.diagnose.scan import SCAN_DCHI2, NodeScan, scan
+from lubeviz.diagnose.scan import SCAN_DCHI2, NodeScan, NodeSweep
 from lubeviz.effects import Bow, Unbalance2
 from lubeviz.identify.forward.chain import ForwardChain
 from lubeviz.identify.forward.measured import measure
@@ -63,7 +63,7 @@ def test_the_scan_keeps_the_best_basin_when_a_warm_start_strays():
             return C(3, 500.0, 3)  # from node 2's answer the fit strays
         return C(e.node, good[e.node], e.node)
 
-    best, profile = scan([Fake(n) for n in (1, 2, 3, 4)], fit_one)
+    best, profile = NodeSweep([Fake(n) for n in (1, 2, 3, 4)], fit_one).run()
     assert best.effect.node == 3 and profile.chi2 == (5.0, 4.0, 2.0, 6.0)
     assert (3, 4.0) in calls and (3, None) in calls  # from node 4's side, and from its own starts
 
