@@ -51,7 +51,7 @@ def register(sub) -> None:
                    help="coverage: other budget calibration factors to try on the same records, comma-separated")
     p.add_argument("--budgets", default="",
                    help="coverage: model budgets to try on the same records, each as NAME=VALUE pairs of "
-                        "ModelBudget (e.g. 'coefficient_k=0.0025,shaft_damping=0.4'), budgets separated by ';'")
+                        "ModelBudget (e.g. 'coefficient_k=0.0025,shaft_damping_high=3'), budgets separated by ';'")
     p.add_argument("--seeds", type=int, default=2, help="diagnose: records per effect and strength (default 2)")
     p.add_argument("--cases", default="",
                    help="diagnose: only these effects' records, comma-separated (e.g. 'large_orbit'); the others' "

@@ -23,8 +23,8 @@ def test_budget_variants_are_parsed_into_model_budgets():
     from lubeviz.cli.bench_cmd import _budgets
     from lubeviz.identify.forward.budget import ModelBudget
 
-    got = _budgets("coefficient_k=0.0025, shaft_damping=0.4 ; calibration=0.9;")
-    assert got == [{"coefficient_k": 0.0025, "shaft_damping": 0.4}, {"calibration": 0.9}]
+    got = _budgets("coefficient_k=0.0025, shaft_damping_high=3 ; calibration=0.9;")
+    assert got == [{"coefficient_k": 0.0025, "shaft_damping_high": 3.0}, {"calibration": 0.9}]
     b = ModelBudget(**got[0])
     assert b.coefficient_k == 0.0025 and b.coefficient_c == ModelBudget().coefficient_c
 

@@ -62,3 +62,55 @@ def test_with_large_orbits_the_flooded_bearing_keeps_the_full_mesh_terms(chain):
     full = model_sensitivity(big, theta, ALL_FEATURES, ModelBudget(flooded_mesh=1.0))
     half = model_sensitivity(big, theta, ALL_FEATURES, ModelBudget(flooded_mesh=0.5))
     assert np.allclose(_mesh_columns(half, 1), _mesh_columns(full, 1))
+
+
+def test_the_supply_flow_term_moves_the_features_along_each_flow_s_own_direction(chain):
+    """Two meshes map the same film to flows 0.3 % apart: the term is the flow's own derivative times s q, so it
+    widens the flows' intervals and leaves the fit's chi2 alone (a direction the fit absorbs)."""
+    from lubeviz.identify.forward.budget import N_TERMS
+
+    theta = chain.q_threshold * np.array([0.8, 1.3])
+    s = 0.003
+    S = model_sensitivity(chain, theta, ALL_FEATURES, ModelBudget(supply_flow=s))
+    none = model_sensitivity(chain, theta, ALL_FEATURES, ModelBudget(supply_flow=0.0))
+    g, J = chain.jacobian(theta, ALL_FEATURES)
+    cols = [j for j in range(N_TERMS) if np.any(S[:, j] != none[:, j])]
+    assert cols == [2 * PER_BEARING + 2, 2 * PER_BEARING + 3]
+    for k, j in enumerate(cols):
+        assert np.allclose(S[:, j], s * theta[k] * J[:, k], rtol=1e-3, atol=1e-6 * np.abs(J[:, k]).max() * theta[k])
+
+
+def test_over_a_set_the_mesh_terms_correlate_by_the_stated_factor_and_the_rest_is_common(machine):
+    from lubeviz.identify.forward.budget import mesh_columns, set_covariance
+
+    chains = [ForwardChain(machine, f, (6, 20)) for f in (60.0, 80.0)]
+    blocks = [model_sensitivity(c, c.q_threshold, ALL_FEATURES, ModelBudget()) for c in chains]
+    n = len(ALL_FEATURES)
+    stacked = np.concatenate(blocks)
+    assert np.allclose(set_covariance(blocks, 1.0), stacked @ stacked.T)
+    mesh = mesh_columns(2)
+    zero = set_covariance(blocks, 0.0)
+    assert np.allclose(zero[:n, n:], blocks[0][:, ~mesh] @ blocks[1][:, ~mesh].T)  # across records: common terms
+    for i, b in enumerate(blocks):  # each record alone: its whole budget, whatever the correlation
+        sl = slice(i * n, (i + 1) * n)
+        for rho in (0.0, 0.85, 1.0):
+            assert np.allclose(set_covariance(blocks, rho)[sl, sl], b @ b.T)
+    mixed = set_covariance(blocks, 0.85)
+    assert np.allclose(mixed, 0.85 * set_covariance(blocks, 1.0) + 0.15 * zero)
+    assert np.linalg.eigvalsh(mixed).min() > -1e-12 * np.abs(mixed).max()
+
+
+def test_the_shaft_damping_is_carried_from_none_to_several_times_as_two_one_sided_columns(machine, chain):
+    """The range is a 95 % range; each column is the change to beta at its 1-sigma point (half-way), from a rotor
+    assembled with that damping."""
+    theta = chain.q_threshold * np.array([0.9, 1.1])
+    budget = ModelBudget(shaft_damping_low=0.0, shaft_damping_high=4.0)
+    S = model_sensitivity(chain, theta, ALL_FEATURES, budget)
+    beta = machine.shaft_damping_beta
+    mid = chain.features(theta, ALL_FEATURES)
+    for j, factor, sign in ((0, 2.5, 1.0), (1, 0.5, -1.0)):
+        other = ForwardChain(machine, 75.0, (6, 20), shaft_damping_beta=beta * factor)
+        expect = sign * (other.features(theta, ALL_FEATURES) - mid) / np.sqrt(2.0)
+        assert np.allclose(S[:, 2 * PER_BEARING + j], expect, rtol=1e-6, atol=1e-12)
+    flat = model_sensitivity(chain, theta, ALL_FEATURES, ModelBudget(shaft_damping_low=1.0, shaft_damping_high=1.0))
+    assert not np.any(flat[:, 2 * PER_BEARING:2 * PER_BEARING + 2])

@@ -31,7 +31,7 @@ import numpy as np
 from scipy import stats
 
 from ...errors import InputError
-from ..forward.budget import ModelBudget, model_sensitivity
+from ..forward.budget import ModelBudget, model_sensitivity, set_covariance
 from ..forward.model import wrap_difference
 from ...units import MLMIN_PER_M3S
 from .result import Z95, FitParameter, flow_parameter, summary  # noqa: F401 - Z95 is read from here too
@@ -131,8 +131,10 @@ class _Problem:
         return np.sum(w**2, axis=0).reshape(d.shape[:-1])
 
     def model_cov(self, theta, budget, noise):
-        S = np.concatenate([model_sensitivity(chain, theta, names, budget) for chain, names, _ in self.parts])
-        return noise + S @ S.T
+        blocks = [model_sensitivity(chain, theta, names, budget) for chain, names, _ in self.parts]
+        if len(blocks) == 1:
+            return noise + blocks[0] @ blocks[0].T
+        return noise + set_covariance(blocks, (budget or ModelBudget()).set_correlation)
 
 
 SCREENING_GAIN = 1e-3  # chi2: a screening fit's last step gains less (the ranking's AIC differences that matter are >= 2)
