@@ -76,3 +76,27 @@ def test_hot_oil_and_a_turned_probe_get_intervals_that_hold(machine):
     from lubeviz.diagnose.report import report_html
 
     assert "Other explanations fit as well" in report_html(d)
+
+
+def test_the_best_singles_are_paired_with_every_placement_of_the_other_effects(monkeypatch):
+    """A worn bearing and a probe gain on y1, when the best probe gain alone sits on x1: the pair is still tried
+    (the bench's pair that was never fitted), and it alone fits."""
+    singles = [_single("clearance:bearing=1", 30.0), _single("probe_gain:channel=x1", 32.0),
+               _single("viscosity:bearing=both", 33.0), _single("bow", 34.0),
+               _single("probe_gain:channel=y1", 35.0), _single("pedestals:bearing=2", 36.0)]
+    tried_pairs = []
+
+    def fake_fit(chains, *a, **k):
+        return _fit(1.0 if tried_pairs[-1] == {"clearance", "probe_gain:y1"} else 40.0, PAIR_DOF)
+
+    def adding(*effects):
+        tried_pairs.append({e.effect_name + (f":{e.channel}" if e.effect_name == "probe_gain" else "")
+                            for e in effects})
+
+    monkeypatch.setattr(loop, "fit", fake_fit)
+    chain = types.SimpleNamespace(adding=adding)
+    got = _try_pairs([chain], [None], singles, None, None, 0.01, AMBIGUITY_AIC)
+    assert {"clearance", "probe_gain:y1"} in tried_pairs
+    assert len(tried_pairs) == len({frozenset(p) for p in tried_pairs})  # no pair fitted twice
+    assert {"pedestals", "probe_gain:x1"} in tried_pairs and {"bow", "pedestals"} not in tried_pairs
+    assert len(got) == 1 and {e.effect_name for e in got[0].effects} == {"clearance", "probe_gain"}
