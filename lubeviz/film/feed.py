@@ -97,6 +97,9 @@ def setup_problem(bearing: Bearing, omega: float, position, feed: Feed, *, veloc
                   mesh: FilmMesh | None = None) -> FilmProblem:
     """Build the nondimensional film problem of `bearing` at journal `position` (m), `velocity` (m/s)."""
     check_operating(bearing, omega, position, velocity)
+    if getattr(bearing, "other_grooves", None):
+        raise InputError(f"{bearing.name}: {len(bearing.grooves)} axial grooves; the film takes one groove today "
+                         "(SPEC §8 multi-groove bearings: issue 37)")
     if feed.kind == "plain":
         if mesh is None:
             # Put a cell centre on the line of maximum film thickness: the feed line (uniform mesh).

@@ -1,23 +1,20 @@
-"""The machine: rotor description, bearings and operating data, loaded from a model file.
+"""The machine: rotor description, bearings, supports, measurement planes and operating data (SI).
 
-Model files are TOML under `models/` (the paper's machine: `models/paper_machine.toml`). Every
-number carries its unit in its key (`length_mm`, `viscosity_pa_s`); this loader is the one place
-where they become SI. Unknown keys are refused (they are usually typos), missing keys and wrong
-types are named with the file, so a bad model file never turns into a silently wrong model.
+Read from a model file by `lubeviz.model.files.load_machine` (TOML, SPEC §2 and §8; the paper's machine:
+`models/paper_machine.toml`, one example among others).
 """
 
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 import param
 
 from ..errors import ModelFileError
-from .bearing import Bearing
-from .oil import Oil, oil_from_table
+from .bearing import Bearing, Pedestal
+from .oil import Oil
 from .quantity import Quantity, positive
 
 MODELS_DIR = Path(__file__).resolve().parents[2] / "models"
@@ -26,20 +23,61 @@ DEFAULT_MACHINE = MODELS_DIR / "paper_machine.toml"
 
 @dataclass(frozen=True)
 class ShaftElement:
-    """A uniform solid circular shaft segment between two consecutive nodes (SI)."""
+    """A uniform circular shaft segment between two consecutive nodes (SI); hollow when inner_diameter > 0."""
 
     length: float
     diameter: float
+    inner_diameter: float = 0.0
 
 
 @dataclass(frozen=True)
 class Disc:
-    """A rigid annular disc at a node (SI); bore = local shaft diameter."""
+    """A rigid disc at a node (SI): annular by geometry (bore = local shaft diameter), or lumped (an impeller, a
+    coupling hub) by its mass and inertias, the geometry then 0."""
 
     node: int
-    width: float
-    outer_diameter: float
-    bore_diameter: float
+    width: float = 0.0
+    outer_diameter: float = 0.0
+    bore_diameter: float = 0.0
+    mass: float | None = None
+    polar_inertia: float | None = None
+    diametral_inertia: float | None = None
+    name: str = ""
+
+    @property
+    def lumped(self) -> bool:
+        return self.mass is not None
+
+
+@dataclass(frozen=True)
+class UnbalanceMass:
+    """An unbalance besides the machine's main one (SPEC §8 [[unbalances]]): node, moment (kg m), phase (rad)."""
+
+    node: int
+    moment: float
+    phase: float = 0.0
+    name: str = ""
+
+
+@dataclass(frozen=True)
+class Support:
+    """A support with constant coefficients (a rolling-element bearing, a seal, a coupling's support), SI, Lund's
+    sign: stiffness and damping as ((XX, XY), (YX, YY)); an optional pedestal under it."""
+
+    name: str
+    node: int
+    stiffness: tuple
+    damping: tuple
+    pedestal: Pedestal | None = None
+
+
+@dataclass(frozen=True)
+class Plane:
+    """A measurement plane: its node and its two probes' directions from +X (deg), in record order."""
+
+    node: int
+    probe_angles_deg: tuple = (0.0, 90.0)
+    name: str = ""
 
 
 class Machine(param.Parameterized):
@@ -60,15 +98,59 @@ class Machine(param.Parameterized):
                                 doc="Unbalance moment m_u (Eq. 9)")
     unbalance_phase = Quantity(0.0, unit="rad", display_unit="deg", display_scale=180.0 / math.pi,
                                doc="Phase of the unbalance force at t = 0")
+    other_unbalances = param.List([], item_type=UnbalanceMass,
+                                  doc="Unbalances besides the main one (SPEC §8 [[unbalances]] after the first)")
+    supports = param.List([], item_type=Support,
+                          doc="Supports with constant coefficients (rolling-element bearings, seals)")
+    planes = param.List([], item_type=Plane,
+                        doc="Measurement planes in record order (none declared: one at each bearing, X and Y)")
     elements = param.List([], item_type=ShaftElement, doc="Shaft elements from node 1 onwards")
     discs = param.List([], item_type=Disc, doc="Rigid discs")
     bearings = param.List([], item_type=Bearing, doc="Journal bearings (bearing 1 first)")
-    center_nodes = param.List([6, 20], item_type=int, doc="Measurement nodes at the bearing centres")
-    outside_nodes = param.List([5, 21], item_type=int, doc="Measurement nodes outside the bearings")
+    center_nodes = param.List([], item_type=int,
+                              doc="Measurement nodes at the bearing centres (the paper's [measurement]; else the "
+                                  "measurement planes' nodes)")
+    outside_nodes = param.List([], item_type=int, doc="Measurement nodes outside the bearings (the paper's "
+                                                      "[measurement]; none declared: empty)")
     oil = param.ClassSelector(class_=Oil, default=None, allow_None=True,
                               doc="The oil's grade and viscosity-temperature law (optional [oil] of the model file)")
     reference = param.Dict({}, doc="Figures the source publication reports (for checks)")
     source = param.String("", doc="File the machine was loaded from")
+
+    def not_yet_modelled(self) -> list[str]:
+        """What the model file declares that the numerics do not take yet (issue 37 lands them one by one): each
+        as the file's table and index and what is missing. Empty for the paper's machine."""
+        out = []
+        if len(self.bearings) != 2:
+            out.append(f"{len(self.bearings)} [[bearings]]: the film-bearing numerics take exactly 2 today")
+        for k, b in enumerate(self.bearings, start=1):
+            if b.other_grooves:
+                out.append(f"[[bearings]] {k} ({b.name}): {len(b.grooves)} grooves; the film takes one today")
+            if b.supply != "unknown":
+                out.append(f"[[bearings]] {k} ({b.name}): supply = {b.supply!r}; every supply is identified today")
+            if any(b.offset):
+                out.append(f"[[bearings]] {k} ({b.name}): offset_um; the statics take aligned bearings today")
+            if b.pedestal is not None:
+                out.append(f"[[bearings]] {k} ({b.name}): a pedestal; give it as the pedestals effect today")
+        for k, s in enumerate(self.supports, start=1):
+            out.append(f"[[supports]] {k} ({s.name}): constant-coefficient supports are not in the rotor yet")
+        for k, p in enumerate(self.planes, start=1):
+            if tuple(p.probe_angles_deg) != (0.0, 90.0):
+                out.append(f"[[planes]] {k}: probe_angles_deg {list(p.probe_angles_deg)}; give them in the record "
+                           "(probe_angles_deg) today")
+        return out
+
+    def require_modelled(self, what: str) -> None:
+        """Raise ModelFileError naming the file and every declared part `what` cannot take yet."""
+        gaps = self.not_yet_modelled()
+        if gaps:
+            raise ModelFileError(f"{self.source or self.name}: {what} cannot take this machine yet: "
+                                 + "; ".join(gaps) + ". The file itself is valid (SPEC §8).")
+
+    @property
+    def measurement_planes(self) -> list[Plane]:
+        """The declared planes, or one at each bearing's node with probes along X and Y (SPEC §8)."""
+        return list(self.planes) or [Plane(b.node, (0.0, 90.0), b.name) for b in self.bearings]
 
     @property
     def n_nodes(self) -> int:
@@ -83,157 +165,9 @@ class Machine(param.Parameterized):
         return self.young_modulus / (2.0 * (1.0 + self.poisson_ratio))
 
 
-# --- loading -------------------------------------------------------------------------------------
+# --- loading: lubeviz.model.files (SPEC §2, §8) ---------------------------------------------------
 
-_SECTIONS = {
-    "machine": {"name": str, "description": str, "gravity_m_s2": float, "operating_speed_hz": float,
-                "speed_min_hz": float, "speed_max_hz": float},
-    "material": {"name": str, "young_modulus_pa": float, "poisson_ratio": float, "density_kg_m3": float},
-    "shaft": {"damping_beta_s": float, "elements_mm": list},
-    "unbalance": {"node": int, "moment_kg_m": float, "phase_deg": float},
-    "measurement": {"center_nodes": list, "outside_nodes": list},
-    "paper": {"rotor_weight_n": float, "flooded_threshold_mlmin": float},
-}
-_OPTIONAL = {("machine", "description"), ("material", "name"), ("unbalance", "phase_deg"),
-             ("machine", "speed_min_hz"), ("machine", "speed_max_hz")}
-_OIL = {"iso_vg": int, "nu40_cst": float, "nu100_cst": float, "density_kg_m3": float, "temperature_c": float}
 OIL_CONSISTENCY = 0.10  # the bearings' viscosity_pa_s and the [oil] law at temperature_c: ISO 3448's +-10 %
-_DISC = {"node": int, "width_mm": float, "outer_diameter_mm": float, "bore_diameter_mm": float}
-_BEARING = {"name": str, "node": int, "radius_mm": float, "length_mm": float, "clearance_um": float,
-            "viscosity_pa_s": float, "groove_angle_deg": float, "groove_length_mm": float,
-            "groove_width_mm": float, "mesh_circumferential": int, "mesh_axial": int,
-            "mesh_groove_refinement": int}
-
-
-def _typed(value, kind, where):
-    if kind is float and isinstance(value, (int, float)) and not isinstance(value, bool):
-        if not math.isfinite(value):
-            raise ModelFileError(f"{where}: {value!r} is not a finite number")
-        return float(value)
-    if kind is int and isinstance(value, int) and not isinstance(value, bool):
-        return value
-    if kind in (str, list) and isinstance(value, kind):
-        return value
-    raise ModelFileError(f"{where}: expected {kind.__name__}, got {type(value).__name__} {value!r}")
-
-
-def _table(data, spec, where, optional=()):
-    if not isinstance(data, dict):
-        raise ModelFileError(f"{where}: expected a table, got {type(data).__name__}")
-    unknown = set(data) - set(spec)
-    if unknown:
-        raise ModelFileError(f"{where}: unknown key(s) {sorted(unknown)}; expected keys {sorted(spec)}")
-    out = {}
-    for key, kind in spec.items():
-        if key not in data:
-            if key in optional:
-                continue
-            raise ModelFileError(f"{where}: missing key {key!r} ({kind.__name__})")
-        out[key] = _typed(data[key], kind, f"{where}.{key}")
-    return out
-
-
-def load_machine(path: str | Path | None = None) -> Machine:
-    """Read and validate a machine model file (TOML, SPEC §2). Default: the paper's machine."""
-    path = Path(DEFAULT_MACHINE if path is None else path)
-    try:
-        raw = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise ModelFileError(f"{path}: no such model file") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ModelFileError(f"{path}: not a valid TOML file ({exc})") from None
-    where = str(path)
-    unknown = set(raw) - set(_SECTIONS) - {"discs", "bearings", "oil"}
-    if unknown:
-        raise ModelFileError(f"{where}: unknown section(s) {sorted(unknown)}")
-    sec = {}
-    for name, spec in _SECTIONS.items():
-        if name not in raw:
-            if name == "paper":
-                sec[name] = {}
-                continue
-            raise ModelFileError(f"{where}: missing section [{name}]")
-        opt = {k for s, k in _OPTIONAL if s == name}
-        sec[name] = _table(raw[name], spec, f"{where} [{name}]", opt)
-    try:
-        elements = []
-        for k, item in enumerate(sec["shaft"]["elements_mm"], start=1):
-            w = f"{where} [shaft].elements_mm[{k}]"
-            if not (isinstance(item, list) and len(item) == 2):
-                raise ModelFileError(f"{w}: expected [length_mm, diameter_mm], got {item!r}")
-            length, diameter = (_typed(v, float, w) for v in item)
-            if length <= 0 or diameter <= 0:
-                raise ModelFileError(f"{w}: length and diameter must be positive, got {item!r}")
-            elements.append(ShaftElement(length * 1e-3, diameter * 1e-3))
-        if not elements:
-            raise ModelFileError(f"{where} [shaft].elements_mm: expected at least one element")
-        n_nodes = len(elements) + 1
-
-        def node_ok(node, w):
-            if not 1 <= node <= n_nodes:
-                raise ModelFileError(f"{w}: node {node} outside 1..{n_nodes}")
-            return node
-
-        discs = []
-        for k, d in enumerate(raw.get("discs", []), start=1):
-            w = f"{where} [[discs]] #{k}"
-            t = _table(d, _DISC, w)
-            if not 0 < t["bore_diameter_mm"] < t["outer_diameter_mm"] or t["width_mm"] <= 0:
-                raise ModelFileError(f"{w}: expected 0 < bore < outer diameter and a positive width")
-            discs.append(Disc(node_ok(t["node"], w), t["width_mm"] * 1e-3, t["outer_diameter_mm"] * 1e-3,
-                              t["bore_diameter_mm"] * 1e-3))
-        bearings = []
-        for k, b in enumerate(raw.get("bearings", []), start=1):
-            w = f"{where} [[bearings]] #{k}"
-            t = _table(b, _BEARING, w, {"name", "mesh_groove_refinement"})
-            try:
-                bearings.append(Bearing(
-                    name=t.get("name", f"bearing {k}"), node=node_ok(t["node"], w),
-                    radius=t["radius_mm"] * 1e-3, length=t["length_mm"] * 1e-3,
-                    clearance=t["clearance_um"] * 1e-6, viscosity=t["viscosity_pa_s"],
-                    groove_angle=math.radians(t["groove_angle_deg"]), groove_length=t["groove_length_mm"] * 1e-3,
-                    groove_width=t["groove_width_mm"] * 1e-3, n_circumferential=t["mesh_circumferential"],
-                    n_axial=t["mesh_axial"],
-                    **({"groove_refinement": t["mesh_groove_refinement"]} if "mesh_groove_refinement" in t else {})))
-            except ValueError as exc:
-                raise ModelFileError(f"{w}: {exc}") from None
-        if len(bearings) != 2:
-            raise ModelFileError(f"{where}: expected exactly 2 [[bearings]], found {len(bearings)}")
-        oil = None
-        if "oil" in raw:
-            w = f"{where} [oil]"
-            try:
-                oil = oil_from_table(_table(raw["oil"], _OIL, w, set(_OIL)), w)
-            except ValueError as exc:
-                raise ModelFileError(str(exc) if str(exc).startswith(where) else f"{w}: {exc}") from None
-            mu = float(oil.dynamic_viscosity(oil.temperature_c))
-            for k, b in enumerate(bearings, start=1):
-                if abs(b.viscosity / mu - 1.0) > OIL_CONSISTENCY:
-                    raise ModelFileError(
-                        f"{w}: {oil.describe()} has mu = {mu:.4g} Pa*s at {oil.temperature_c:g} °C, but "
-                        f"[[bearings]] #{k} viscosity_pa_s = {b.viscosity:g} (more than "
-                        f"{OIL_CONSISTENCY:.0%} apart): correct temperature_c or the grade")
-        m, mat, ub, meas = sec["machine"], sec["material"], sec["unbalance"], sec["measurement"]
-        for key in ("center_nodes", "outside_nodes"):
-            nodes = meas[key]
-            if len(nodes) != 2 or not all(isinstance(n, int) for n in nodes):
-                raise ModelFileError(f"{where} [measurement].{key}: expected two node numbers, got {nodes!r}")
-            for n in nodes:
-                node_ok(n, f"{where} [measurement].{key}")
-        return Machine(
-            name=m["name"], gravity=m["gravity_m_s2"], operating_speed=m["operating_speed_hz"],
-            speed_min=m.get("speed_min_hz", 1.0), speed_max=m.get("speed_max_hz", 1e4),
-            young_modulus=mat["young_modulus_pa"], poisson_ratio=mat["poisson_ratio"],
-            density=mat["density_kg_m3"], shaft_damping_beta=sec["shaft"]["damping_beta_s"],
-            unbalance_node=node_ok(ub["node"], f"{where} [unbalance].node"),
-            unbalance_moment=ub["moment_kg_m"], unbalance_phase=math.radians(ub.get("phase_deg", 0.0)),
-            elements=elements, discs=discs, bearings=bearings, center_nodes=list(meas["center_nodes"]),
-            outside_nodes=list(meas["outside_nodes"]), oil=oil, reference=dict(sec["paper"]), source=str(path),
-        )
-    except ModelFileError:
-        raise
-    except ValueError as exc:  # a param bound (e.g. negative viscosity)
-        raise ModelFileError(f"{where}: {exc}") from None
 
 
 # --- model names in records ------------------------------------------------------------------------
@@ -280,3 +214,10 @@ def resolve_machine_name(name: str, where: str) -> Path:
         raise ModelFileError(f"{where}: machine: {name!r} is not a model under {MODELS_DIR};"
                              f" available: {available}")
     return path
+
+
+def load_machine(path: str | Path | None = None) -> Machine:
+    """Read and validate a model file (SPEC §2, §8): `lubeviz.model.files.load_machine`."""
+    from .files import load_machine as load
+
+    return load(path)

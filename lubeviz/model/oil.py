@@ -101,7 +101,7 @@ def oil_from_table(t: dict, where: str) -> Oil:
             raise ValueError(f"{where}: give iso_vg or nu40_cst, not both")
         vg = t["iso_vg"]
         if vg not in ISO_VG_NU100_CST:
-            raise ValueError(f"{where}.iso_vg: {vg} is not an ISO 3448 grade; expected one of "
+            raise ValueError(f"{where}: iso_vg: {vg} is not an ISO 3448 grade; expected one of "
                              f"{', '.join(map(str, ISO_VG_NU100_CST))}")
         nu40, nu100, grade = float(vg), t.get("nu100_cst", ISO_VG_NU100_CST[vg]), f"ISO VG {vg}"
     elif "nu40_cst" in t and "nu100_cst" in t:

@@ -89,14 +89,23 @@ def assemble(beams: Sequence[TimoshenkoBeam], discs: Sequence[RigidDisc] = (), *
 
 
 def rotor_from_machine(machine, *, shaft_damping_beta: float | None = None, shear: bool = True) -> Rotor:
-    """The rotor of a `lubeviz.model.machine.Machine` (Timoshenko shaft with Cowper's kappa, discs)."""
+    """The rotor of a `lubeviz.model.machine.Machine` (Timoshenko shaft with Cowper's kappa, hollow where declared;
+    discs by geometry or lumped). A machine whose file declares parts the numerics do not take yet is refused."""
+    if hasattr(machine, "require_modelled"):
+        machine.require_modelled("the rotor model")
     beams = [TimoshenkoBeam(k, e.length, e.diameter, machine.young_modulus, machine.poisson_ratio,
-                            machine.density, shear=shear)
+                            machine.density, shear=shear, inner_diameter=getattr(e, "inner_diameter", 0.0))
              for k, e in enumerate(machine.elements, start=1)]
-    discs = [RigidDisc.annular(d.node, d.width, d.outer_diameter, d.bore_diameter, machine.density)
-             for d in machine.discs]
+    discs = [machine_disc(d, machine.density) for d in machine.discs]
     beta = machine.shaft_damping_beta if shaft_damping_beta is None else shaft_damping_beta
     return assemble(beams, discs, bearing_nodes=[b.node for b in machine.bearings], shaft_damping_beta=beta)
+
+
+def machine_disc(disc, density: float) -> RigidDisc:
+    """A model file's disc as a rigid disc: lumped (its mass and inertias) or annular from its geometry."""
+    if getattr(disc, "lumped", False):
+        return RigidDisc(disc.node, disc.mass, disc.diametral_inertia, disc.polar_inertia)
+    return RigidDisc.annular(disc.node, disc.width, disc.outer_diameter, disc.bore_diameter, density)
 
 
 def as_bearings(rotor: Rotor, bearings) -> tuple[LinearBearing, ...]:

@@ -43,9 +43,12 @@ def node_dofs(node: int) -> np.ndarray:
     return DOF_PER_NODE * (node - 1) + np.arange(DOF_PER_NODE)
 
 
-def cowper_shear_coefficient(poisson_ratio: float) -> float:
-    """Cowper (1966) shear coefficient of a solid circular section: 6(1+nu)/(7+6nu)."""
-    return 6.0 * (1.0 + poisson_ratio) / (7.0 + 6.0 * poisson_ratio)
+def cowper_shear_coefficient(poisson_ratio: float, bore_ratio: float = 0.0) -> float:
+    """Cowper (1966) shear coefficient of a circular section, hollow with bore_ratio m = d_inner / d_outer:
+    6(1+nu)(1+m^2)^2 / ((7+6nu)(1+m^2)^2 + (20+12nu)m^2); solid (m = 0): 6(1+nu)/(7+6nu)."""
+    m2 = bore_ratio * bore_ratio
+    a = (1.0 + m2) ** 2
+    return 6.0 * (1.0 + poisson_ratio) * a / ((7.0 + 6.0 * poisson_ratio) * a + (20.0 + 12.0 * poisson_ratio) * m2)
 
 
 def _positive(name: str, value: float) -> float:
@@ -119,7 +122,8 @@ def _both_planes(planar: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class TimoshenkoBeam:
-    """A uniform solid circular shaft element between `node` and `node + 1` (Nelson 1980).
+    """A uniform circular shaft element between `node` and `node + 1` (Nelson 1980), hollow when
+    `inner_diameter` > 0.
 
     Consistent translational and rotary inertia, bending with shear (Phi = 12 E I / (kappa G A L^2)),
     gyroscopic matrix G (multiplied by Omega in Eq. 8). SI units. `shear_coefficient` defaults to
@@ -134,6 +138,7 @@ class TimoshenkoBeam:
     density: float
     shear_coefficient: float | None = None
     shear: bool = True
+    inner_diameter: float = 0.0
 
     def __post_init__(self):
         if not (isinstance(self.node, (int, np.integer)) and self.node >= 1):
@@ -144,15 +149,18 @@ class TimoshenkoBeam:
             raise InputError(f"Poisson's ratio {self.poisson_ratio!r}; expected 0 <= nu < 0.5")
         if self.shear_coefficient is not None:
             _positive("shear coefficient", self.shear_coefficient)
+        if not (math.isfinite(self.inner_diameter) and 0.0 <= self.inner_diameter < self.diameter):
+            raise InputError(f"shaft element inner diameter {self.inner_diameter!r} m; expected 0 <= inner < outer "
+                             f"diameter {self.diameter!r} m")
 
     @property
     def area(self) -> float:
-        return math.pi * self.diameter**2 / 4.0
+        return math.pi * (self.diameter**2 - self.inner_diameter**2) / 4.0
 
     @property
     def inertia(self) -> float:
         """Second moment of area I (diametral); the polar one is 2 I."""
-        return math.pi * self.diameter**4 / 64.0
+        return math.pi * (self.diameter**4 - self.inner_diameter**4) / 64.0
 
     @property
     def mass(self) -> float:
@@ -162,7 +170,7 @@ class TimoshenkoBeam:
     def kappa(self) -> float:
         if self.shear_coefficient is not None:
             return self.shear_coefficient
-        return cowper_shear_coefficient(self.poisson_ratio)
+        return cowper_shear_coefficient(self.poisson_ratio, self.inner_diameter / self.diameter)
 
     @property
     def phi(self) -> float:

@@ -37,8 +37,9 @@ class Unbalance:
 
 
 def machine_unbalance(machine) -> tuple[Unbalance, ...]:
-    """The unbalance of a `Machine` model (paper: 1.24e-2 kg*m at node 13)."""
-    return (Unbalance(machine.unbalance_node, machine.unbalance_moment, machine.unbalance_phase),)
+    """The unbalances of a `Machine` model: the main one (paper: 1.24e-2 kg*m at node 13) and any others."""
+    return (Unbalance(machine.unbalance_node, machine.unbalance_moment, machine.unbalance_phase),
+            *(Unbalance(u.node, u.moment, u.phase) for u in getattr(machine, "other_unbalances", ())))
 
 
 def unbalance_force(rotor: Rotor, omega: float, unbalances: Sequence[Unbalance]) -> np.ndarray:

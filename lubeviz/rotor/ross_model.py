@@ -71,10 +71,13 @@ def ross_rotor(machine, bearings, *, shaft_damping_beta: float | None = None):
     beta = machine.shaft_damping_beta if shaft_damping_beta is None else shaft_damping_beta
     steel = rs.Material(name="lubeviz_steel", rho=machine.density, E=machine.young_modulus,
                         Poisson=machine.poisson_ratio)
-    shaft = [rs.ShaftElement(L=e.length, idl=0.0, odl=e.diameter, material=steel, shear_effects=True,
-                             rotary_inertia=True, gyroscopic=True, shear_method_calc="cowper", beta=beta)
+    shaft = [rs.ShaftElement(L=e.length, idl=getattr(e, "inner_diameter", 0.0), odl=e.diameter, material=steel,
+                             shear_effects=True, rotary_inertia=True, gyroscopic=True, shear_method_calc="cowper",
+                             beta=beta)
              for e in machine.elements]
-    discs = [rs.DiskElement.from_geometry(n=d.node - 1, material=steel, width=d.width, i_d=d.bore_diameter,
+    discs = [rs.DiskElement(n=d.node - 1, m=d.mass, Id=d.diametral_inertia, Ip=d.polar_inertia)
+             if getattr(d, "lumped", False) else
+             rs.DiskElement.from_geometry(n=d.node - 1, material=steel, width=d.width, i_d=d.bore_diameter,
                                           o_d=d.outer_diameter) for d in machine.discs]
     brgs = []
     for b, (K, C) in zip(machine.bearings, bearings):

@@ -31,14 +31,14 @@ def _broken(tmp_path, old, new):
 
 @pytest.mark.parametrize("old,new,expect", [
     ("clearance_um = 120.0", "", "missing key 'clearance_um'"),
-    ("clearance_um = 120.0", 'clearance_um = "120"', "expected float, got str"),
+    ("clearance_um = 120.0", 'clearance_um = "120"', "expected float (a number), got str"),
     ("clearance_um = 120.0", "clearence_um = 120.0", "unknown key(s) ['clearence_um']"),
     ("viscosity_pa_s = 0.094", "viscosity_pa_s = -0.094", "viscosity"),
     ("[unbalance]\nnode = 13", "[unbalance]\nnode = 42", "node 42 outside 1..21"),
     ("young_modulus_pa = 210e9", "young_modulus_pa = nan", "not a finite number"),
     ("[shaft]", "[shaft]\n[oops", "not a valid TOML file"),
     ("mesh_groove_refinement = 4", "mesh_groove_refinement = 0", "groove_refinement"),
-    ("mesh_groove_refinement = 4", "mesh_groove_refinement = 2.5", "expected int, got float"),
+    ("mesh_groove_refinement = 4", "mesh_groove_refinement = 2.5", "expected int (an integer), got float"),
 ])
 def test_broken_model_file_is_refused_with_a_clear_message(tmp_path, old, new, expect):
     path = _broken(tmp_path, old, new)
@@ -88,7 +88,7 @@ def test_an_unknown_machine_name_names_the_record_the_value_and_the_models():
         resolve_machine_name("rig_b.toml", "data/run7.csv")
     message = str(err.value)
     assert message.startswith("data/run7.csv: machine: 'rig_b.toml' is not a model under")
-    assert "available: paper_machine" in message
+    assert "paper_machine" in message.split("available: ")[1].split(", ")
 
 
 @pytest.mark.parametrize("name,phrase", [
@@ -100,3 +100,129 @@ def test_a_machine_name_that_is_a_path_is_refused(name, phrase):
         resolve_machine_name(name, "run7.csv")
     assert str(err.value).startswith(f"run7.csv: machine: {name!r}") and phrase in str(err.value)
     assert "paper_machine" in str(err.value)
+
+
+ANY_MACHINE = """
+[machine]
+name = "three bearings"
+gravity_m_s2 = 9.81
+operating_speed_hz = 50.0
+[material]
+young_modulus_pa = 2.0e11
+poisson_ratio = 0.3
+density_kg_m3 = 7850.0
+[shaft]
+damping_beta_s = 2.0e-5
+elements_mm = [[100.0, 80.0], [300.0, 120.0, 40.0], [300.0, 120.0], [200.0, 80.0], [100.0, 80.0]]
+[[discs]]
+name = "fan"
+node = 3
+mass_kg = 120.0
+polar_inertia_kg_m2 = 6.0
+diametral_inertia_kg_m2 = 3.1
+[[unbalances]]
+node = 3
+moment_kg_m = 4.0e-3
+[[unbalances]]
+name = "coupling"
+node = 6
+moment_kg_m = 1.0e-3
+phase_deg = 90.0
+[oil]
+iso_vg = 46
+temperature_c = 50.0
+[[bearings]]
+name = "drive end"
+node = 2
+radius_mm = 40.0
+length_mm = 40.0
+clearance_um = 60.0
+grooves = [{angle_deg = 90.0, length_mm = 10.0, width_mm = 25.0}, {angle_deg = 270.0, length_mm = 10.0, width_mm = 25.0}]
+offset_um = [0.0, 25.0]
+[[bearings]]
+name = "middle"
+node = 4
+radius_mm = 40.0
+length_mm = 40.0
+clearance_um = 60.0
+groove_angle_deg = 0.0
+groove_length_mm = 10.0
+groove_width_mm = 25.0
+supply_mlmin = 900.0
+[[bearings]]
+name = "outboard"
+node = 5
+radius_mm = 40.0
+length_mm = 40.0
+clearance_um = 60.0
+groove_angle_deg = 0.0
+groove_length_mm = 10.0
+groove_width_mm = 25.0
+supply = "flooded"
+pedestal_mass_kg = 40.0
+pedestal_stiffness_n_m = 3.0e8
+pedestal_damping_ns_m = 2.0e4
+[[supports]]
+name = "ball bearing"
+node = 6
+stiffness_n_m = [[2.0e8, 0.0], [0.0, 2.0e8]]
+damping_ns_m = [[500.0, 0.0], [0.0, 500.0]]
+[[planes]]
+node = 2
+probe_angles_deg = [45.0, 135.0]
+[[planes]]
+node = 5
+"""
+
+
+def test_a_model_file_of_another_machine_reads_every_part_of_spec_8(tmp_path):
+    import math
+
+    from lubeviz.units import MLMIN_PER_M3S
+
+    path = tmp_path / "fan.toml"
+    path.write_text(ANY_MACHINE)
+    m = load_machine(path)
+    assert [b.name for b in m.bearings] == ["drive end", "middle", "outboard"]
+    de, mid, ob = m.bearings
+    assert [g.angle for g in de.grooves] == pytest.approx([math.pi / 2, -math.pi / 2])  # 270 deg = -90 deg
+    assert de.offset == pytest.approx((0.0, 25e-6)) and de.supply == "unknown"
+    assert mid.supply == "known" and mid.supply_flow * MLMIN_PER_M3S == pytest.approx(900.0)
+    assert ob.supply == "flooded" and ob.pedestal.stiffness == pytest.approx(3e8)
+    # the viscosity comes from the [oil] when the bearings do not give it: VG 46 at 50 °C, about 0.026 Pa s
+    assert de.viscosity == pytest.approx(float(m.oil.dynamic_viscosity(50.0)))
+    assert 0.02 < de.viscosity < 0.035
+    assert m.elements[1].inner_diameter == pytest.approx(0.04) and m.discs[0].lumped and m.discs[0].name == "fan"
+    assert (m.unbalance_node, m.unbalance_moment) == (3, pytest.approx(4e-3))
+    assert [(u.node, u.name) for u in m.other_unbalances] == [(6, "coupling")]
+    assert m.supports[0].stiffness[0][0] == pytest.approx(2e8) and m.supports[0].node == 6
+    assert [(p.node, p.probe_angles_deg) for p in m.measurement_planes] == [(2, (45.0, 135.0)), (5, (0.0, 90.0))]
+    assert m.center_nodes == [2, 5] and m.outside_nodes == []
+
+
+def test_a_machine_the_numerics_cannot_take_yet_is_refused_naming_the_file_and_every_part(tmp_path):
+    from lubeviz.rotor.assembly import rotor_from_machine
+
+    path = tmp_path / "fan.toml"
+    path.write_text(ANY_MACHINE)
+    m = load_machine(path)
+    gaps = m.not_yet_modelled()
+    for part in ("3 [[bearings]]", "[[bearings]] 1 (drive end): 2 grooves", "offset_um", "supply = 'known'",
+                 "supply = 'flooded'", "[[bearings]] 3 (outboard): a pedestal", "[[supports]] 1 (ball bearing)",
+                 "[[planes]] 1"):
+        assert any(part in g for g in gaps), part
+    assert not any("[[planes]] 2" in g for g in gaps)
+    with pytest.raises(ModelFileError) as err:
+        rotor_from_machine(m)
+    assert str(path) in str(err.value) and "[[supports]] 1" in str(err.value)
+    assert load_machine().not_yet_modelled() == []
+
+
+def test_a_film_with_two_grooves_is_refused_rather_than_solved_with_one():
+    from lubeviz.film.feed import Feed, setup_problem
+    from lubeviz.model.bearing import Groove
+
+    b = Bearing(other_grooves=[Groove(3.14159, 16.2e-3, 35e-3)])
+    assert len(b.grooves) == 2
+    with pytest.raises(InputError, match="2 axial grooves"):
+        setup_problem(b, 2 * 3.14159 * 75.0, (0.0, -30e-6), Feed.flooded())

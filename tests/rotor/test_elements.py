@@ -141,3 +141,28 @@ def test_bad_inputs_raise_input_error():
         TimoshenkoBeam(1, -0.1, 0.05, E, NU, RHO)
     with pytest.raises(InputError, match="bore"):
         RigidDisc.annular(1, 0.05, 0.2, 0.3, RHO)
+
+
+def test_cowper_s_coefficient_of_a_hollow_circle_runs_from_the_solid_value_to_the_thin_tube_s():
+    """Cowper (1966): 6(1+nu)/(7+6nu) for the solid circle, 2(1+nu)/(4+3nu) for a thin-walled tube (m -> 1)."""
+    from lubeviz.rotor.elements import cowper_shear_coefficient
+
+    nu = 0.3
+    assert cowper_shear_coefficient(nu, 0.0) == pytest.approx(6 * (1 + nu) / (7 + 6 * nu))
+    assert cowper_shear_coefficient(nu, 1.0 - 1e-9) == pytest.approx(2 * (1 + nu) / (4 + 3 * nu), rel=1e-6)
+    ks = [cowper_shear_coefficient(nu, m) for m in (0.0, 0.3, 0.6, 0.9)]
+    assert all(a > b for a, b in zip(ks, ks[1:]))  # a thinner wall carries shear less evenly
+
+
+def test_a_hollow_element_has_the_annulus_area_and_inertia_and_refuses_a_bore_as_wide_as_the_shaft():
+    import math
+
+    from lubeviz.errors import InputError
+    from lubeviz.rotor.elements import TimoshenkoBeam
+
+    solid = TimoshenkoBeam(1, 0.1, 0.08, 2.1e11, 0.3, 7850.0)
+    tube = TimoshenkoBeam(1, 0.1, 0.08, 2.1e11, 0.3, 7850.0, inner_diameter=0.05)
+    assert tube.area == pytest.approx(solid.area - math.pi * 0.05**2 / 4)
+    assert tube.inertia == pytest.approx(solid.inertia - math.pi * 0.05**4 / 64)
+    with pytest.raises(InputError, match="inner diameter"):
+        TimoshenkoBeam(1, 0.1, 0.08, 2.1e11, 0.3, 7850.0, inner_diameter=0.08)

@@ -86,3 +86,25 @@ def test_cross_coupled_bearing_moves_the_journal_sideways():
     assert sol.x[0] == pytest.approx(expected[0], rel=1e-3)
     assert sol.y[0] == pytest.approx(expected[1], rel=1e-3)
     assert expected[0] > 0
+
+
+@pytest.mark.parametrize("spans", [(1.0, 1.0), (0.6, 1.4)])
+def test_a_continuous_beam_on_three_supports_carries_the_three_moment_equation_s_reactions(spans):
+    """A statically indeterminate rotor (SPEC §8: 3+ supports) in the stiff-support limit: a uniform shaft pinned at
+    its ends and at one point between, under its own weight w per metre. Clapeyron's three-moment equation gives the
+    hogging moment over the middle support M = w (a^3 + b^3) / (8 (a + b)), so R1 = w a / 2 - M / a,
+    R3 = w b / 2 - M / b and R2 = w (a + b) - R1 - R3 (equal spans: 3/8, 10/8, 3/8 of w a)."""
+    a, b = spans
+    n_a, n_b = 12, 16
+    d = 0.06
+    beams = [TimoshenkoBeam(k + 1, (a / n_a if k < n_a else b / n_b), d, E, NU, RHO, shear=False)
+             for k in range(n_a + n_b)]
+    rotor = assemble(beams, [], bearing_nodes=[1, n_a + 1, n_a + n_b + 1])
+    w = RHO * math.pi * d**2 / 4 * G
+    m = w * (a**3 + b**3) / (8 * (a + b))
+    r1, r3 = w * a / 2 - m / a, w * b / 2 - m / b
+    expect = [r1, w * (a + b) - r1 - r3, r3]
+    got = simple_support_reactions(rotor, G).forces
+    np.testing.assert_allclose(got, expect, rtol=1e-9)
+    if a == b:
+        np.testing.assert_allclose(got / (w * a), [3 / 8, 10 / 8, 3 / 8], rtol=1e-9)
