@@ -306,7 +306,7 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
     machine = load_machine(machine_path)
     qt = thresholds_mlmin(speed_hz, machine_path)
     rng = np.random.default_rng(7)
-    chain = ForwardChain(machine, speed_hz, (6, 20))
+    chain = ForwardChain(machine, speed_hz)
     rows = []
     total = len(DIAGNOSE_CASES) * 2 * seeds
     plan, i = [], 0  # (index, name, level, text, flows): the records to make; the index counts every draw, also

@@ -230,7 +230,7 @@ def _implicit_step(films: _JournalFilms, modal: _ModalStep, eta, r_next, k_step:
 
 
 def film_time_response(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unbalance], *,
-                       duration: float, dt: float = 1e-4, nodes: Sequence[int] = (6, 20),
+                       duration: float, dt: float = 1e-4, nodes: Sequence[int] | None = None,
                        start="steady", implicit: bool = False, progress: ProgressFn = silent) -> FilmTimeResponse:
     """Integrate the rotor on its p-theta films for `duration` s from the linear steady state (or rest).
 
@@ -243,6 +243,7 @@ def film_time_response(rotor: Rotor, bearings: FilmBearings, unbalances: Sequenc
     linearization (large orbits, oil whirl), at 2-3 film solves per bearing and step instead of one.
     """
     t_start = time.perf_counter()
+    nodes = tuple(rotor.bearing_nodes) if nodes is None else tuple(nodes)  # default: at the bearings
     omega = bearings.omega
     n_t = int(round(duration / dt)) + 1
     if n_t < 3:

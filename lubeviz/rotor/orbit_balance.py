@@ -478,7 +478,7 @@ def _slopes(basis: _HarmonicBasis, films: _OrbitFilms, point: _MapPoint, flow_sl
 
 
 def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unbalance], *,
-                  nodes: Sequence[int] = (6, 20), harmonics: int = HARMONICS, points: int = POINTS, tol: float = 1e-5,
+                  nodes: Sequence[int] | None = None, harmonics: int = HARMONICS, points: int = POINTS, tol: float = 1e-5,
                   max_iter: int = 30, start: OrbitBalance | None = None, threads: int | None = None,
                   flow_slopes: Sequence | None = None, progress: ProgressFn = silent) -> OrbitBalance:
     """The periodic orbit of `rotor` on the films of `bearings` under `unbalances` (harmonic balance).
@@ -504,6 +504,7 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
     H, N = int(harmonics), int(points)
     if H < 1 or N < 2 * H + 2:
         raise InputError(f"{H} harmonics need at least {2 * H + 2} points per revolution, got {N}")
+    nodes = tuple(rotor.bearing_nodes) if nodes is None else tuple(nodes)  # default: at the bearings
     basis = _harmonic_basis(rotor, bearings, unbalances, nodes, H, N)
     films = _OrbitFilms(bearings, _warm_starts(bearings, start, N), want_supply=flow_slopes is not None,
                         pool=_pool(threads) if threads > 1 else None)

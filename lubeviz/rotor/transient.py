@@ -231,14 +231,16 @@ def node_output_dofs(nodes: Sequence[int]) -> np.ndarray:
 
 def unbalance_time_response(rotor: Rotor, omega: float, unbalances: Sequence[Unbalance], bearings, *,
                             duration: float = 15.0, dt: float = 1e-4, keep_last: float | None = 5.0,
-                            nodes: Sequence[int] = (6, 20), method: str = "exact",
+                            nodes: Sequence[int] | None = None, method: str = "exact",
                             system: LinearSystem | None = None) -> TimeResponse:
-    """The paper's reference response: start at rest, integrate `duration` s, keep the last `keep_last` s.
+    """The paper's reference response: start at rest, integrate `duration` s, keep the last `keep_last` s, at
+    `nodes` (default: the bearings' nodes).
 
     The unbalance force of Eq. 9 (a force turning with the shaft) is sampled every `dt`.
     """
     if not (np.isfinite(duration) and duration > 0):
         raise InputError(f"duration {duration!r} s; expected a positive number")
+    nodes = tuple(rotor.bearing_nodes) if nodes is None else tuple(nodes)  # default: at the bearings
     n_t = int(round(duration / dt)) + 1
     keep_from = 0 if keep_last is None else max(0, n_t - int(round(keep_last / dt)))
     system = linear_system(rotor, omega, bearings) if system is None else system

@@ -107,7 +107,7 @@ def check_duration(stability: Stability, duration: float, kick: float = KICK) ->
 
 
 def whirl_onset(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unbalance], *, duration: float,
-                dt: float = 1e-4, nodes: Sequence[int] = (6, 20), start: np.ndarray | None = None,
+                dt: float = 1e-4, nodes: Sequence[int] | None = None, start: np.ndarray | None = None,
                 kick: float = KICK, stability: Stability | None = None, implicit: bool = True,
                 progress: ProgressFn = silent) -> tuple[FilmTimeResponse, Stability]:
     """The machine on its films integrated in time for `duration` s from `start` (a state (q, q') from the

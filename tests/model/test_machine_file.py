@@ -226,3 +226,16 @@ def test_a_film_with_two_grooves_is_refused_rather_than_solved_with_one():
     assert len(b.grooves) == 2
     with pytest.raises(InputError, match="2 axial grooves"):
         setup_problem(b, 2 * 3.14159 * 75.0, (0.0, -30e-6), Feed.flooded())
+
+
+def test_the_measurement_planes_come_from_the_file_never_from_a_default_node_number(tmp_path, machine):
+    """SPEC §8: planes declared in the file are the chain's planes; none declared: one at each bearing."""
+    from lubeviz.identify.forward.chain import ForwardChain
+
+    assert ForwardChain(machine, 75.0).nodes == tuple(b.node for b in machine.bearings)
+    text = Path(DEFAULT_MACHINE).read_text()
+    path = tmp_path / "planes.toml"
+    path.write_text(text + "\n[[planes]]\nnode = 5\n\n[[planes]]\nnode = 21\n")
+    other = load_machine(path)
+    assert other.not_yet_modelled() == []
+    assert ForwardChain(other, 75.0).nodes == (5, 21)

@@ -238,9 +238,10 @@ class ChainOutput:
 
 
 class ForwardChain:
-    """Named parameters -> probe readings and features at two planes of `machine` at `speed_hz`."""
+    """Named parameters -> probe readings and features at two planes of `machine` at `speed_hz` (`nodes`; None: the
+    machine's measurement planes, SPEC §8)."""
 
-    def __init__(self, machine, speed_hz: float, nodes: Sequence[int] = (6, 20), effects=(), *,
+    def __init__(self, machine, speed_hz: float, nodes: Sequence[int] | None = None, effects=(), *,
                  probe_angles_deg=DEFAULT_PROBE_ANGLES, tables: Sequence[CoefficientTable] | None = None,
                  rotor=None, shaft_damping_beta: float | None = None, progress: ProgressFn = silent):
         self.machine = machine
@@ -249,6 +250,8 @@ class ForwardChain:
             raise InputError(f"speed {speed_hz!r} Hz; expected a positive number")
         self.omega = 2 * math.pi * self.speed_hz
         self.rotor = rotor_from_machine(machine, shaft_damping_beta=shaft_damping_beta) if rotor is None else rotor
+        if nodes is None:
+            nodes = [p.node for p in machine.measurement_planes]
         self.nodes = tuple(self.rotor.check_node(int(n), "measurement node") for n in nodes)
         if len(self.nodes) != 2 or self.nodes[0] == self.nodes[1]:
             raise InputError(f"two distinct measurement planes expected, got nodes {tuple(nodes)}")
