@@ -15,8 +15,8 @@ from pathlib import Path
 from ..errors import ModelFileError
 from ..units import MLMIN_PER_M3S
 from .bearing import SUPPLIES, Bearing, Groove, Pedestal
-from .machine import (DEFAULT_MACHINE, OIL_CONSISTENCY, Disc, Machine, Plane, ShaftElement, Support,
-                      UnbalanceMass)
+from .parts import (DEFAULT_MACHINE, OIL_CONSISTENCY, Disc, Machine, Plane, ShaftElement, Support,
+                    UnbalanceMass)
 from .oil import oil_from_table
 
 MAX_BEARINGS = 6  # fluid-film bearings a model file may declare (SPEC §8)
