@@ -7,9 +7,10 @@
    flows (`Effect.candidate`: its main parameters free, the rest at typical values; phases from three
    starts), scored by AIC = chi^2 + 2 k (k free parameters: the penalty for what an effect adds) and by
    whether what it leaves is noise (p > level). Ranked by AIC.
-   When no single candidate leaves noise, pairs of the best PAIR_FROM singles (different effects), and of the best
-   PAIR_LEAD with every placement of another effect, are fitted together; a pair is added to the ranking only when it passes and beats every single by more than
-   `ambiguity_aic`, and is then named as the pair.
+   When no single candidate leaves noise, pairs of the best PAIR_FROM singles (different effects), and of the
+   best PAIR_LEAD with the best PAIR_PARTNERS placements of the other effects, are fitted together; a pair is
+   added to the ranking only when it passes and beats every single by more than `ambiguity_aic`, and is then
+   named as the pair.
 3. Outcomes, never forced:
    - the plain model passes: explained, nothing added;
    - one passing candidate is better than every other by more than `ambiguity_aic` (4, "considerably
@@ -44,6 +45,7 @@ PAIR_FROM = 4  # pairs are tried among this many of the best single candidates (
 # ... and each of this many best singles with every placement of every other effect (a worn bearing and a probe
 # gain on y1 when the best probe gain alone was on x1: the pair was never tried, issue 36 bench)
 PAIR_LEAD = 2
+PAIR_PARTNERS = 6  # ... among the best this many placements of the other effects (a set's pair fits cost 3 records)
 # a pair is named only with this many degrees of freedom left: one record at one speed (6 features) minus two flows
 # and a pair of 2 + 2 parameters leaves none, and with one left almost any pair fits it (measured: a worn bearing 2
 # with a probe's gain error named as "a second unbalance + bearing 1 at 84 um", flows 64 % off, chi2 0.4 for 1 dof)
@@ -323,10 +325,10 @@ def _candidate_pool(candidates, oil_known: bool, rotor) -> tuple[list, object]:
 
 
 def _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progress=silent) -> list:
-    """Pairs of the best PAIR_FROM single candidates (different effects; not large orbits), and of the best PAIR_LEAD
-    with every placement of the other effects, fitted together from their single fits' values; returned (to join
-    the ranking) only when the best passes and beats every single by more than `ambiguity_aic`: a pair has more
-    freedom, and is named only when the record asks for it."""
+    """Pairs of the best PAIR_FROM single candidates (different effects; not large orbits), and of the best
+    PAIR_LEAD with the best PAIR_PARTNERS placements of the other effects, fitted together from their single fits'
+    values; returned (to join the ranking) only when the best passes and beats every single by more than
+    `ambiguity_aic`: a pair has more freedom, and is named only when the record asks for it."""
     import itertools
 
     usable = [c for c in tried if c.fit is not None and c.defect is None and not c.partners]
@@ -341,9 +343,10 @@ def _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progres
     pairs = list(itertools.combinations(tops, 2))
     labels = {frozenset((a.label, b.label)) for a, b in pairs}
     for lead in tops[:PAIR_LEAD]:
-        for c in usable:
+        partners = [c for c in usable if c.effect.effect_name != lead.effect.effect_name][:PAIR_PARTNERS]
+        for c in partners:
             key = frozenset((lead.label, c.label))
-            if c.effect.effect_name != lead.effect.effect_name and key not in labels:
+            if key not in labels:
                 labels.add(key)
                 pairs.append((lead, c))
     found = []
