@@ -87,16 +87,16 @@ def test_over_a_set_the_mesh_terms_correlate_by_the_stated_factor_and_the_rest_i
     blocks = [model_sensitivity(c, c.q_threshold, ALL_FEATURES, ModelBudget()) for c in chains]
     n = len(ALL_FEATURES)
     stacked = np.concatenate(blocks)
-    assert np.allclose(set_covariance(blocks, 1.0), stacked @ stacked.T)
+    assert np.allclose(set_covariance(blocks, 1.0, 2), stacked @ stacked.T)
     mesh = mesh_columns(2)
-    zero = set_covariance(blocks, 0.0)
+    zero = set_covariance(blocks, 0.0, 2)
     assert np.allclose(zero[:n, n:], blocks[0][:, ~mesh] @ blocks[1][:, ~mesh].T)  # across records: common terms
     for i, b in enumerate(blocks):  # each record alone: its whole budget, whatever the correlation
         sl = slice(i * n, (i + 1) * n)
         for rho in (0.0, 0.85, 1.0):
-            assert np.allclose(set_covariance(blocks, rho)[sl, sl], b @ b.T)
-    mixed = set_covariance(blocks, 0.85)
-    assert np.allclose(mixed, 0.85 * set_covariance(blocks, 1.0) + 0.15 * zero)
+            assert np.allclose(set_covariance(blocks, rho, 2)[sl, sl], b @ b.T)
+    mixed = set_covariance(blocks, 0.85, 2)
+    assert np.allclose(mixed, 0.85 * set_covariance(blocks, 1.0, 2) + 0.15 * zero)
     assert np.linalg.eigvalsh(mixed).min() > -1e-12 * np.abs(mixed).max()
 
 

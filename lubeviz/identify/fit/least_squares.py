@@ -134,7 +134,8 @@ class _Problem:
         blocks = [model_sensitivity(chain, theta, names, budget) for chain, names, _ in self.parts]
         if len(blocks) == 1:
             return noise + blocks[0] @ blocks[0].T
-        return noise + set_covariance(blocks, (budget or ModelBudget()).set_correlation)
+        correlation = (budget or ModelBudget()).set_correlation
+        return noise + set_covariance(blocks, correlation, len(self.parts[0][0].sources))
 
 
 SCREENING_GAIN = 1e-3  # chi2: a screening fit's last step gains less (the ranking's AIC differences that matter are >= 2)

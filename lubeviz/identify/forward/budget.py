@@ -175,7 +175,7 @@ MESH_TERMS = 10
 N_TERMS = 2 * (MESH_TERMS + 2) + 2 + 2 + 8 + 8
 
 
-def mesh_columns(n_bearings: int = 2) -> np.ndarray:
+def mesh_columns(n_bearings: int) -> np.ndarray:
     """Mask of `model_sensitivity`'s columns that are film mesh terms (the rest: tolerances, shaft damping, static
     and large-orbit terms, one physical value for every record of a set)."""
     mask = np.zeros(N_TERMS, dtype=bool)
@@ -184,7 +184,7 @@ def mesh_columns(n_bearings: int = 2) -> np.ndarray:
     return mask
 
 
-def set_covariance(blocks, correlation: float, n_bearings: int = 2) -> np.ndarray:
+def set_covariance(blocks, correlation: float, n_bearings: int) -> np.ndarray:
     """Joint model covariance of a set's records from their sensitivities `blocks` (one S per record, the same
     columns): every term common to the records except the film mesh terms, whose records correlate by
     `correlation` (ModelBudget.set_correlation)."""
