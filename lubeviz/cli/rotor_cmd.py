@@ -35,16 +35,30 @@ def _speed(machine, speed_hz):
     return speed_hz
 
 
-def _flows(args):
-    flows = []
-    for k in (1, 2):
-        q = getattr(args, f"q{k}_mlmin")
-        if q is None:
-            raise InputError(f"--q{k}-mlmin is required (or --coefficients FILE)")
-        if q <= 0:
-            raise InputError(f"--q{k}-mlmin {q:g}: expected a positive supply flow in ml/min")
-        flows.append(mlmin_to_m3s(q))
-    return tuple(flows)
+def _flows(args, machine) -> tuple:
+    """Every fluid-film bearing's supply flow (m^3/s, file order): `--q-mlmin Q1,Q2,...` (SPEC §8), or `--q1-mlmin` and
+    `--q2-mlmin` for a machine of two."""
+    names = ", ".join(b.name for b in machine.bearings)
+    if getattr(args, "q_mlmin", None) is not None:
+        if args.q1_mlmin is not None or args.q2_mlmin is not None:
+            raise InputError("give either --q-mlmin Q1,Q2,... or --q1-mlmin/--q2-mlmin, not both")
+        values = [finite_float_or_error(v, "--q-mlmin") for v in args.q_mlmin.split(",")]
+        if len(values) != len(machine.bearings):
+            raise InputError(f"--q-mlmin {args.q_mlmin!r}: {len(values)} value(s) for {len(machine.bearings)} "
+                             f"fluid-film bearings; expected one per bearing in file order ({names})")
+        labels = [f"--q-mlmin value {k}" for k in range(1, len(values) + 1)]
+    else:
+        if len(machine.bearings) != 2:
+            raise InputError(f"this machine has {len(machine.bearings)} fluid-film bearings ({names}): give "
+                             "--q-mlmin Q1,Q2,... (one per bearing, file order)")
+        values, labels = [args.q1_mlmin, args.q2_mlmin], ["--q1-mlmin", "--q2-mlmin"]
+        for v, label in zip(values, labels):
+            if v is None:
+                raise InputError(f"{label} is required (or --q-mlmin Q1,Q2; or --coefficients FILE for response)")
+    for v, label in zip(values, labels):
+        if v <= 0:
+            raise InputError(f"{label} {v:g}: expected a positive supply flow in ml/min")
+    return tuple(mlmin_to_m3s(v) for v in values)
 
 
 def read_coefficients(path: str) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -74,11 +88,17 @@ def read_coefficients(path: str) -> list[tuple[np.ndarray, np.ndarray]]:
     return out
 
 
+def _flow_arguments(p) -> None:
+    p.add_argument("--q-mlmin", type=str, default=None, metavar="Q1,Q2,...",
+                   help="every fluid-film bearing's supply flow (ml/min), in the model file's order (SPEC §8)")
+    p.add_argument("--q1-mlmin", type=finite_float, default=None, help="supply flow of bearing 1 (ml/min)")
+    p.add_argument("--q2-mlmin", type=finite_float, default=None, help="supply flow of bearing 2 (ml/min)")
+
+
 def register(sub) -> None:
     p = sub.add_parser("response", help="steady unbalance response of the machine on its film bearings")
     add_common(p)
-    p.add_argument("--q1-mlmin", type=finite_float, default=None, help="supply flow of bearing 1 (ml/min)")
-    p.add_argument("--q2-mlmin", type=finite_float, default=None, help="supply flow of bearing 2 (ml/min)")
+    _flow_arguments(p)
     p.add_argument("--coefficients", metavar="FILE", default=None,
                    help="JSON bearing coefficients, bypassing the film model")
     p.add_argument("--speed-hz", type=finite_float, default=None, help="shaft speed (default: the machine's)")
@@ -89,9 +109,9 @@ def register(sub) -> None:
 
     p = sub.add_parser("simulate", help="write a synthetic measured record (SPEC §6) as the paper makes it")
     add_common(p)
-    p.add_argument("--q1-mlmin", type=finite_float, required=True, help="supply flow of bearing 1 (ml/min)")
-    p.add_argument("--q2-mlmin", type=finite_float, required=True, help="supply flow of bearing 2 (ml/min)")
-    p.add_argument("--nodes", type=str, default=None, help="the two measurement nodes (default: 6,20)")
+    _flow_arguments(p)
+    p.add_argument("--nodes", type=str, default=None,
+                   help="the two measurement nodes (default: the machine's measurement planes)")
     p.add_argument("--snr-db", type=str, default="12", help="noise SNR in dB, or 'none' (default 12)")
     p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
     p.add_argument("--duration-s", type=finite_float, default=5.0, help="length of the record kept (s)")
@@ -113,6 +133,7 @@ def register(sub) -> None:
 def run_response(args) -> dict:
     t0 = time.perf_counter()
     machine = load_machine(args.machine)
+    machine.require_modelled("response")
     speed_hz = _speed(machine, args.speed_hz)
     omega = 2 * math.pi * speed_hz
     nodes = nodes_arg(args.nodes) if args.nodes else tuple(machine.outside_nodes[:1]) + tuple(
@@ -123,11 +144,11 @@ def run_response(args) -> dict:
     rotor = rotor_from_machine(machine, shaft_damping_beta=beta)
     bearings_out = None
     if args.coefficients is not None:
-        if args.q1_mlmin is not None or args.q2_mlmin is not None:
-            raise InputError("give either --q1-mlmin/--q2-mlmin or --coefficients, not both")
+        if args.q1_mlmin is not None or args.q2_mlmin is not None or args.q_mlmin is not None:
+            raise InputError("give either the flows (--q-mlmin or --q1-mlmin/--q2-mlmin) or --coefficients, not both")
         coeffs = read_coefficients(args.coefficients)
     else:
-        fb = film_bearings(machine, _flows(args), omega)
+        fb = film_bearings(machine, _flows(args, machine), omega)
         coeffs = fb.coefficients
         bearings_out = [{"q_mlmin": q * MLMIN_PER_M3S, "eccentricity_ratio": e.eccentricity_ratio,
                          "attitude_deg": math.degrees(e.attitude_angle), "position_m": e.position,
@@ -157,10 +178,12 @@ def run_simulate(args) -> dict:
 
     t0 = time.perf_counter()
     machine = load_machine(args.machine)
+    machine.require_modelled("simulate")
     speed_hz = _speed(machine, args.speed_hz)
     nodes = nodes_arg(args.nodes) if args.nodes else tuple(machine.center_nodes)
     if len(nodes) != 2:
-        raise InputError(f"--nodes {args.nodes!r}: a record has exactly two measurement planes")
+        given = f"--nodes {args.nodes!r}" if args.nodes else f"the machine's {len(nodes)} measurement planes"
+        raise InputError(f"{given}: a record has exactly two measurement planes today")
     snr = None if args.snr_db.strip().lower() == "none" else finite_float_or_error(args.snr_db, "--snr-db")
     out = Path(args.output)
     if out.suffix.lower() not in (".csv", ".npz", ".mat"):
@@ -168,6 +191,7 @@ def run_simulate(args) -> dict:
     if not out.parent.exists():
         raise InputError(f"-o {out}: folder {out.parent} does not exist")
     effects = parse_effects(args.effect)
+    flows = _flows(args, machine)
     method = args.method or ("steady" if effects else "time")
     if effects and method != "steady":
         raise InputError("--method time with --effect: effects are simulated through the steady forward chain; "
@@ -176,7 +200,7 @@ def run_simulate(args) -> dict:
         if len(effects) > 1:
             raise InputError("--effect large_orbit: combine it with no other effect (not supported yet)")
         method = "orbit"
-        rec = synthesize_record(machine, _flows(args), nodes=nodes, snr_db=snr, rng=np.random.default_rng(args.seed),
+        rec = synthesize_record(machine, flows, nodes=nodes, snr_db=snr, rng=np.random.default_rng(args.seed),
                                 duration_s=args.duration_s, total_s=args.duration_s,
                                 sample_rate_hz=args.sample_rate_hz, speed_hz=speed_hz, method="orbit",
                                 progress=StderrBar())
@@ -188,16 +212,17 @@ def run_simulate(args) -> dict:
 
         held = tuple(e.hold() for e in effects)
         chain = ForwardChain(machine, speed_hz, nodes, held, progress=StderrBar())
-        rec = simulate(chain, np.array(_flows(args)), snr_db=snr, rng=np.random.default_rng(args.seed),
+        rec = simulate(chain, np.array(flows), snr_db=snr, rng=np.random.default_rng(args.seed),
                        duration_s=args.duration_s, sample_rate_hz=args.sample_rate_hz,
                        metadata={"effects": "; ".join(e.spec() for e in held), "seed": str(args.seed)})
     else:
-        rec = synthesize_record(machine, _flows(args), nodes=nodes, snr_db=snr,
+        rec = synthesize_record(machine, flows, nodes=nodes, snr_db=snr,
                                 rng=np.random.default_rng(args.seed), duration_s=args.duration_s,
                                 total_s=args.total_s, sample_rate_hz=args.sample_rate_hz, speed_hz=speed_hz,
                                 method=method)
     write_record(rec, out)
-    return {"file": str(out), "q1_mlmin": args.q1_mlmin, "q2_mlmin": args.q2_mlmin, "nodes": list(nodes),
+    ml = {f"q{k}_mlmin": float(f"{q * MLMIN_PER_M3S:.12g}") for k, q in enumerate(flows, start=1)}
+    return {"file": str(out), **ml, "nodes": list(nodes),
             "snr_db": snr, "seed": args.seed, "n_samples": rec.n_samples, "duration_s": rec.duration,
             "sample_rate_hz": rec.sample_rate_hz, "speed_hz": speed_hz, "method": method,
             "effects": [e.spec() for e in effects], "seconds": time.perf_counter() - t0,

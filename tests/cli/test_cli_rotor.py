@@ -47,6 +47,14 @@ def test_response_on_film_bearings_reports_each_node(capsys):
     assert data["bearings"][0]["eccentricity_ratio"] > data["bearings"][1]["eccentricity_ratio"]  # starved
 
 
+def test_the_flows_given_as_one_list_in_file_order_are_the_two_flags(capsys):
+    """SPEC §8: `--q-mlmin Q1,Q2,...` gives every fluid-film bearing's flow in the file's order."""
+    _, listed, _ = run(capsys, "response", "--q-mlmin", "450,600", "--json")
+    _, flags, _ = run(capsys, "response", "--q1-mlmin", "450", "--q2-mlmin", "600", "--json")
+    a, b = json.loads(listed), json.loads(flags)
+    assert a["bearings"] == b["bearings"] and a["nodes"] == b["nodes"]
+
+
 def test_simulate_writes_a_record_with_the_models_features(capsys, tmp_path):
     path = tmp_path / "rec.npz"
     code, out, _ = run(capsys, "simulate", "--q1-mlmin", "450", "--q2-mlmin", "600", "--snr-db", "none",
@@ -71,6 +79,12 @@ def test_simulate_writes_a_record_with_the_models_features(capsys, tmp_path):
     (["simulate", "--q1-mlmin", "450", "--q2-mlmin", "450", "-o", "rec.txt"], ".csv, .npz or .mat"),
     (["simulate", "--q1-mlmin", "450", "--q2-mlmin", "450", "--snr-db", "loud", "-o", "r.csv"], "--snr-db"),
     (["simulate", "--q1-mlmin", "450", "--q2-mlmin", "450", "--nodes", "6", "-o", "r.csv"], "two"),
+    (["response", "--q-mlmin", "450"], "1 value(s) for 2 fluid-film bearings"),
+    (["response", "--q-mlmin", "450,600,700"], "expected one per bearing in file order (bearing 1, bearing 2)"),
+    (["response", "--q-mlmin", "450,x"], "--q-mlmin"),
+    (["response", "--q-mlmin", "450,-1"], "--q-mlmin value 2 -1"),
+    (["response", "--q-mlmin", "450,600", "--q1-mlmin", "450"], "not both"),
+    (["simulate", "--q-mlmin", "450,0", "-o", "r.csv"], "--q-mlmin value 2 0"),
 ])
 def test_bad_rotor_cli_input_exits_2_with_one_line(capsys, argv, words):
     code, out, err = run(capsys, *argv)
@@ -83,3 +97,15 @@ def test_bad_coefficient_file_is_named(capsys, tmp_path):
     path.write_text(json.dumps({"bearings": [{"K": [[1, 2], [3]], "C": [[0, 0], [0, 0]]}]}))
     code, _, err = run(capsys, "response", "--coefficients", str(path))
     assert code == 2 and "c.json" in err and "K" in err
+
+
+@pytest.mark.parametrize("name, part", [("three_bearing_fan", "3 [[bearings]]"), ("overhung_pump", "2 grooves")])
+def test_an_example_machine_the_numerics_cannot_take_yet_is_refused_by_name_before_any_work(capsys, tmp_path, name,
+                                                                                           part):
+    from lubeviz.model.machine import MODELS_DIR
+
+    path = MODELS_DIR / f"{name}.toml"
+    code, out, err = run(capsys, "simulate", "--machine", str(path), "--q-mlmin", "100,100,100",
+                         "-o", str(tmp_path / "r.csv"))
+    assert code == 2 and out == "" and err.count("\n") == 1
+    assert str(path) in err and part in err and "The file itself is valid" in err
