@@ -67,14 +67,14 @@ def test_with_large_orbits_the_flooded_bearing_keeps_the_full_mesh_terms(chain):
 def test_the_supply_flow_term_moves_the_features_along_each_flow_s_own_direction(chain):
     """Two meshes map the same film to flows 0.3 % apart: the term is the flow's own derivative times s q, so it
     widens the flows' intervals and leaves the fit's chi2 alone (a direction the fit absorbs)."""
-    from lubeviz.identify.forward.budget import N_TERMS
+    from lubeviz.identify.forward.budget import n_terms
 
     theta = chain.q_threshold * np.array([0.8, 1.3])
     s = 0.003
     S = model_sensitivity(chain, theta, ALL_FEATURES, ModelBudget(supply_flow=s))
     none = model_sensitivity(chain, theta, ALL_FEATURES, ModelBudget(supply_flow=0.0))
     g, J = chain.jacobian(theta, ALL_FEATURES)
-    cols = [j for j in range(N_TERMS) if np.any(S[:, j] != none[:, j])]
+    cols = [j for j in range(n_terms(2, 2)) if np.any(S[:, j] != none[:, j])]
     assert cols == [2 * PER_BEARING + 2, 2 * PER_BEARING + 3]
     for k, j in enumerate(cols):
         assert np.allclose(S[:, j], s * theta[k] * J[:, k], rtol=1e-3, atol=1e-6 * np.abs(J[:, k]).max() * theta[k])
@@ -87,16 +87,16 @@ def test_over_a_set_the_mesh_terms_correlate_by_the_stated_factor_and_the_rest_i
     blocks = [model_sensitivity(c, c.q_threshold, ALL_FEATURES, ModelBudget()) for c in chains]
     n = len(ALL_FEATURES)
     stacked = np.concatenate(blocks)
-    assert np.allclose(set_covariance(blocks, 1.0, 2), stacked @ stacked.T)
-    mesh = mesh_columns(2)
-    zero = set_covariance(blocks, 0.0, 2)
+    assert np.allclose(set_covariance(blocks, 1.0, 2, 2), stacked @ stacked.T)
+    mesh = mesh_columns(2, 2)
+    zero = set_covariance(blocks, 0.0, 2, 2)
     assert np.allclose(zero[:n, n:], blocks[0][:, ~mesh] @ blocks[1][:, ~mesh].T)  # across records: common terms
     for i, b in enumerate(blocks):  # each record alone: its whole budget, whatever the correlation
         sl = slice(i * n, (i + 1) * n)
         for rho in (0.0, 0.85, 1.0):
-            assert np.allclose(set_covariance(blocks, rho, 2)[sl, sl], b @ b.T)
-    mixed = set_covariance(blocks, 0.85, 2)
-    assert np.allclose(mixed, 0.85 * set_covariance(blocks, 1.0, 2) + 0.15 * zero)
+            assert np.allclose(set_covariance(blocks, rho, 2, 2)[sl, sl], b @ b.T)
+    mixed = set_covariance(blocks, 0.85, 2, 2)
+    assert np.allclose(mixed, 0.85 * set_covariance(blocks, 1.0, 2, 2) + 0.15 * zero)
     assert np.linalg.eigvalsh(mixed).min() > -1e-12 * np.abs(mixed).max()
 
 

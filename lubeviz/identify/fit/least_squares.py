@@ -22,6 +22,7 @@ stated level (`level`, default 1 %) against noise *and* model, not noise alone.
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from dataclasses import dataclass, field
@@ -32,7 +33,7 @@ from scipy import stats
 
 from ...errors import InputError
 from ..forward.budget import ModelBudget, model_sensitivity, set_covariance
-from ..forward.model import wrap_difference
+from ..forward.model import feature_plane, wrap_difference
 from ...units import MLMIN_PER_M3S
 from .result import Z95, FitParameter, flow_parameter, summary  # noqa: F401 - Z95 is read from here too
 
@@ -43,6 +44,12 @@ STATUS = {
     3: "the best fit lies on a bound of the search box",
 }
 CHI2_95_1DOF = float(stats.chi2.ppf(0.95, 1))
+
+
+def flows_text(q) -> str:
+    """'Q1, Q2 = 420, 600 ml/min' (any number of flows, m^3/s)."""
+    q = np.asarray(q, dtype=float) * MLMIN_PER_M3S
+    return (", ".join(f"Q{k + 1}" for k in range(q.size)) + " = " + ", ".join(f"{v:.0f}" for v in q) + " ml/min")
 
 
 @dataclass(frozen=True)
@@ -135,7 +142,7 @@ class _Problem:
         if len(blocks) == 1:
             return noise + blocks[0] @ blocks[0].T
         correlation = (budget or ModelBudget()).set_correlation
-        return noise + set_covariance(blocks, correlation, len(self.parts[0][0].sources))
+        return noise + set_covariance(blocks, correlation, len(self.parts[0][0].sources), len(self.parts[0][0].nodes))
 
 
 SCREENING_GAIN = 1e-3  # chi2: a screening fit's last step gains less (the ranking's AIC differences that matter are >= 2)
@@ -153,7 +160,8 @@ def _lm(problem: _Problem, theta0, lo, hi, scale, max_iter=100, step_tol=1e-7, c
     r, J = problem.residual_jacobian(theta)
     cost = r @ r
     lam = 1e-3
-    path = [theta[:2].copy()]
+    nq = problem.parts[0][0].n_flows
+    path = [theta[:nq].copy()]
     s = scale[free]
     status = 2
     it = 0
@@ -176,7 +184,7 @@ def _lm(problem: _Problem, theta0, lo, hi, scale, max_iter=100, step_tol=1e-7, c
         moved = np.abs(new[free] - theta[free]) / s
         gain = cost - cost_new
         theta, r, J, cost = new, r_new, J_new, cost_new
-        path.append(theta[:2].copy())
+        path.append(theta[:nq].copy())
         if np.all(moved < step_tol) or gain < cost_tol:
             status = 0
             break
@@ -186,28 +194,42 @@ def _lm(problem: _Problem, theta0, lo, hi, scale, max_iter=100, step_tol=1e-7, c
 def _scales(chain) -> np.ndarray:
     lo, hi = chain.bounds()
     sc = np.array(chain.steps()) * 1e3
-    sc[:2] = chain.q_threshold
+    sc[:chain.n_flows] = chain.q_threshold
     width = np.where(np.isfinite(hi - lo), hi - lo, np.inf)
     return np.minimum(sc, np.where(np.isfinite(width), width, sc))
 
 
+# the global search's grid: `grid` points per flow for two flows (41^2 = 1681 evaluations); for N flows as many
+# points per flow as keep the grid near the same size (12 for 3 flows, 7 for 4, 5 for 5 and 6), never fewer than
+# GRID_MIN: the basins it finds are refined by Levenberg-Marquardt, so the grid only has to land in each valley
+GRID_MIN = 5
+
+
+def grid_size(n_flows: int, grid: int) -> int:
+    """Points per flow of the global search's grid for `n_flows` flows (`grid` for one or two)."""
+    if n_flows <= 2:
+        return grid
+    return max(GRID_MIN, int(math.floor((grid * grid) ** (1.0 / n_flows) + 1e-9)))
+
+
 def _grid_starts(chain, start, lower, upper, n):
+    """The flows' grid (n per flow, uniform in sqrt(Q / Q_T)), the effects' parameters at `start`: (n,)*N + (P,)."""
+    nq = chain.n_flows
     s = np.linspace(math.sqrt(lower), math.sqrt(upper), n) ** 2
-    a, b = np.meshgrid(s * chain.q_threshold[0], s * chain.q_threshold[1], indexing="ij")
-    pts = np.repeat(start[None, None, :], n, axis=0).repeat(n, axis=1)
-    pts[..., 0], pts[..., 1] = a, b
+    axes = np.meshgrid(*(s * q for q in chain.q_threshold), indexing="ij")
+    pts = np.broadcast_to(start, (n,) * nq + start.shape).copy()
+    for k, a in enumerate(axes):
+        pts[..., k] = a
     return pts
 
 
-def _basins(cost: np.ndarray, limit: float, most: int) -> list[tuple[int, int]]:
-    """Grid local minima (against their 8 neighbours) with cost below `limit`, best first."""
-    n, m = cost.shape
+def _basins(cost: np.ndarray, limit: float, most: int) -> list[tuple[int, ...]]:
+    """Grid local minima (against all 3^N - 1 neighbours) with cost below `limit`, best first."""
     padded = np.pad(cost, 1, constant_values=np.inf)
     is_min = np.ones_like(cost, dtype=bool)
-    for di in (-1, 0, 1):
-        for dj in (-1, 0, 1):
-            if di or dj:
-                is_min &= cost <= padded[1 + di:1 + di + n, 1 + dj:1 + dj + m]
+    for shift in itertools.product((-1, 0, 1), repeat=cost.ndim):
+        if any(shift):
+            is_min &= cost <= padded[tuple(slice(1 + d, 1 + d + n) for d, n in zip(shift, cost.shape))]
     idx = [tuple(i) for i in np.argwhere(is_min & (cost <= limit))]
     idx.sort(key=lambda ij: cost[ij])
     return idx[:most] or [tuple(np.unravel_index(np.argmin(cost), cost.shape))]
@@ -218,7 +240,7 @@ def _parts(chains, measured, names):
     parts, blocks = [], []
     for chain, meas in zip(chains, measured):
         use = tuple(n for n in (meas.names if names is None else names) if n in meas.names)
-        static = tuple(n for n in getattr(meas, "static_names", ()) if int(n[-1]) - 1 in chain.static_planes)
+        static = tuple(n for n in getattr(meas, "static_names", ()) if feature_plane(n)[1] - 1 in chain.static_planes)
         use = tuple(n for n in use if n not in meas.static_names or n in static)
         use = use + tuple(n for n in static if n not in use)
         idx = [meas.names.index(n) for n in use]
@@ -265,9 +287,10 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     lo = np.max([b[0] for b in bounds], axis=0)
     hi = np.min([b[1] for b in bounds], axis=0)
     scale = _scales(ref)
+    nq = ref.n_flows
     free = np.arange(ref.n_params)
     if hold_flows is not None:
-        free = free[2:]
+        free = free[nq:]
     n_free = free.size
     dof = len(all_names) - n_free
     if dof < 0:
@@ -276,12 +299,12 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     local = start is not None
     start = ref.start() if start is None else np.array(start, dtype=float)
     if hold_flows is not None:
-        start[:2] = hold_flows
+        start[:nq] = hold_flows
     problem = _Problem(parts, _Problem(parts, np.eye(len(all_names)), free).model_cov(start, budget, noise), free)
     # 1. global scan over the flow box
     if hold_flows is None and not local:
-        pts = _grid_starts(ref, start, lower, upper, grid)
-        pts[..., :2] = np.clip(pts[..., :2], lo[:2], hi[:2])
+        pts = _grid_starts(ref, start, lower, upper, grid_size(nq, grid))
+        pts[..., :nq] = np.clip(pts[..., :nq], lo[:nq], hi[:nq])
         cost = problem.cost_many(pts)
         limit = float(np.min(cost)) + max(stats.chi2.ppf(1 - level, max(dof, 1)) * 4.0, 25.0)
         starts = [pts[ij] for ij in _basins(cost, limit, most_basins)]
@@ -321,19 +344,18 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     crit = stats.chi2.ppf(1 - level, dof) if dof > 0 else np.inf
     alternatives = []
     for c2, th, *_ in refined[1:]:
-        sep = np.max(np.abs(th[:2] - theta[:2]) / ref.q_threshold) > 0.03
-        dup = any(np.max(np.abs(th[:2] - a[:2]) / ref.q_threshold) < 0.03 for a, _ in alternatives)
+        sep = np.max(np.abs(th[:nq] - theta[:nq]) / ref.q_threshold) > 0.03
+        dup = any(np.max(np.abs(th[:nq] - a[:nq]) / ref.q_threshold) < 0.03 for a, _ in alternatives)
         if sep and not dup and (c2 <= crit or c2 - chi2 < CHI2_95_1DOF * inflation):
             alternatives.append((th, c2))
     if alternatives:
-        alt = alternatives[0][0][:2] * MLMIN_PER_M3S
-        warnings.append(f"not unique: another fit passes as well at Q1, Q2 = {alt[0]:.0f}, {alt[1]:.0f} ml/min; "
+        warnings.append(f"not unique: another fit passes as well at {flows_text(alternatives[0][0][:nq])}; "
                         "a record at another speed or the static shaft position would tell them apart")
     # 4. profile intervals of the flows
     ivals = {}
     if intervals and hold_flows is None:
-        q_std = np.sqrt(np.maximum(np.diag(cov)[:2], 0.0))
-        for k in (0, 1):
+        q_std = np.sqrt(np.maximum(np.diag(cov)[:nq], 0.0))
+        for k in range(nq):
             ivals[ref.names[k]] = _profile(prob, theta, chi2, k, lo, hi, scale, q_std[k],
                                            CHI2_95_1DOF * inflation, ref.q_threshold[k])
             if ivals[ref.names[k]][1] is None:
@@ -498,15 +520,16 @@ def to_identification(res: Fit, chain) -> "Identification":
     """The `Identification` (the app's and the JSON's shape) of a `Fit` of `chain`."""
     from .result import Identification
 
-    alternatives = tuple(a[0][:2] for a in res.alternatives)
+    nq = chain.n_flows
+    alternatives = tuple(a[0][:nq] for a in res.alternatives)
     return Identification(
-        q=res.values[:2], q_std=res.std[:2], converged=res.status in (0, 1), iterations=res.iterations,
+        q=res.values[:nq], q_std=res.std[:nq], converged=res.status in (0, 1), iterations=res.iterations,
         starts_tried=len(res.paths), paths=res.paths, features_names=res.features_names,
         features_measured=res.features_measured, features_model=res.features_model, residual=res.residual,
         total_error=res.chi2, mode="best", evaluations=res.evaluations, seconds=res.seconds,
         message="; ".join([res.message, *res.warnings]), q_threshold=chain.q_threshold.copy(), chi2=res.chi2,
         dof=res.dof, p_value=res.p_value, unique=not alternatives, alternatives=alternatives,
-        intervals=tuple(res.intervals.get(n) for n in ("q1", "q2")), level=res.level, warnings=res.warnings,
+        intervals=tuple(res.intervals.get(n) for n in chain.names[:nq]), level=res.level, warnings=res.warnings,
         alternatives_chi2=tuple(a[1] for a in res.alternatives), features_sigma=res.features_sigma,
         params=res.params)
 

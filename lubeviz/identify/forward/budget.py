@@ -169,27 +169,33 @@ class ModelBudget(param.Parameterized):
                    static_position=0.0, rest_reading=0.0, orbit_defect=0.0, orbit_truncation=0.0)
 
 
-# per bearing: K, C scale and entries (MESH_TERMS), viscosity, clearance; beta (2); each bearing's supply-flow scale
-# (2); static (8); the large-orbit correction (8)
+# The columns of `model_sensitivity`, for N bearings and P planes: per bearing K, C scale and entries (MESH_TERMS),
+# viscosity, clearance; beta (2); each bearing's supply-flow scale (N); the static position per plane, from the film
+# (2 P) and the rest reading (2 P); the large-orbit correction (ORBIT_TERMS, two bearings and two planes only)
 MESH_TERMS = 10
-N_TERMS = 2 * (MESH_TERMS + 2) + 2 + 2 + 8 + 8
+ORBIT_TERMS = 8
 
 
-def mesh_columns(n_bearings: int) -> np.ndarray:
+def n_terms(n_bearings: int, n_planes: int) -> int:
+    """The budget's columns for a machine of `n_bearings` fluid-film bearings measured at `n_planes` planes."""
+    return n_bearings * (MESH_TERMS + 2) + 2 + n_bearings + 4 * n_planes + ORBIT_TERMS
+
+
+def mesh_columns(n_bearings: int, n_planes: int) -> np.ndarray:
     """Mask of `model_sensitivity`'s columns that are film mesh terms (the rest: tolerances, shaft damping, static
     and large-orbit terms, one physical value for every record of a set)."""
-    mask = np.zeros(N_TERMS, dtype=bool)
+    mask = np.zeros(n_terms(n_bearings, n_planes), dtype=bool)
     for k in range(n_bearings):
         mask[k * (MESH_TERMS + 2):k * (MESH_TERMS + 2) + MESH_TERMS] = True
     return mask
 
 
-def set_covariance(blocks, correlation: float, n_bearings: int) -> np.ndarray:
+def set_covariance(blocks, correlation: float, n_bearings: int, n_planes: int) -> np.ndarray:
     """Joint model covariance of a set's records from their sensitivities `blocks` (one S per record, the same
     columns): every term common to the records except the film mesh terms, whose records correlate by
     `correlation` (ModelBudget.set_correlation)."""
     S = np.concatenate(blocks)
-    mesh = mesh_columns(n_bearings)
+    mesh = mesh_columns(n_bearings, n_planes)
     common = S[:, ~mesh]
     cov = common @ common.T + correlation * S[:, mesh] @ S[:, mesh].T
     if correlation < 1.0:
@@ -202,10 +208,11 @@ def set_covariance(blocks, correlation: float, n_bearings: int) -> np.ndarray:
 
 
 def _dynamic_perturbations(chain, theta, budget: ModelBudget) -> list[np.ndarray]:
-    """Unit perturbations dB (4, 4) of the bearings' dynamic stiffness, each scaled to its 1-sigma size, in
+    """Unit perturbations dB (2N, 2N) of the bearings' dynamic stiffness, each scaled to its 1-sigma size, in
     a fixed order (the same physical term at every speed, so joint fits over a set correlate them)."""
     out = []
     w = chain.omega
+    nb = len(chain.sources)
     for k, src in enumerate(chain.sources):
         bearing = chain.bearing_changes(k, np.asarray(theta), ()).as_floats()
         K, C, _ = src.evaluate(theta[k], *bearing)
@@ -218,17 +225,17 @@ def _dynamic_perturbations(chain, theta, budget: ModelBudget) -> list[np.ndarray
             u = 0.0
         mesh = budget.calibration * (1.0 - (1.0 - budget.flooded_mesh) * u * u * (3.0 - 2.0 * u))
         for M, s, scale in ((K, budget.coefficient_k * mesh, 1.0), (C, budget.coefficient_c * mesh, 1j * w)):
-            d = np.zeros((4, 4), dtype=complex)
+            d = np.zeros((2 * nb, 2 * nb), dtype=complex)
             d[sl, sl] = s * scale * M
             out.append(d)  # common scale error (the mesh moves all entries together)
             big = np.abs(M).max()
             for i in range(2):
                 for j in range(2):
-                    d = np.zeros((4, 4), dtype=complex)
+                    d = np.zeros((2 * nb, 2 * nb), dtype=complex)
                     d[2 * k + i, 2 * k + j] = s / np.sqrt(2.0) * scale * big
                     out.append(d)  # entrywise, the other half of the variance
         for change, s in (("viscosity", budget.viscosity), ("clearance", budget.clearance)):
-            d = np.zeros((4, 4), dtype=complex)
+            d = np.zeros((2 * nb, 2 * nb), dtype=complex)
             if s > 0:
                 try:
                     field = "viscosity_factor" if change == "viscosity" else "clearance"
@@ -244,17 +251,18 @@ def _dynamic_perturbations(chain, theta, budget: ModelBudget) -> list[np.ndarray
 
 
 def model_sensitivity(chain, theta, names, budget: ModelBudget | None = None) -> np.ndarray:
-    """S (n_features, N_TERMS): each column a budget term's 1-sigma effect on the features; cov = S S^T.
+    """S (n_features, n_terms): each column a budget term's 1-sigma effect on the features; cov = S S^T.
 
     Columns are the same physical terms for every chain of a machine, so stacking the S of records at
     several speeds gives their joint covariance, correlations across speeds included."""
-    from .chain import STATIC_FEATURES
+    from .model import feature_plane, is_static
 
     budget = budget or ModelBudget()
     names = tuple(names)
     theta = np.asarray(theta, dtype=float)
-    dyn = [j for j, n in enumerate(names) if n not in STATIC_FEATURES]
-    S = np.zeros((len(names), N_TERMS))
+    nb, npl = len(chain.sources), len(chain.nodes)
+    dyn = [j for j, n in enumerate(names) if not is_static(n)]
+    S = np.zeros((len(names), n_terms(nb, npl)))
     perts = np.stack(_dynamic_perturbations(chain, theta, budget))
     n_dyn = perts.shape[0]
     if dyn:
@@ -276,14 +284,17 @@ def model_sensitivity(chain, theta, names, budget: ModelBudget | None = None) ->
             pts[1, k] *= 1.0 - s
             g = chain.features(pts, names)
             S[:, n_dyn + 2 + k] = 0.5 * wrap_difference(g[0] - g[1], names)
-    col = n_dyn + 4
+    col = n_dyn + 2 + nb
     for j, n in enumerate(names):
-        if n in STATIC_FEATURES:
-            k = int(n[-1]) - 1
+        if is_static(n):
+            p = feature_plane(n)[1] - 1
+            k = chain.plane_bearing(p)
+            if k is None:
+                raise InputError(f"feature {n}: plane {p + 1} is not at a bearing centre")
             c = chain.sources[k].bearing.clearance
             # position from the film (mesh) and the rest reading, each its own column
-            S[j, col + 2 * k + (0 if n[1] == "x" else 1)] = budget.static_position * c
-            S[j, col + 4 + 2 * k + (0 if n[1] == "x" else 1)] = budget.rest_reading
+            S[j, col + 2 * p + (0 if n[1] == "x" else 1)] = budget.static_position * c
+            S[j, col + 2 * npl + 2 * p + (0 if n[1] == "x" else 1)] = budget.rest_reading
     if chain.defect is not None and (budget.orbit_defect > 0 or budget.orbit_truncation > 0):
         d = chain.defect  # the correction's own error, entry by entry
         size = orbit_defect_error(chain, theta, budget)
@@ -292,7 +303,7 @@ def model_sensitivity(chain, theta, names, budget: ModelBudget | None = None) ->
             e = np.zeros(4, complex)
             e[j // 2] = size * (1.0 if j % 2 == 0 else 1j)
             moved = dataclasses.replace(d, x=d.x + e[:2], y=d.y + e[2:])
-            S[:, N_TERMS - 8 + j] = wrap_difference(chain.with_defect(moved).features(theta, names) - base, names)
+            S[:, S.shape[1] - ORBIT_TERMS + j] = wrap_difference(chain.with_defect(moved).features(theta, names) - base, names)
     return S
 
 

@@ -10,11 +10,13 @@ One chain with fixed, named stages (STYLE "the effect library and the fit"):
     features  the invariants of an unbalance of unknown size and phase (fb, phi per plane, Zf2/Zf1)
               and, when the record holds it, the static journal position per plane
 
-The parameters are a named vector: `q1`, `q2` (m^3/s), then every free continuous parameter of every
+The parameters are a named vector: `q1` ... `qN` (m^3/s, one per fluid-film bearing in the model file's order),
+then every free continuous parameter of every
 effect (`viscosity.factor`, `pedestals.stiffness_n_m`, ...). Evaluations are batched over any leading
 shape, so a Jacobian by central differences, a start grid or a whole Q1 x Q2 map is one call.
+Any number of bearings N and measurement planes P (SPEC §8): nothing below counts to two.
 
-The rotor solve is the rank-4 Woodbury update of `lubeviz.identify.forward.model` generalized: with D0 the
+The rotor solve is the rank-2N Woodbury update of `lubeviz.identify.forward.model` generalized: with D0 the
 dynamic stiffness at reference bearings, factorized once, and the forcing a linear combination of fixed
 shapes (main unbalance, effect shapes) with complex weights,
 
@@ -39,12 +41,17 @@ from ...rotor.assembly import bearing_matrices, rotor_from_machine
 from ...rotor.elements import X, Y, node_dofs
 from ...rotor.response import dynamic_stiffness, machine_unbalance, unbalance_force
 from ...rotor.statics import bearing_static_loads
-from .model import feature_vector
+from .model import feature_plane, feature_vector, is_static, static_features
 from ..tables.supply import CoefficientTable
 from ...units import MLMIN_PER_M3S
 
-STATIC_FEATURES = ("sx1", "sy1", "sx2", "sy2")  # static journal offset from the rest reading, m (SPEC §6)
-DEFAULT_PROBE_ANGLES = ((0.0, 90.0), (0.0, 90.0))
+STATIC_FEATURES = static_features(2)  # two planes' static journal offsets from the rest reading, m (SPEC §6)
+DEFAULT_PROBE_ANGLES = ((0.0, 90.0), (0.0, 90.0))  # two planes, X and Y (SPEC §6); any P: `ForwardChain`'s None
+
+
+def flow_names(n_bearings: int) -> tuple[str, ...]:
+    """The flows' names in a parameter vector: q1 ... qN, one per fluid-film bearing in file order (SPEC §8)."""
+    return tuple(f"q{k}" for k in range(1, n_bearings + 1))
 
 
 # --- bearings stage ------------------------------------------------------------------------------
@@ -230,7 +237,8 @@ class ResponseDefect:
 
 @dataclass(frozen=True)
 class ChainOutput:
-    """What the probes read: 1X amplitudes x, y (..., 2 planes) and the static offsets (..., 2, 2) or None."""
+    """What the probes read: 1X amplitudes x, y (..., P planes) and the static offsets (..., P, 2) or None (no plane
+    at a bearing's centre; a plane elsewhere has zeros)."""
 
     x: np.ndarray
     y: np.ndarray
@@ -238,11 +246,12 @@ class ChainOutput:
 
 
 class ForwardChain:
-    """Named parameters -> probe readings and features at two planes of `machine` at `speed_hz` (`nodes`; None: the
-    machine's measurement planes, SPEC §8)."""
+    """Named parameters -> probe readings and features at the measurement planes of `machine` at `speed_hz`
+    (`nodes`, any number; None: the machine's measurement planes, SPEC §8, with their probe angles;
+    `probe_angles_deg` None: those, or X and Y at every plane of given `nodes`)."""
 
     def __init__(self, machine, speed_hz: float, nodes: Sequence[int] | None = None, effects=(), *,
-                 probe_angles_deg=DEFAULT_PROBE_ANGLES, tables: Sequence[CoefficientTable] | None = None,
+                 probe_angles_deg=None, tables: Sequence[CoefficientTable] | None = None,
                  rotor=None, shaft_damping_beta: float | None = None, progress: ProgressFn = silent):
         self.machine = machine
         self.speed_hz = float(speed_hz)
@@ -251,11 +260,19 @@ class ForwardChain:
         self.omega = 2 * math.pi * self.speed_hz
         self.rotor = rotor_from_machine(machine, shaft_damping_beta=shaft_damping_beta) if rotor is None else rotor
         if nodes is None:
-            nodes = [p.node for p in machine.measurement_planes]
+            planes = machine.measurement_planes
+            nodes = [p.node for p in planes]
+            if probe_angles_deg is None:
+                probe_angles_deg = [p.probe_angles_deg for p in planes]
         self.nodes = tuple(self.rotor.check_node(int(n), "measurement node") for n in nodes)
-        if len(self.nodes) != 2 or self.nodes[0] == self.nodes[1]:
-            raise InputError(f"two distinct measurement planes expected, got nodes {tuple(nodes)}")
+        if not self.nodes or len(set(self.nodes)) != len(self.nodes):
+            raise InputError(f"distinct measurement planes expected, got nodes {tuple(nodes)}")
+        if probe_angles_deg is None:
+            probe_angles_deg = [(0.0, 90.0)] * len(self.nodes)
         self.probe_angles_deg = tuple(tuple(float(a) for a in p) for p in probe_angles_deg)
+        if len(self.probe_angles_deg) != len(self.nodes) or any(len(p) != 2 for p in self.probe_angles_deg):
+            raise InputError(f"probe angles {probe_angles_deg!r}: expected two directions for each of the "
+                             f"{len(self.nodes)} planes")
         for e in effects:
             if getattr(e, "stage", None) == "response":
                 raise InputError(f"{e.label()} replaces the linear response (the film solved along the orbit): "
@@ -264,7 +281,7 @@ class ForwardChain:
             if getattr(e, "stage", None) not in ("bearings", "rotor", "probes"):
                 raise InputError(f"{e!r} is not an effect (no stage)")
         self.effects = tuple(e.bind(machine) for e in effects)
-        for k in range(2):  # supports act in series with one film: one pedestal per bearing
+        for k in range(len(machine.bearings)):  # supports act in series with one film: one pedestal per bearing
             on_k = [e.label() for e in self.effects if e.applies(k)]
             if len(on_k) > 1:
                 raise InputError(f"bearing {k + 1} is given a pedestal twice ({', '.join(on_k)}); "
@@ -274,10 +291,11 @@ class ForwardChain:
 
             tables = machine_tables(machine, self.omega, progress=progress)
         self.sources = [BearingSource(machine, k, self.omega, t, progress=progress) for k, t in enumerate(tables)]
-        if len(self.sources) != 2:
-            raise InputError(f"the forward chain needs two bearings, the machine has {len(self.sources)}")
+        if not self.sources or len(self.sources) != len(machine.bearings):
+            raise InputError(f"one coefficient table per fluid-film bearing expected ({len(machine.bearings)}), "
+                             f"got {len(self.sources)}")
         self.q_threshold = np.array([s.nominal.q_threshold for s in self.sources])
-        self.names = ("q1", "q2") + tuple(f"{self.prefix(e)}.{p}" for e in self.effects for p in e.free)
+        self.names = flow_names(len(self.sources)) + tuple(f"{self.prefix(e)}.{p}" for e in self.effects for p in e.free)
         self._slots = [(e, p) for e in self.effects for p in e.free]
         self._build_reference()
         self.evaluations = 0
@@ -287,6 +305,9 @@ class ForwardChain:
         """The same chain (tables, views, effects shared) with `defect` added to its response."""
         import copy
 
+        if defect is not None and (self.n_flows, self.n_planes) != (2, 2):
+            raise InputError(f"large orbits: the orbit correction is built for two bearings and two planes; this "
+                             f"chain has {self.n_flows} and {self.n_planes}")
         new = copy.copy(self)
         new.defect = defect
         new.__dict__.pop("_budget_chains", None)
@@ -328,8 +349,8 @@ class ForwardChain:
         return effect.declared(pname, self.machine)
 
     def bounds(self, lower: float = 0.25, upper: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
-        lo = [lower * self.q_threshold[0], lower * self.q_threshold[1]]
-        hi = [upper * self.q_threshold[0], upper * self.q_threshold[1]]
+        lo = list(lower * self.q_threshold)
+        hi = list(upper * self.q_threshold)
         for e, p in self._slots:
             a, b = e.bounds(p)
             lo.append(a)
@@ -338,11 +359,39 @@ class ForwardChain:
 
     def steps(self) -> np.ndarray:
         """Central-difference step of each parameter (flows: 1e-4 Q_T)."""
-        return np.array([1e-4 * self.q_threshold[0], 1e-4 * self.q_threshold[1]]
-                        + [e.step.get(p, 1e-4) for e, p in self._slots])
+        return np.array(list(1e-4 * self.q_threshold) + [e.step.get(p, 1e-4) for e, p in self._slots])
 
     def _values(self, theta: np.ndarray, effect) -> dict:
-        return {p: theta[..., 2 + j] for j, (e, p) in enumerate(self._slots) if e is effect}
+        n = self.n_flows
+        return {p: theta[..., n + j] for j, (e, p) in enumerate(self._slots) if e is effect}
+
+    @property
+    def n_flows(self) -> int:
+        """The flows at the head of the parameter vector: one per fluid-film bearing."""
+        return len(self.sources)
+
+    @property
+    def n_planes(self) -> int:
+        return len(self.nodes)
+
+    def plane_bearing(self, p: int) -> int | None:
+        """The bearing (0-based) whose centre node plane `p` (0-based) sits at, or None."""
+        nodes = self.rotor.bearing_nodes
+        return nodes.index(self.nodes[p]) if self.nodes[p] in nodes else None
+
+    def plane_housing(self, p: int) -> int:
+        """The bearing (0-based) on whose housing plane `p`'s probes are mounted: the nearest along the shaft (the
+        first of two as near). With a pedestal under it the probes read the shaft relative to that housing."""
+        z = self.rotor.node_z
+        at = z[self.nodes[p] - 1]
+        return int(np.argmin([abs(z[n - 1] - at) for n in self.rotor.bearing_nodes]))
+
+    @property
+    def dynamic_features(self) -> tuple[str, ...]:
+        """Every 1X invariant of this chain's planes (`model.plane_features`)."""
+        from .model import plane_features
+
+        return plane_features(self.n_planes)
 
     def bearing_changes(self, k: int, theta, shape=()) -> BearingChange:
         """The `BearingChange` of bearing k at parameters theta (`bearing_changes`)."""
@@ -369,15 +418,18 @@ class ForwardChain:
         self._U = np.concatenate([node_dofs(n)[[X, Y]] for n in rotor.bearing_nodes])
         out = np.concatenate([node_dofs(n)[[X, Y]] for n in self.nodes])
         nf = len(shapes)
-        rhs = np.zeros((rotor.n_dof, nf + 4), dtype=complex)
+        nu = self._U.size  # 2 N
+        rhs = np.zeros((rotor.n_dof, nf + nu), dtype=complex)
         rhs[:, :nf] = np.stack(shapes, axis=1)
-        rhs[self._U, nf + np.arange(4)] = 1.0
+        rhs[self._U, nf + np.arange(nu)] = 1.0
         sol = np.linalg.solve(D0, rhs)
-        self._x0_out, self._x0_U = sol[out, :nf], sol[self._U, :nf]  # (4, nf)
+        self._x0_out, self._x0_U = sol[out, :nf], sol[self._U, :nf]  # (2P, nf), (2N, nf)
         self._Z_out, self._W = sol[out, nf:], sol[self._U, nf:]
         self._n_forcing = nf
         # a plane at a bearing's centre node reads that bearing's static position (SPEC §6)
-        self.static_planes = tuple(k for k in range(2) if self.nodes[k] == rotor.bearing_nodes[k])
+        self._plane_bearing = tuple(self.plane_bearing(p) for p in range(self.n_planes))
+        self._plane_housing = tuple(self.plane_housing(p) for p in range(self.n_planes))
+        self.static_planes = tuple(p for p, k in enumerate(self._plane_bearing) if k is not None)
 
     # --- evaluation -------------------------------------------------------------------------------
     def output(self, theta, dB_extra=None) -> ChainOutput:
@@ -398,9 +450,10 @@ class ForwardChain:
         x0_out = np.einsum("ij,...j->...i", self._x0_out, w)
         x0_U = np.einsum("ij,...j->...i", self._x0_U, w)
         # bearings stage, then supports
-        dB = np.zeros(shape + (4, 4), dtype=complex)
-        housing = [None, None]
-        static = np.zeros(shape + (2, 2))
+        nb, npl = self.n_flows, self.n_planes
+        dB = np.zeros(shape + (2 * nb, 2 * nb), dtype=complex)
+        housing = [None] * nb
+        journal = np.zeros(shape + (nb, 2))
         for k, src in enumerate(self.sources):
             change = self.bearing_changes(k, theta, shape)
             clearance = change.clearance
@@ -413,24 +466,28 @@ class ForwardChain:
                         B, T = r
                         housing[k] = T if housing[k] is None else housing[k]
             dB[..., 2 * k:2 * k + 2, 2 * k:2 * k + 2] = B - self._B0[k]
-            static[..., k, :] = pos + np.stack([np.zeros_like(pos[..., 0]), np.broadcast_to(clearance, shape)], -1)
+            journal[..., k, :] = pos + np.stack([np.zeros_like(pos[..., 0]), np.broadcast_to(clearance, shape)], -1)
         if dB_extra is not None:
             dB = dB + dB_extra
-        A = np.eye(4) + dB @ self._W
+        A = np.eye(2 * nb) + dB @ self._W
         c = np.linalg.solve(A, (dB @ x0_U[..., None]))[..., 0]
         x_out = x0_out - np.einsum("ij,...j->...i", self._Z_out, c)
         x_U = x0_U - np.einsum("ij,...j->...i", self._W, c)
-        d = x_out.reshape(shape + (2, 2))  # (plane, [x, y])
-        for k in range(2):
+        d = x_out.reshape(shape + (npl, 2))  # (plane, [x, y])
+        static = np.zeros(shape + (npl, 2))
+        for p, k in enumerate(self._plane_bearing):
+            if k is not None:
+                static[..., p, :] = journal[..., k, :]
+        for p, k in enumerate(self._plane_housing):
             if housing[k] is not None:  # probes on housing k read the shaft relative to it
                 xh = np.einsum("...ij,...j->...i", housing[k], x_U[..., 2 * k:2 * k + 2])
                 d = d.copy()
-                d[..., k, :] = d[..., k, :] - xh
+                d[..., p, :] = d[..., p, :] - xh
         if self.defect is not None:
-            dd, ds = self.defect.at(theta[..., :2])
+            dd, ds = self.defect.at(theta[..., :nb])
             d, static = d + dd, static + ds
         # probes stage
-        for k in range(2):
+        for k in range(npl):
             for e in self.effects:
                 if e.stage == "probes":
                     M = e.probe_matrix(k, self.probe_angles_deg[k], self._values(theta, e), shape)
@@ -449,13 +506,15 @@ class ForwardChain:
         """Features (last axis, `names` order): the 1X invariants and the static offsets (m)."""
         out = self.output(theta, dB_extra)
         names = tuple(names)
-        dyn = [n for n in names if n not in STATIC_FEATURES]
+        dyn = [n for n in names if not is_static(n)]
         g = {}
         if dyn:
             g.update(zip(dyn, np.moveaxis(feature_vector(out.x, out.y, dyn), -1, 0)))
         for n in names:
-            if n in STATIC_FEATURES:
-                k, j = int(n[-1]) - 1, (0 if n[1] == "x" else 1)
+            if is_static(n):
+                k, j = feature_plane(n)[1] - 1, (0 if n[1] == "x" else 1)
+                if k >= self.n_planes:
+                    raise InputError(f"feature {n}: the chain has {self.n_planes} planes")
                 if out.static is None or k not in self.static_planes:
                     raise InputError(f"feature {n}: plane {k + 1} (node {self.nodes[k]}) is not at a bearing "
                                      "centre, where the static position is measured")
@@ -471,13 +530,13 @@ class ForwardChain:
             wts = e.forcing_weights(self._values(theta, e), ())
             for j, col in enumerate(e.forcing_shapes(rotor, omega, self.machine)):
                 F = F + wts[..., j] * col
-        n0 = rotor.n_dof
-        extra = [k for k in range(2) if any(e.applies(k) for e in self.effects)]
+        n0, nb = rotor.n_dof, self.n_flows
+        extra = [k for k in range(nb) if any(e.applies(k) for e in self.effects)]
         n = n0 + 2 * len(extra)
         D = np.zeros((n, n), dtype=complex)
         D[:n0, :n0] = dynamic_stiffness(rotor, omega, rotor.K, rotor.C)
         hdofs = {}
-        static = np.zeros((2, 2))
+        journal = np.zeros((nb, 2))
         for j, k in enumerate(extra):
             hdofs[k] = n0 + 2 * j + np.arange(2)
         for k, src in enumerate(self.sources):
@@ -494,17 +553,22 @@ class ForwardChain:
                 D[np.ix_(other, other)] += B + (s - omega**2 * m + 1j * omega * c) * np.eye(2)
                 D[np.ix_(jd, other)] -= B
                 D[np.ix_(other, jd)] -= B
-            static[k] = pos + np.array([0.0, clearance])
+            journal[k] = pos + np.array([0.0, clearance])
         rhs = np.zeros(n, dtype=complex)
         rhs[:n0] = F
         q = np.linalg.solve(D, rhs)
         d = np.array([q[node_dofs(nd)[[X, Y]]] for nd in self.nodes])
-        if self.defect is not None:
-            dd, ds = self.defect.at(theta[:2])
-            d, static = d + dd, static + ds
-        for k in range(2):
+        static = np.zeros((self.n_planes, 2))
+        for p, k in enumerate(self._plane_bearing):
+            if k is not None:
+                static[p] = journal[k]
+        for p, k in enumerate(self._plane_housing):
             if k in hdofs:
-                d[k] = d[k] - q[hdofs[k]]
+                d[p] = d[p] - q[hdofs[k]]
+        if self.defect is not None:
+            dd, ds = self.defect.at(theta[:nb])
+            d, static = d + dd, static + ds
+        for k in range(self.n_planes):
             for e in self.effects:
                 if e.stage == "probes":
                     M = e.probe_matrix(k, self.probe_angles_deg[k], self._values(theta, e), ())

@@ -33,7 +33,59 @@ from ..tables.supply import CoefficientTable
 
 PAPER_FEATURES = ("fb1", "fb2", "phi1", "phi2")
 ALL_FEATURES = ("fb1", "fb2", "phi1", "phi2", "log_zf_ratio", "arg_zf_ratio")
-ANGULAR = {"phi1": math.pi, "phi2": math.pi, "arg_zf_ratio": 2 * math.pi}  # feature -> period
+ANGULAR = {"phi1": math.pi, "phi2": math.pi, "arg_zf_ratio": 2 * math.pi}  # feature -> period (two planes)
+
+
+def plane_features(n_planes: int) -> tuple[str, ...]:
+    """The 1X invariants of `n_planes` planes (SPEC §8): fb and phi at each plane, and each plane's forward
+    component against the first one's (log-magnitude and phase: the response to an unbalance of unknown size and
+    phase scales by one complex factor). Planes 1 and 2 keep the paper's names (`ALL_FEATURES` for two planes:
+    the ratio of plane 2's is `log_zf_ratio`); plane p > 2 adds `log_zf_ratio{p}`, `arg_zf_ratio{p}`."""
+    if n_planes < 1:
+        raise InputError(f"{n_planes} measurement planes; expected at least one")
+    fb = [f"fb{p}" for p in range(1, n_planes + 1)]
+    phi = [f"phi{p}" for p in range(1, n_planes + 1)]
+    ratios = [n for p in range(2, n_planes + 1) for n in (_ratio_name("log", p), _ratio_name("arg", p))]
+    return tuple(fb + phi + ratios)
+
+
+def _ratio_name(kind: str, plane: int) -> str:
+    return f"{kind}_zf_ratio" if plane == 2 else f"{kind}_zf_ratio{plane}"
+
+
+def feature_plane(name: str) -> tuple[str, int]:
+    """(kind, plane) of a feature name: ('fb', 1), ('phi', 3), ('log_zf_ratio', 2), ('sx', 2)... InputError for a
+    name that is not a feature."""
+    for kind in ("log_zf_ratio", "arg_zf_ratio", "fb", "phi", "sx", "sy"):
+        if name.startswith(kind):
+            rest = name[len(kind):]
+            if kind.endswith("ratio") and rest == "":
+                return kind, 2
+            if rest.isdigit() and int(rest) >= 1 and not rest.startswith("0"):
+                plane = int(rest)
+                if not (kind.endswith("ratio") and plane < 3):
+                    return kind, plane
+    raise InputError(f"unknown feature {name!r}; expected fb<p>, phi<p>, log_zf_ratio, arg_zf_ratio, "
+                     "log_zf_ratio<p>, arg_zf_ratio<p> (p >= 3), sx<p> or sy<p> for plane p")
+
+
+def is_static(name: str) -> bool:
+    """Whether `name` is a static-position feature (sx<p>, sy<p>: the journal's offset from the rest reading)."""
+    return name[:2] in ("sx", "sy") and name[2:].isdigit()
+
+
+def static_features(planes) -> tuple[str, ...]:
+    """The static-position features of `planes` (1-based plane numbers, or their count)."""
+    planes = range(1, planes + 1) if isinstance(planes, int) else planes
+    return tuple(f"s{a}{p}" for p in planes for a in "xy")
+
+
+def angular_period(name: str) -> float | None:
+    """The period of an angular feature (phi: pi; the ratio's phase: 2 pi), None for the others."""
+    if name in ANGULAR:
+        return ANGULAR[name]
+    kind = feature_plane(name)[0] if not is_static(name) else "s"
+    return {"phi": math.pi, "arg_zf_ratio": 2 * math.pi}.get(kind)
 
 
 @dataclass(frozen=True)
@@ -53,26 +105,31 @@ class Response:
 
 
 def feature_vector(x: np.ndarray, y: np.ndarray, names: Sequence[str] = PAPER_FEATURES) -> np.ndarray:
-    """Features (last axis, in `names` order) of responses with planes on the last axis of x, y (2 planes)."""
+    """Features (last axis, in `names` order) of responses with planes on the last axis of x, y (any number of
+    planes: `plane_features`)."""
     zf, zb = directional_components(np.asarray(x), np.asarray(y))
+    n_planes = zf.shape[-1]
     with np.errstate(divide="ignore", invalid="ignore"):
         fb = np.abs(zf) / np.abs(zb)
-        ratio = zf[..., 1] / zf[..., 0]
+        ratio = zf / zf[..., :1]
     phi = orbit_angle(zf, zb)
-    table = {"fb1": fb[..., 0], "fb2": fb[..., 1], "phi1": phi[..., 0], "phi2": phi[..., 1],
-             "log_zf_ratio": np.log(np.abs(ratio)), "arg_zf_ratio": np.angle(ratio)}
-    try:
-        return np.stack([table[n] for n in names], axis=-1)
-    except KeyError as exc:
-        raise InputError(f"unknown feature {exc.args[0]!r}; expected some of {ALL_FEATURES}") from None
+    out = []
+    for n in names:
+        kind, p = feature_plane(n)
+        if kind in ("sx", "sy") or p > n_planes:
+            raise InputError(f"unknown feature {n!r} for a response at {n_planes} planes; expected some of "
+                             f"{plane_features(n_planes)}")
+        out.append({"fb": fb, "phi": phi}[kind][..., p - 1] if kind in ("fb", "phi")
+                   else (np.log(np.abs(ratio[..., p - 1])) if kind == "log_zf_ratio" else np.angle(ratio[..., p - 1])))
+    return np.stack(out, axis=-1)
 
 
 def wrap_difference(d: np.ndarray, names: Sequence[str]) -> np.ndarray:
     """Feature differences with angles wrapped to their half-period (phi modulo pi, phases modulo 2 pi)."""
     d = np.array(d, dtype=float, copy=True)
     for k, n in enumerate(names):
-        if n in ANGULAR:
-            p = ANGULAR[n]
+        p = angular_period(n)
+        if p is not None:
             d[..., k] = (d[..., k] + 0.5 * p) % p - 0.5 * p
     return d
 
