@@ -256,7 +256,7 @@ class DiagnosePage(pn.viewable.Viewer):
     def _read(self, content, filename, progress):
         """An uploaded record and its features. No truth: a file's metadata may claim any flows (only a
         sample this page simulated has one)."""
-        record = read_record_bytes(content, filename, default_nodes=tuple(self.machine.center_nodes))
+        record = read_record_bytes(content, filename, **self.machine.record_defaults())
         return record, measure(record), None
 
     # --- the diagnosis ----------------------------------------------------------------------------------

@@ -178,7 +178,7 @@ class IdentifyPage(pn.viewable.Viewer):
         return True
 
     def _read(self, content, filename, progress):
-        record = read_record_bytes(content, filename, default_nodes=tuple(self.machine.center_nodes))
+        record = read_record_bytes(content, filename, **self.machine.record_defaults())
         return record, measure(record)
 
     async def _on_upload(self, event):

@@ -45,14 +45,14 @@ def run_diagnose(args) -> dict | list:
     from ..api import DiagnosisSettings, diagnose
     from ..diagnose import diagnosis_dict
     from ..diagnose.settings import REPORT_MAP_POINTS
-    from ..identify.batch import machine_for
-    from ..signals.records import check_set, group_records, read_record
+    from ..identify.batch import machine_for, read_for_machine
+    from ..signals.records import check_set, group_records
 
     if not 0 < args.level < 0.5:
         raise InputError(f"--level {args.level}: expected a probability between 0 and 0.5")
     candidates = _candidates(args.effects)
     t0 = time.perf_counter()
-    records = [read_record(f) for f in args.files]
+    records = [read_for_machine(f, args.machine)[0] for f in args.files]
     groups = group_records(records)
     bar = StderrBar()
     out = []

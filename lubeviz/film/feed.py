@@ -3,8 +3,10 @@
 Three feeds (SPEC §3, §7):
 - `Feed.flow(q)`: the supply flow q (m^3/s) is prescribed, a source q/Ng in each groove volume (Eq. 4).
   Below the flooded threshold the film upstream of the load is incomplete (starved); above it the
-  groove pressurizes.
-- `Feed.flooded()`: the groove is held full at ambient pressure (p = 0, theta = 1); the supply is
+  groove pressurizes. Several axial grooves sharing one supply (SPEC §8) are one set of groove volumes:
+  each groove gets the supply in proportion to its area (equal grooves share it equally, as from one
+  gallery through equal orifices into grooves near ambient pressure).
+- `Feed.flooded()`: the groove(s) held full at ambient pressure (p = 0, theta = 1); the supply is
   whatever the film draws. Its side leakage is the flooded threshold Q_T.
 - `Feed.plain()`: no groove; a plain 360-degree bearing fed at ambient pressure along the line of
   maximum film thickness, as Raimondi & Boyd (1958) assume.
@@ -66,29 +68,37 @@ def check_operating(bearing: Bearing, omega: float, position, velocity=(0.0, 0.0
 
 
 def make_mesh(bearing: Bearing, *, half: bool = True, alpha_offset: float | None = None) -> FilmMesh:
-    """The bearing's mesh, placed so the groove is centred on it (see groove_aligned_offset), with the
+    """The bearing's mesh, placed so the first groove is centred on it (see groove_aligned_offset), with every
     groove's columns and their neighbours split into `bearing.groove_refinement` sub-columns
     (mesh.refined_split). A bearing without a groove gets a uniform mesh. (One mesh object per geometry: the
     films of a bearing share it and its arrays.)"""
+    grooves = tuple((float(g.angle), float(g.length)) for g in _grooves(bearing))
     return _mesh(bearing.n_circumferential, bearing.n_axial, bearing.radius, bearing.length, bool(bearing.has_groove),
-                 bearing.groove_angle, bearing.groove_length, bearing.groove_refinement, bool(half),
-                 None if alpha_offset is None else float(alpha_offset))
+                 grooves, bearing.groove_refinement, bool(half), None if alpha_offset is None else float(alpha_offset))
+
+
+def _grooves(bearing) -> tuple:
+    """The bearing's axial grooves (SPEC §8: one or more sharing the supply)."""
+    return tuple(getattr(bearing, "grooves", ())) or ()
 
 
 @functools.lru_cache(maxsize=64)
-def _mesh(n, n_axial, radius, length, has_groove, groove_angle, groove_length, refinement, half, alpha_offset):
+def _mesh(n, n_axial, radius, length, has_groove, grooves, refinement, half, alpha_offset):
     if not has_groove:
         return FilmMesh(n, n_axial, radius, length, 0.0 if alpha_offset is None else alpha_offset, half=half)
     if alpha_offset is None:
-        alpha_offset = groove_aligned_offset(n, radius, groove_angle, groove_length)
-    split = refined_split(n, radius, alpha_offset, groove_angle, groove_length, refinement)
+        alpha_offset = groove_aligned_offset(n, radius, *grooves[0])
+    split = refined_split(n, radius, alpha_offset, [a for a, _ in grooves], [b for _, b in grooves], refinement)
     return FilmMesh(n if split is None else sum(split), n_axial, radius, length, alpha_offset, half=half, split=split)
 
 
 @functools.lru_cache(maxsize=64)
-def _groove(mesh: FilmMesh, angle: float, length: float, width: float) -> np.ndarray:
-    """`mesh.groove_cells`, kept read-only for the films that share the mesh."""
-    g = groove_cells(mesh, angle, length, width)
+def _groove(mesh: FilmMesh, grooves: tuple) -> np.ndarray:
+    """The cells of every groove (`mesh.groove_cells` of each, (angle, length, width)), kept read-only for the
+    films that share the mesh."""
+    g = np.zeros(mesh.shape, dtype=bool)
+    for angle, length, width in grooves:
+        g |= groove_cells(mesh, angle, length, width)
     g.flags.writeable = False
     return g
 
@@ -97,9 +107,6 @@ def setup_problem(bearing: Bearing, omega: float, position, feed: Feed, *, veloc
                   mesh: FilmMesh | None = None) -> FilmProblem:
     """Build the nondimensional film problem of `bearing` at journal `position` (m), `velocity` (m/s)."""
     check_operating(bearing, omega, position, velocity)
-    if getattr(bearing, "other_grooves", None):
-        raise InputError(f"{bearing.name}: {len(bearing.grooves)} axial grooves; the film takes one groove today "
-                         "(SPEC §8 multi-groove bearings: issue 37)")
     if feed.kind == "plain":
         if mesh is None:
             # Put a cell centre on the line of maximum film thickness: the feed line (uniform mesh).
@@ -114,7 +121,7 @@ def setup_problem(bearing: Bearing, omega: float, position, feed: Feed, *, veloc
     if not bearing.has_groove:
         raise InputError(f"{feed.describe()} needs a groove, but the bearing has none; use the plain feed")
     mesh = make_mesh(bearing) if mesh is None else mesh
-    groove = _groove(mesh, bearing.groove_angle, bearing.groove_length, bearing.groove_width)
+    groove = _groove(mesh, tuple((float(g.angle), float(g.length), float(g.width)) for g in _grooves(bearing)))
     if feed.kind == "flooded":
         return build_problem(mesh, clearance=bearing.clearance, viscosity=bearing.viscosity, omega=omega,
                              position=position, velocity=velocity, groove=groove, fixed=groove)

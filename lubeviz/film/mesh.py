@@ -202,20 +202,26 @@ REFINE_UPSTREAM = 2
 REFINE_DOWNSTREAM = 6
 
 
-def refined_split(n_circ: int, radius: float, alpha_offset: float, angle: float, groove_length: float,
-                  factor: int) -> tuple[int, ...] | None:
-    """`split` for a nominal uniform mesh with the groove's columns and their neighbours
-    (REFINE_UPSTREAM / REFINE_DOWNSTREAM) divided into `factor` sub-columns; None when factor is 1."""
+def refined_split(n_circ: int, radius: float, alpha_offset: float, angle, groove_length, factor: int,
+                  ) -> tuple[int, ...] | None:
+    """`split` for a nominal uniform mesh with each groove's columns and their neighbours (REFINE_UPSTREAM /
+    REFINE_DOWNSTREAM) divided into `factor` sub-columns; None when factor is 1. `angle`, `groove_length`: one
+    groove's, or sequences with one entry per groove (a bearing's several axial grooves)."""
     if factor <= 1:
         return None
+    angles = np.atleast_1d(np.asarray(angle, dtype=float))
+    lengths = np.broadcast_to(np.asarray(groove_length, dtype=float), angles.shape)
     nominal = FilmMesh(n_circ, 2, radius, 1.0, alpha_offset, half=False)
-    cols = np.flatnonzero(angle_mask(nominal, angle, groove_length / radius))
-    if cols.size == 0:
-        return None
-    # the groove's columns are contiguous modulo n_circ; find its upstream end
-    in_groove = set(cols.tolist())
-    first = next(c for c in cols if (c - 1) % n_circ not in in_groove)
-    zone = [(first + k) % n_circ for k in range(-REFINE_UPSTREAM, cols.size + REFINE_DOWNSTREAM)]
     split = np.ones(n_circ, int)
-    split[zone] = factor
-    return tuple(int(k) for k in split)
+    refined = False
+    for a, b in zip(angles, lengths):
+        cols = np.flatnonzero(angle_mask(nominal, float(a), float(b) / radius))
+        if cols.size == 0:
+            continue
+        # the groove's columns are contiguous modulo n_circ; find its upstream end
+        in_groove = set(cols.tolist())
+        first = next(c for c in cols if (c - 1) % n_circ not in in_groove)
+        zone = [(first + k) % n_circ for k in range(-REFINE_UPSTREAM, cols.size + REFINE_DOWNSTREAM)]
+        split[zone] = factor
+        refined = True
+    return tuple(int(k) for k in split) if refined else None

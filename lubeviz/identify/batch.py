@@ -247,6 +247,23 @@ def machine_for(record, machine_path=None):
     return load_machine(), ()
 
 
+def read_for_machine(path, machine_path=None):
+    """(record, machine, notes): the record read with its machine's measurement planes as the defaults for what
+    it does not name (SPEC §8: nodes, probe angles), the machine as `machine_for` chooses it (--machine, else the
+    model file the record names, else the default)."""
+    from ..model.machine import resolve_machine_name
+
+    if machine_path is not None:
+        machine = load_machine(machine_path)
+        rec = read_record(path, **machine.record_defaults())
+        return (rec, *machine_for(rec, machine_path))
+    rec = read_record(path, **load_machine().record_defaults())
+    if getattr(rec, "machine", None):
+        named = load_machine(resolve_machine_name(rec.machine, str(rec.source or path)))
+        rec = read_record(path, **named.record_defaults())
+    return (rec, *machine_for(rec))
+
+
 def identify_set(records, machine=None, settings: IdentificationSettings | None = None, *,
                    progress: ProgressFn = silent, effects=(), budget=None) -> RecordIdentification:
     """One identification from the records of one `set:` (SPEC §6): the same flows (and free effect
@@ -297,10 +314,10 @@ def identify_file(path, machine=None, settings: IdentificationSettings | None = 
                   progress: ProgressFn = silent, model: ForwardModel | None = None,
                   effects=()) -> RecordIdentification:
     """Read a record (SPEC §6) and identify Q1, Q2. The model is built at the record's speed."""
-    rec = read_record(path, default_nodes=tuple((machine or load_machine()).center_nodes))
-    notes = ()
     if machine is None:
-        machine, notes = machine_for(rec)
+        rec, machine, notes = read_for_machine(path)
+    else:
+        rec, notes = read_record(path, **machine.record_defaults()), ()
     out = identify_record(rec, machine, settings, progress=progress, model=model, effects=effects)
     return dataclasses.replace(out, file=str(path), warnings=notes + out.warnings)
 
@@ -327,7 +344,7 @@ def identify_files(paths, machine_path=None, settings: IdentificationSettings | 
 
     settings = settings or IdentificationSettings()
     paths = [str(p) for p in paths]
-    grouped = _set_groups(paths)
+    grouped = _set_groups(paths, machine_path)
     if grouped is not None:
         return _identify_groups(grouped, machine_path, settings, progress, effect_specs)
     machine = load_machine(machine_path)
@@ -339,8 +356,7 @@ def identify_files(paths, machine_path=None, settings: IdentificationSettings | 
         effects = parse_effects(effect_specs)
         for n, p in enumerate(paths, start=1):
             try:
-                rec = read_record(p, default_nodes=tuple(machine.center_nodes))
-                mach, notes = machine_for(rec, machine_path)
+                rec, mach, notes = read_for_machine(p, machine_path)
                 r = identify_record(rec, mach, settings, effects=effects)
                 out[p] = (dataclasses.replace(r, file=p, warnings=notes + r.warnings), None)
             except LubevizError as exc:
@@ -355,13 +371,13 @@ def identify_files(paths, machine_path=None, settings: IdentificationSettings | 
     return [(p, *out[p]) for p in paths]
 
 
-def _set_groups(paths):
+def _set_groups(paths, machine_path=None):
     """Records read and grouped by `set:` when any of them belongs to one; None otherwise (or on a read
     error, which the per-file path reports)."""
     from ..signals.records import group_records
 
     try:
-        records = [read_record(p) for p in paths]
+        records = [read_for_machine(p, machine_path)[0] for p in paths]
     except LubevizError:
         return None
     if not any(r.set_name for r in records):

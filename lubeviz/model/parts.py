@@ -122,8 +122,6 @@ class Machine(param.Parameterized):
         if len(self.bearings) != 2:
             out.append(f"{len(self.bearings)} [[bearings]]: the film-bearing numerics take exactly 2 today")
         for k, b in enumerate(self.bearings, start=1):
-            if b.other_grooves:
-                out.append(f"[[bearings]] {k} ({b.name}): {len(b.grooves)} grooves; the film takes one today")
             if b.supply != "unknown":
                 out.append(f"[[bearings]] {k} ({b.name}): supply = {b.supply!r}; every supply is identified today")
             if any(b.offset):
@@ -132,10 +130,8 @@ class Machine(param.Parameterized):
                 out.append(f"[[bearings]] {k} ({b.name}): a pedestal; give it as the pedestals effect today")
         for k, s in enumerate(self.supports, start=1):
             out.append(f"[[supports]] {k} ({s.name}): constant-coefficient supports are not in the rotor yet")
-        for k, p in enumerate(self.planes, start=1):
-            if tuple(p.probe_angles_deg) != (0.0, 90.0):
-                out.append(f"[[planes]] {k}: probe_angles_deg {list(p.probe_angles_deg)}; give them in the record "
-                           "(probe_angles_deg) today")
+        if len(self.measurement_planes) != 2:
+            out.append(f"{len(self.measurement_planes)} measurement planes: records hold two today")
         return out
 
     def require_modelled(self, what: str) -> None:
@@ -144,6 +140,13 @@ class Machine(param.Parameterized):
         if gaps:
             raise ModelFileError(f"{self.source or self.name}: {what} cannot take this machine yet: "
                                  + "; ".join(gaps) + ". The file itself is valid (SPEC §8).")
+
+    def record_defaults(self) -> dict:
+        """What a record of this machine that names no planes is taken to hold (SPEC §8): its measurement planes'
+        nodes and probe angles, as `read_record`'s keywords."""
+        planes = self.measurement_planes
+        return {"default_nodes": tuple(p.node for p in planes),
+                "default_probe_angles": tuple(tuple(float(a) for a in p.probe_angles_deg) for p in planes)}
 
     @property
     def measurement_planes(self) -> list[Plane]:

@@ -59,6 +59,13 @@ def synthesize_record(machine, flows: Sequence[float], *, nodes: Sequence[int] |
     dt = 1.0 / sample_rate_hz
     extra = {}
     if method == "time":
+        from ..rotor.whirl import equilibrium_stability
+
+        stab = equilibrium_stability(rotor, fb)
+        if stab.unstable:  # the linear integration would grow without bound (a record of NaN)
+            raise InputError(f"at {speed_hz:g} Hz and flows {', '.join(f'{q * MLMIN_PER_M3S:.4g}' for q in flows)} "
+                             f"ml/min the machine is {stab.describe()}: there is no steady 1X orbit to record; "
+                             "choose flows nearer the bearings' Q_T, or --method orbit for the whirl's onset")
         tr = unbalance_time_response(rotor, omega, machine_unbalance(machine), fb.coefficients,
                                      duration=total_s, dt=dt, keep_last=duration_s, nodes=nodes)
         t = tr.t
@@ -107,10 +114,15 @@ def synthesize_record(machine, flows: Sequence[float], *, nodes: Sequence[int] |
             extra.update({"orbit_stability": ost.describe(), "orbit_stability_state": ost.state})
     else:
         raise InputError(f"method {method!r}; expected 'time', 'steady' or 'orbit'")
+    # what the machine's probes read (SPEC §8: its planes' probe directions; X and Y at other nodes)
+    planes = {p.node: tuple(float(v) for v in p.probe_angles_deg) for p in machine.measurement_planes}
+    angles = tuple(planes.get(n, (0.0, 90.0)) for n in nodes)
+    xy = np.stack([np.stack([math.cos(math.radians(a)) * xy[k, 0] + math.sin(math.radians(a)) * xy[k, 1]
+                             for a in angles[k]]) for k in range(len(nodes))])
     if snr_db is not None:
         xy = add_noise(xy, snr_db, rng)
     return Record(speed_hz=speed_hz, sample_rate_hz=sample_rate_hz, displacement=xy, nodes=nodes,
-                  probe_angles_deg=((0.0, 90.0), (0.0, 90.0)), t0=float(t[0]),
+                  probe_angles_deg=angles, t0=float(t[0]),
                   machine=Path(machine.source).name if machine.source else None,
                   metadata={"q1_mlmin": f"{flows[0] * MLMIN_PER_M3S:.6g}",
                             "q2_mlmin": f"{flows[1] * MLMIN_PER_M3S:.6g}",

@@ -17,6 +17,7 @@ deleted with a warning and solved again. Files are written atomically (temporary
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import hashlib
 import json
@@ -90,8 +91,15 @@ def _key(kind: str, bearing: Bearing, omega: float, load, q_supply: float | None
               "bearing": {k: getattr(bearing, k) for k in sorted(bearing.param) if k not in ("name", "node")},
               "omega": float(omega), "load": [float(f"{float(w):.12g}") for w in load],
               "q_supply": None if q_supply is None else float(q_supply), "coefficients": COEFFICIENTS}
-    text = json.dumps(inputs, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    text = json.dumps(inputs, sort_keys=True, separators=(",", ":"), allow_nan=False, default=_plain)
     return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _plain(value):
+    """A bearing's further groove or its pedestal in a key: its fields (a one-groove bearing's key is unchanged)."""
+    if dataclasses.is_dataclass(value):
+        return dataclasses.asdict(value)
+    raise TypeError(f"{type(value).__name__} in a cache key")
 
 
 def _directory() -> Path:

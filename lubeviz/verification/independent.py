@@ -152,8 +152,10 @@ def split_rotor(path: str | None = None, shaft_damping_beta: float = SHAFT_DAMPI
     for e in m.elements:
         for _ in range(2):
             beams.append(TimoshenkoBeam(len(beams) + 1, 0.5 * e.length, e.diameter, m.young_modulus,
-                                        m.poisson_ratio, m.density))
-    discs = [RigidDisc.annular(fine_node(d.node), d.width, d.outer_diameter, d.bore_diameter, m.density)
+                                        m.poisson_ratio, m.density, inner_diameter=getattr(e, "inner_diameter", 0.0)))
+    discs = [RigidDisc(fine_node(d.node), d.mass, d.diametral_inertia, d.polar_inertia)
+             if getattr(d, "lumped", False) else
+             RigidDisc.annular(fine_node(d.node), d.width, d.outer_diameter, d.bore_diameter, m.density)
              for d in m.discs]
     return assemble(beams, discs, bearing_nodes=[fine_node(b.node) for b in m.bearings],
                     shaft_damping_beta=shaft_damping_beta)
@@ -277,6 +279,8 @@ def _system(spec: IndependentSpec, rotor: Rotor, machine, omega: float, films) -
         F[i[1]] += -1j * amp
 
     add_unbalance(machine.unbalance_node, main)
+    for u in getattr(machine, "other_unbalances", ()):  # the model file's further unbalances (SPEC §8)
+        add_unbalance(u.node, u.moment * omega**2 * np.exp(1j * u.phase))
     for name, p in spec.effects:
         if name == "unbalance2":
             rotor.check_node(fine_node(p["node"]), "unbalance2 node")

@@ -43,6 +43,8 @@ A crashed builder's lock goes with its process.
 
 from __future__ import annotations
 
+import dataclasses
+
 import contextlib
 import functools
 import hashlib
@@ -173,8 +175,16 @@ def _check_bearing(machine, bearing: int) -> int:
 
 
 def _bearing_values(b: Bearing) -> dict:
-    """Every parameter of a Bearing except its display name: geometry, oil, groove, mesh, node."""
-    return {k: getattr(b, k) for k in sorted(b.param) if k != "name"}
+    """Every parameter of a Bearing except its display name: geometry, oil, groove(s), mesh, node, supply (JSON-ready:
+    a further groove or a pedestal as its fields)."""
+    def plain(v):
+        if dataclasses.is_dataclass(v):
+            return dataclasses.asdict(v)
+        if isinstance(v, list):
+            return [plain(x) for x in v]
+        return v
+
+    return {k: plain(getattr(b, k)) for k in sorted(b.param) if k != "name"}
 
 
 def _grid(span, points) -> dict:

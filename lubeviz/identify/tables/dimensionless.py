@@ -122,24 +122,33 @@ def geometry_values(bearing: Bearing) -> dict:
     """What decides a dimensionless table (its cache key): the shape of the film, not its scale.
 
     radius and length, the groove's angle, its circumferential length over R and its axial width
-    over L, and the mesh. Not: viscosity and clearance (they only move S and qbar), the rotor node
-    and the display name."""
-    return {"radius": float(bearing.radius), "length": float(bearing.length),
-            "groove_angle": float(bearing.groove_angle),
-            "groove_length_over_radius": float(bearing.groove_length / bearing.radius),
-            "groove_width_over_length": float(bearing.groove_width / bearing.length),
-            "n_circumferential": int(bearing.n_circumferential), "n_axial": int(bearing.n_axial),
-            "groove_refinement": int(bearing.groove_refinement)}
+    over L, and the mesh; every further groove the same way (`other_grooves`: [angle, length / R, width / L]
+    each, only when there are any, so a one-groove bearing's key is what it always was). Not: viscosity and
+    clearance (they only move S and qbar), the rotor node and the display name."""
+    out = {"radius": float(bearing.radius), "length": float(bearing.length),
+           "groove_angle": float(bearing.groove_angle),
+           "groove_length_over_radius": float(bearing.groove_length / bearing.radius),
+           "groove_width_over_length": float(bearing.groove_width / bearing.length),
+           "n_circumferential": int(bearing.n_circumferential), "n_axial": int(bearing.n_axial),
+           "groove_refinement": int(bearing.groove_refinement)}
+    others = getattr(bearing, "other_grooves", None) or ()
+    if others:
+        out["other_grooves"] = [[float(g.angle), float(g.length / bearing.radius), float(g.width / bearing.length)]
+                                for g in others]
+    return out
 
 
 def reference_bearing(geometry: dict) -> Bearing:
     """The bearing a slice is solved on: the geometry with the reference oil and clearance."""
+    from ...model.bearing import Groove
+
     r, length = geometry["radius"], geometry["length"]
+    others = [Groove(a, lr * r, wl * length) for a, lr, wl in geometry.get("other_grooves", ())]
     return Bearing(radius=r, length=length, clearance=REF_CLEARANCE_RATIO * r, viscosity=REF_VISCOSITY,
                    groove_angle=geometry["groove_angle"], groove_length=geometry["groove_length_over_radius"] * r,
                    groove_width=geometry["groove_width_over_length"] * length,
                    n_circumferential=geometry["n_circumferential"], n_axial=geometry["n_axial"],
-                   groove_refinement=geometry["groove_refinement"])
+                   groove_refinement=geometry["groove_refinement"], other_grooves=others)
 
 
 def _check_load(load) -> np.ndarray:

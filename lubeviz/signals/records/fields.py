@@ -85,7 +85,7 @@ class _Origin:
 
 
 def _assemble(columns: dict, meta: dict, extra: dict, origin: _Origin, default_nodes,
-              static_offset: np.ndarray | None = None) -> Record:
+              static_offset: np.ndarray | None = None, default_probe_angles=None) -> Record:
     """The format-independent part: required fields, finiteness, time axis, units; then `Record`."""
     where = origin.where
     warnings = list(origin.notes) + [_unknown_key_warning(where, key) for key in extra
@@ -129,7 +129,8 @@ def _assemble(columns: dict, meta: dict, extra: dict, origin: _Origin, default_n
 
     nodes = tuple(_node(meta[f"node{k + 1}"], where, f"node{k + 1}") if f"node{k + 1}" in meta
                   else default_nodes[k] for k in range(2))
-    angles = meta.get("probe_angles_deg", DEFAULT_PROBE_ANGLES_DEG)
+    angles = meta.get("probe_angles_deg", DEFAULT_PROBE_ANGLES_DEG if default_probe_angles is None
+                      else tuple(tuple(a) for a in default_probe_angles))
     rest = _static_fields(meta, where)
     # One (2, 2, n) array filled channel by channel; each column is let go once copied (peak memory of a
     # large record: the samples about once, not three times).

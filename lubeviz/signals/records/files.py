@@ -21,8 +21,9 @@ from .record import (
 from . import record as _record  # its MAX_RECORD_BYTES read at call time
 
 
-def read_record(path, *, default_nodes=DEFAULT_NODES) -> Record:
-    """Read a `.csv`, `.npz` or `.mat` record (SPEC §6); `default_nodes` when the file names none."""
+def read_record(path, *, default_nodes=DEFAULT_NODES, default_probe_angles=None) -> Record:
+    """Read a `.csv`, `.npz` or `.mat` record (SPEC §6); `default_nodes` and `default_probe_angles` (the machine's
+    measurement planes, `Machine.record_defaults`; None: X and Y) when the file names none."""
     path = Path(path)
     where = str(path)
     suffix = _suffix(path)
@@ -41,14 +42,14 @@ def read_record(path, *, default_nodes=DEFAULT_NODES) -> Record:
         raise _fail(where, "file", "is empty", f"a {suffix} record")
     reader = {".csv": _read_csv, ".npz": _read_npz, ".mat": _read_mat}[suffix]
     columns, meta, extra, origin = reader(path, where)
-    record = _assemble(columns, meta, extra, origin, default_nodes)
+    record = _assemble(columns, meta, extra, origin, default_nodes, default_probe_angles=default_probe_angles)
     del columns  # _assemble took the samples over
     # The declared speed against the spectrum's own 1X line (a wrong speed label or sample rate):
     # every record read for identification passes here (CLI, app uploads, sets).
     return check_speed_label(record)
 
 
-def read_record_bytes(content, filename: str, *, default_nodes=DEFAULT_NODES) -> Record:
+def read_record_bytes(content, filename: str, *, default_nodes=DEFAULT_NODES, default_probe_angles=None) -> Record:
     """Read a record uploaded as bytes (or text) under its original `filename` (its suffix gives the format).
 
     Messages name `filename`, not the temporary file the bytes pass through. The size limit is checked
@@ -66,7 +67,7 @@ def read_record_bytes(content, filename: str, *, default_nodes=DEFAULT_NODES) ->
         path = Path(tmp) / ("upload" + suffix)  # the user's name may be longer than a file system allows
         path.write_bytes(data)
         try:
-            rec = read_record(path, default_nodes=default_nodes)
+            rec = read_record(path, default_nodes=default_nodes, default_probe_angles=default_probe_angles)
         except DataFormatError as exc:
             raise DataFormatError(str(exc).replace(str(path), name)) from None
     return dataclasses.replace(rec, source=name,
@@ -94,8 +95,7 @@ def write_record(record: Record, path, *, units: str = "m") -> Path:
             "units": units.strip().lower(), "node1": record.nodes[0], "node2": record.nodes[1]}
     if lossy_t:
         meta["t0_s"] = record.t0
-    if record.probe_angles_deg != DEFAULT_PROBE_ANGLES_DEG:
-        meta["probe_angles_deg"] = record.probe_angles_deg
+    meta["probe_angles_deg"] = record.probe_angles_deg  # always: a machine's planes may default to others (SPEC §8)
     if record.machine is not None:
         meta["machine"] = record.machine
     if record.set_name is not None:
