@@ -38,6 +38,13 @@ class RecordIdentification:
     set_name: str | None = None
     lines: tuple = ()  # `signals.lines.Line`s present beyond 1X (the linear model has none)
     findings: tuple = ()  # `plausibility.Finding`s: what is impossible or suspicious in the record as declared
+    bearings: tuple = ()  # (name, node, supply) of each fluid-film bearing in file order (SPEC §8 `flows`)
+
+
+def bearing_names(machine) -> tuple:
+    """(name, node, supply) of each fluid-film bearing, in the model file's order."""
+    return tuple((b.name or f"bearing {k}", b.node, getattr(b, "supply", "unknown"))
+                 for k, b in enumerate(machine.bearings, start=1))
 
 
 def check_model_speed(machine, speed_hz: float) -> None:
@@ -86,6 +93,7 @@ def identify_record(record, machine=None, settings: IdentificationSettings | Non
     lines, notes = beyond_1x(record)
     findings = record_checks([record], [measured], machine)
     return RecordIdentification(file=str(record.source or "record"), result=result, nodes=tuple(record.nodes),
+                                bearings=bearing_names(machine),
                                 speed_hz=record.speed_hz, warnings=tuple(f.text for f in findings) +
                                 tuple(getattr(record, "warnings", ())) + notes, lines=lines, findings=findings)
 
@@ -304,6 +312,7 @@ def identify_set(records, machine=None, settings: IdentificationSettings | None 
     lines, line_notes = beyond_1x(records)
     findings = record_checks(records, meas, machine)
     return RecordIdentification(file=files, result=result, nodes=tuple(records[0].nodes),
+                                bearings=bearing_names(machine),
                                 speed_hz=records[0].speed_hz,
                                 warnings=tuple(f.text for f in findings) + warnings + line_notes, lines=lines,
                                 speeds_hz=tuple(r.speed_hz for r in records), set_name=records[0].set_name,

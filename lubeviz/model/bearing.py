@@ -131,7 +131,7 @@ class Bearing(param.Parameterized):
         return self.groove_length > 0.0 and self.groove_width > 0.0
 
     def copy(self, **changes) -> "Bearing":
-        """A new Bearing with some parameters changed (the original is left as it is)."""
-        values = {k: getattr(self, k) for k in self.param if k != "name"}
+        """A new Bearing with some parameters changed (the original is left as it is; its name stays)."""
+        values = {k: getattr(self, k) for k in self.param}
         values.update(changes)
         return Bearing(**values)

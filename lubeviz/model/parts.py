@@ -122,8 +122,6 @@ class Machine(param.Parameterized):
         if len(self.bearings) != 2:
             out.append(f"{len(self.bearings)} [[bearings]]: the film-bearing numerics take exactly 2 today")
         for k, b in enumerate(self.bearings, start=1):
-            if b.supply != "unknown":
-                out.append(f"[[bearings]] {k} ({b.name}): supply = {b.supply!r}; every supply is identified today")
             if any(b.offset):
                 out.append(f"[[bearings]] {k} ({b.name}): offset_um; the statics take aligned bearings today")
             if b.pedestal is not None:

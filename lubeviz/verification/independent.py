@@ -514,14 +514,22 @@ def thresholds_mlmin(speed_hz: float, machine: str | None = None) -> np.ndarray:
     return np.array([equilibria.threshold(b, omega, w) * MLMIN_PER_M3S for b, w in zip(m.bearings, loads)])
 
 
+def corpus_speeds(machine, step_hz: float = 2.5) -> np.ndarray:
+    """The speeds a corpus draws from: 2/3 to 4/3 of the machine's operating speed (the paper's 50-100 Hz), within
+    its declared range (speed_min_hz, speed_max_hz), on a `step_hz` grid."""
+    lo = max(machine.speed_min, 2.0 * machine.operating_speed / 3.0)
+    hi = min(machine.speed_max, 4.0 * machine.operating_speed / 3.0)
+    return np.arange(lo, hi + 1e-9, step_hz)
+
+
 def clean_corpus(n: int, rng: np.random.Generator, *, machine: str | None = None, speed_step_hz: float = 2.5,
                  require_decay: bool = True, max_draws: int = 50, **spec_options) -> list[IndependentSpec]:
     """`n` effect-free specs for rate benchmarks.
 
-    Each draw: speed 50-100 Hz on a `speed_step_hz` grid (Q_T is solved once per grid speed and cached),
-    each flow uniform in 30-180 % of that bearing's Q_T at that speed (`thresholds_mlmin`, the model's
-    `flooded_thresholds` computation), planes at the bearing centres (6, 20) or outside them (5, 21),
-    probes X/Y or (45, 135), one seed. `spec_options` go to every IndependentSpec (e.g. total_s=6.0).
+    Each draw: a speed of `corpus_speeds` (the paper's 50-100 Hz on a `speed_step_hz` grid; Q_T is solved once per
+    grid speed and cached), each flow uniform in 30-180 % of that bearing's Q_T at that speed (`thresholds_mlmin`,
+    the model's `flooded_thresholds` computation), the machine's planes or its `outside_nodes` (the paper's bearing
+    centres 6, 20 or outside them 5, 21), the planes' probes or the other of X/Y and (45, 135), one seed. `spec_options` go to every IndependentSpec (e.g. total_s=6.0).
 
     Part of that range is unstable or barely stable (the oil-whirl mode near 0.65 X: e.g. 90 Hz at
     0.5 Q_T grows; 75 Hz at 0.55 Q_T decays at only 0.2 1/s), where no steady record exists. With
@@ -536,9 +544,13 @@ def clean_corpus(n: int, rng: np.random.Generator, *, machine: str | None = None
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
         raise InputError(f"n = {n!r}; expected a non-negative integer")
     m = _machine(machine)
-    grid = np.arange(50.0, 100.0 + 1e-9, speed_step_hz)
-    planes = (tuple(m.center_nodes), tuple(m.outside_nodes))
-    probes = (X_Y, ((45.0, 135.0), (45.0, 135.0)))
+    grid = corpus_speeds(m, speed_step_hz)
+    planes = (tuple(m.center_nodes), tuple(m.outside_nodes) or tuple(m.center_nodes))
+    declared = tuple(tuple(float(a) for a in p.probe_angles_deg) for p in m.measurement_planes)
+    if len(declared) != len(planes[0]) or all(a == X_Y[0] for a in declared):
+        declared = X_Y
+    other = ((45.0, 135.0),) * len(declared) if declared == X_Y else X_Y
+    probes = (declared, other)
     specs = []
     while len(specs) < int(n):
         if grid.size == 0:

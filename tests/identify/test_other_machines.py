@@ -50,3 +50,45 @@ def test_the_pump_s_flows_come_back_from_independent_records(pump, tmp_path, fra
         lo, hi = (v * MLMIN_PER_M3S if v is not None else np.inf for v in res.intervals[k])
         assert lo <= q[k] <= hi, (k, q[k], lo, hi)
         assert abs(got[k] / q[k] - 1) < 0.015, (k, got[k], q[k])
+
+
+def _pump_record(pump, fractions, seed=3):
+    qt = thresholds_mlmin(pump.operating_speed, PUMP)
+    q = np.array(fractions) * qt
+    planes = pump.measurement_planes
+    spec = IndependentSpec(speed_hz=pump.operating_speed, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]),
+                           nodes=tuple(p.node for p in planes),
+                           probe_angles_deg=tuple(tuple(p.probe_angles_deg) for p in planes), machine=PUMP, seed=seed)
+    return make_record(spec).record, q
+
+
+def test_a_known_supply_is_held_and_a_flooded_one_is_not_an_answer(pump):
+    """SPEC §8 supplies: bearing 1's flow given in the model file is held (one degree of freedom more, no interval,
+    `identified` false), and bearing 2 declared flooded when it is fed at 1.4 Q_T leaves bearing 1's flow where the
+    fully identified fit puts it; the JSON's `flows` names each bearing in file order."""
+    from lubeviz.identify.output.export import result_dict
+    from lubeviz.units import MLMIN_PER_M3S
+
+    rec, q = _pump_record(pump, (0.9, 1.4))
+    free = identify_record(rec, pump)
+    known = load_machine(PUMP)
+    known.bearings[0] = known.bearings[0].copy(supply="known", supply_flow=float(q[0]) / MLMIN_PER_M3S)
+    held = identify_record(rec, known)
+    assert held.result.dof == free.result.dof + 1 and held.result.intervals[0] is None
+    assert held.result.q[0] * MLMIN_PER_M3S == pytest.approx(q[0], rel=1e-9)
+    lo, hi = (v * MLMIN_PER_M3S for v in held.result.intervals[1])
+    assert lo <= q[1] <= hi
+    flows = result_dict(held)["flows"]
+    assert [(f["bearing"], f["node"], f["identified"]) for f in flows] == [
+        ("bearing 1 (coupling end)", 5, False), ("bearing 2 (impeller end)", 15, True)]
+    flooded = load_machine(PUMP)
+    flooded.bearings[1] = flooded.bearings[1].copy(supply="flooded")
+    res = identify_record(rec, flooded)
+    assert res.result.p_value > 0.01
+    assert res.result.q[1] >= res.result.q_threshold[1] * (1 - 1e-9)  # searched above Q_T only
+    lo, hi = (v * MLMIN_PER_M3S for v in res.result.intervals[0])
+    assert lo <= q[0] <= hi
+    assert [f["identified"] for f in result_dict(res)["flows"]] == [True, False]
+    # a bearing declared flooded that is starved: the model does not explain the record
+    starved, _ = _pump_record(pump, (0.9, 0.7), seed=4)
+    assert identify_record(starved, flooded).result.p_value < 0.01

@@ -207,11 +207,11 @@ def test_a_machine_the_numerics_cannot_take_yet_is_refused_naming_the_file_and_e
     path.write_text(ANY_MACHINE)
     m = load_machine(path)
     gaps = m.not_yet_modelled()
-    for part in ("3 [[bearings]]", "offset_um", "supply = 'known'", "supply = 'flooded'",
-                 "[[bearings]] 3 (outboard): a pedestal", "[[supports]] 1 (ball bearing)"):
+    for part in ("3 [[bearings]]", "offset_um", "[[bearings]] 3 (outboard): a pedestal",
+                 "[[supports]] 1 (ball bearing)"):
         assert any(part in g for g in gaps), part
-    # what the numerics take now (issue 37): two grooves, probes at 45/135 deg
-    assert not any("groove" in g or "planes" in g for g in gaps)
+    # what the numerics take now (issue 37): two grooves, probes at 45/135 deg, known and flooded supplies
+    assert not any("groove" in g or "planes" in g or "supply" in g for g in gaps)
     with pytest.raises(ModelFileError) as err:
         rotor_from_machine(m)
     assert str(path) in str(err.value) and "[[supports]] 1" in str(err.value)

@@ -83,6 +83,8 @@ class Fit:
     q_threshold: np.ndarray | None = None
     features_sigma: np.ndarray | None = None  # 1 sigma of each feature: noise + model budget (the fit's weights)
     params: tuple = ()  # every parameter, fitted and held (`result.FitParameter`), what every rendering reads
+    flows: np.ndarray | None = None  # every bearing's flow (m^3/s), fitted or held (a known supply), in file order
+    flows_std: np.ndarray | None = None  # their std (0 for a held one)
 
     @property
     def message(self) -> str:
@@ -212,13 +214,13 @@ def grid_size(n_flows: int, grid: int) -> int:
     return max(GRID_MIN, int(math.floor((grid * grid) ** (1.0 / n_flows) + 1e-9)))
 
 
-def _grid_starts(chain, start, lower, upper, n):
-    """The flows' grid (n per flow, uniform in sqrt(Q / Q_T)), the effects' parameters at `start`: (n,)*N + (P,)."""
-    nq = chain.n_flows
-    s = np.linspace(math.sqrt(lower), math.sqrt(upper), n) ** 2
-    axes = np.meshgrid(*(s * q for q in chain.q_threshold), indexing="ij")
-    pts = np.broadcast_to(start, (n,) * nq + start.shape).copy()
-    for k, a in enumerate(axes):
+def _grid_starts(chain, start, lo, hi, n, flows):
+    """The grid over the free `flows` (n per flow, uniform in sqrt(Q / Q_T) from `lo` to `hi`), every other
+    parameter at `start`: shape (n,) * len(flows) + (P,)."""
+    qt = chain.q_threshold
+    axes = [np.linspace(math.sqrt(lo[k] / qt[k]), math.sqrt(hi[k] / qt[k]), n) ** 2 * qt[k] for k in flows]
+    pts = np.broadcast_to(start, (n,) * len(flows) + start.shape).copy()
+    for k, a in zip(flows, np.meshgrid(*axes, indexing="ij")):
         pts[..., k] = a
     return pts
 
@@ -288,9 +290,9 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     hi = np.min([b[1] for b in bounds], axis=0)
     scale = _scales(ref)
     nq = ref.n_flows
-    free = np.arange(ref.n_params)
-    if hold_flows is not None:
-        free = free[nq:]
+    known = ref.known_flows  # a supply the model file gives is held (SPEC §8)
+    free = np.array([i for i in range(ref.n_params) if i not in known and (hold_flows is None or i >= nq)], dtype=int)
+    free_flows = [k for k in range(nq) if k in free]
     n_free = free.size
     dof = len(all_names) - n_free
     if dof < 0:
@@ -302,9 +304,8 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
         start[:nq] = hold_flows
     problem = _Problem(parts, _Problem(parts, np.eye(len(all_names)), free).model_cov(start, budget, noise), free)
     # 1. global scan over the flow box
-    if hold_flows is None and not local:
-        pts = _grid_starts(ref, start, lower, upper, grid_size(nq, grid))
-        pts[..., :nq] = np.clip(pts[..., :nq], lo[:nq], hi[:nq])
+    if hold_flows is None and not local and free_flows:
+        pts = _grid_starts(ref, start, lo, hi, grid_size(len(free_flows), grid), free_flows)
         cost = problem.cost_many(pts)
         limit = float(np.min(cost)) + max(stats.chi2.ppf(1 - level, max(dof, 1)) * 4.0, 25.0)
         starts = [pts[ij] for ij in _basins(cost, limit, most_basins)]
@@ -354,8 +355,8 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     # 4. profile intervals of the flows
     ivals = {}
     if intervals and hold_flows is None:
-        q_std = np.sqrt(np.maximum(np.diag(cov)[:nq], 0.0))
-        for k in range(nq):
+        q_std = dict(zip(free, np.sqrt(np.maximum(np.diag(cov), 0.0))))
+        for k in free_flows:
             ivals[ref.names[k]] = _profile(prob, theta, chi2, k, lo, hi, scale, q_std[k],
                                            CHI2_95_1DOF * inflation, ref.q_threshold[k])
             if ivals[ref.names[k]][1] is None:
@@ -374,7 +375,8 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
                features_model=fs, residual=r, intervals=ivals, alternatives=tuple(alternatives),
                paths=tuple(x[5] for x in reversed(refined)), inflation=inflation, warnings=tuple(warnings),
                q_threshold=ref.q_threshold.copy(), features_sigma=np.sqrt(np.sum(prob.L ** 2, axis=1)),
-               params=params)
+               params=params, flows=theta[:nq].copy(),
+               flows_std=np.array([dict(zip(free, std)).get(k, 0.0) for k in range(nq)]))
 
 
 def parameters(chain, theta, std: dict, *, initial, bounds, intervals: dict) -> tuple[FitParameter, ...]:
@@ -523,7 +525,7 @@ def to_identification(res: Fit, chain) -> "Identification":
     nq = chain.n_flows
     alternatives = tuple(a[0][:nq] for a in res.alternatives)
     return Identification(
-        q=res.values[:nq], q_std=res.std[:nq], converged=res.status in (0, 1), iterations=res.iterations,
+        q=res.flows, q_std=res.flows_std, converged=res.status in (0, 1), iterations=res.iterations,
         starts_tried=len(res.paths), paths=res.paths, features_names=res.features_names,
         features_measured=res.features_measured, features_model=res.features_model, residual=res.residual,
         total_error=res.chi2, mode="best", evaluations=res.evaluations, seconds=res.seconds,

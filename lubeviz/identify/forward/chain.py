@@ -337,9 +337,28 @@ class ForwardChain:
     def n_params(self) -> int:
         return len(self.names)
 
+    @property
+    def known_flows(self) -> dict[int, float]:
+        """{bearing (0-based): flow (m^3/s)} of the bearings whose supply the model file gives (SPEC §8
+        `supply_mlmin`): held in a fit, at most the tables' span (25-200 % of its Q_T: above, the film is flooded
+        and the coefficients barely change)."""
+        lo, hi = 0.25 * self.q_threshold, 2.0 * self.q_threshold
+        return {k: float(np.clip(b.supply_flow, lo[k], hi[k])) for k, b in enumerate(self.machine.bearings)
+                if getattr(b, "supply", "unknown") == "known"}
+
+    @property
+    def flooded_bearings(self) -> tuple[int, ...]:
+        """The bearings (0-based) fed above their Q_T by an amount nobody states (SPEC §8 `supply = "flooded"`):
+        their flow is a nuisance between Q_T and the search's upper end, not an answer."""
+        return tuple(k for k, b in enumerate(self.machine.bearings) if getattr(b, "supply", "unknown") == "flooded")
+
     def start(self) -> np.ndarray:
-        """The parameter vector at Q_T and the effects' current values (their declared ones when None)."""
-        out = [*self.q_threshold]
+        """The parameter vector at Q_T (a known supply at its flow) and the effects' current values (their declared
+        ones when None)."""
+        q = self.q_threshold.copy()
+        for k, v in self.known_flows.items():
+            q[k] = v
+        out = [*q]
         for e, p in self._slots:
             v = getattr(e, p)
             out.append(self._declared(e, p) if v is None else float(v))
@@ -351,6 +370,8 @@ class ForwardChain:
     def bounds(self, lower: float = 0.25, upper: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
         lo = list(lower * self.q_threshold)
         hi = list(upper * self.q_threshold)
+        for k in self.flooded_bearings:  # fed above Q_T: the flow is only known to be more than Q_T
+            lo[k] = max(lower, 1.0) * self.q_threshold[k]
         for e, p in self._slots:
             a, b = e.bounds(p)
             lo.append(a)

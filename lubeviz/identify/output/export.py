@@ -49,6 +49,7 @@ def result_dict(item) -> dict:
     for k, p in enumerate(flows):
         iv = None if r.intervals_any_oil is None else r.intervals_any_oil[k]
         out[f"{p.key}_interval_any_oil_mlmin"] = None if r.intervals_any_oil is None else _ml(iv)
+    out["flows"] = flows_list(item, r, flows)
     out.update({
         "oil_degeneracy": r.oil_degeneracy,
         "chi2": s["chi2"], "dof": s["dof"], "p_value": s["p_value"], "level": s["level"],
@@ -58,6 +59,20 @@ def result_dict(item) -> dict:
         "warnings": s["warnings"] + list(item.warnings),
         "message": r.message, "seconds": r.seconds,
     })
+    return out
+
+
+def flows_list(item, r, flows) -> list[dict]:
+    """SPEC §8 `flows`: one object per fluid-film bearing in the model file's order (its name and node, the flow, its
+    std and 95 % interval, Q_T and the verdict; `identified`: whether the record gave it)."""
+    names = list(getattr(item, "bearings", ()) or ())
+    out = []
+    for k, p in enumerate(flows):
+        name, node, supply = names[k] if k < len(names) else (f"bearing {k + 1}", None, "unknown")
+        out.append({"bearing": name, "node": node, "q_mlmin": p.value, "q_std_mlmin": p.std,
+                    "q_interval_mlmin": None if p.interval is None else list(p.interval),
+                    "q_threshold_mlmin": float(r.q_threshold[k] * MLMIN_PER_M3S), "verdict": r.verdict(k),
+                    "supply": supply, "identified": bool(p.free) and supply == "unknown"})
     return out
 
 
