@@ -26,8 +26,10 @@ from .elements import DOF_PER_NODE, LinearBearing, RigidDisc, TimoshenkoBeam, co
 class Rotor:
     """Assembled shaft + discs, without bearings. Nodes are numbered from 1 (paper numbering).
 
-    M, K (shaft only), G (multiplies Omega), C (shaft damping beta*K) are dense (n_dof, n_dof);
-    `node_z` are the axial node positions (m) from node 1; `bearing_nodes` the supports, in order.
+    M, K, G (multiplies Omega), C are dense (n_dof, n_dof): K the shaft's and C its damping beta*K_shaft, each
+    plus the constant-coefficient `supports` (rolling-element bearings, seals: (node, K 2x2, C 2x2), SPEC §8),
+    which are part of the rotor as the fluid films are not; `node_z` are the axial node positions (m) from node
+    1; `bearing_nodes` the fluid-film bearings, in order.
     """
 
     n_nodes: int
@@ -40,6 +42,7 @@ class Rotor:
     shaft_damping_beta: float
     beams: tuple[TimoshenkoBeam, ...] = field(repr=False)
     discs: tuple[RigidDisc, ...] = field(repr=False)
+    supports: tuple = ()  # (node, K (2, 2), C (2, 2)) of each constant-coefficient support, in K and C above
 
     @property
     def n_dof(self) -> int:
@@ -98,7 +101,28 @@ def rotor_from_machine(machine, *, shaft_damping_beta: float | None = None, shea
              for k, e in enumerate(machine.elements, start=1)]
     discs = [machine_disc(d, machine.density) for d in machine.discs]
     beta = machine.shaft_damping_beta if shaft_damping_beta is None else shaft_damping_beta
-    return assemble(beams, discs, bearing_nodes=[b.node for b in machine.bearings], shaft_damping_beta=beta)
+    rotor = assemble(beams, discs, bearing_nodes=[b.node for b in machine.bearings], shaft_damping_beta=beta)
+    supports = [(s.node, s.stiffness, s.damping) for s in getattr(machine, "supports", ())]
+    return with_supports(rotor, supports) if supports else rotor
+
+
+def with_supports(rotor: Rotor, supports) -> Rotor:
+    """`rotor` with constant-coefficient supports (node, K 2x2 N/m, C 2x2 N s/m; Lund's sign: the support's force
+    on the shaft is -K x - C v) added to its K and C at the node's x, y (the shaft damping stays beta K_shaft)."""
+    import dataclasses
+
+    K, C = rotor.K.copy(), rotor.C.copy()
+    out = []
+    for node, k, c in supports:
+        node = rotor.check_node(int(node), "support node")
+        k, c = np.asarray(k, dtype=float), np.asarray(c, dtype=float)
+        if k.shape != (2, 2) or c.shape != (2, 2) or not (np.all(np.isfinite(k)) and np.all(np.isfinite(c))):
+            raise InputError(f"support at node {node}: stiffness and damping must be finite 2x2 matrices")
+        idx = np.ix_(node_dofs(node)[:2], node_dofs(node)[:2])
+        K[idx] += k
+        C[idx] += c
+        out.append((node, k, c))
+    return dataclasses.replace(rotor, K=K, C=C, supports=rotor.supports + tuple(out))
 
 
 def machine_disc(disc, density: float) -> RigidDisc:

@@ -84,6 +84,10 @@ def ross_rotor(machine, bearings, *, shaft_damping_beta: float | None = None):
         K, C = np.asarray(K, dtype=float), np.asarray(C, dtype=float)
         brgs.append(rs.BearingElement(n=b.node - 1, kxx=K[0, 0], kxy=K[0, 1], kyx=K[1, 0], kyy=K[1, 1],
                                       cxx=C[0, 0], cxy=C[0, 1], cyx=C[1, 0], cyy=C[1, 1]))
+    for sup in getattr(machine, "supports", ()):  # constant-coefficient supports (SPEC §8): ROSS bearings too
+        K, C = np.asarray(sup.stiffness, dtype=float), np.asarray(sup.damping, dtype=float)
+        brgs.append(rs.BearingElement(n=sup.node - 1, kxx=K[0, 0], kxy=K[0, 1], kyx=K[1, 0], kyy=K[1, 1],
+                                      cxx=C[0, 0], cxy=C[0, 1], cyx=C[1, 0], cyy=C[1, 1]))
     return rs.Rotor(shaft, discs, brgs)
 
 

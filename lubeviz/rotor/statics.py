@@ -54,17 +54,20 @@ def simple_support_reactions(rotor: Rotor, gravity: float = 9.81, nodes=None) ->
     return Reactions(nodes=nodes, forces=fy, weight=weight(rotor, gravity))
 
 
-def support_reactions(rotor: Rotor, F: np.ndarray, nodes) -> np.ndarray:
-    """(n_supports, 2) forces (N, X and Y) the supports at `nodes` exert on the rotor pinned there (x = y = 0,
-    rotations free) under the static load `F` (all DOFs, N and N m): with two supports the lever rule, with more
-    the shaft's stiffness shares it."""
+def support_reactions(rotor: Rotor, F: np.ndarray, nodes, positions=None) -> np.ndarray:
+    """(n_supports, 2) forces (N, X and Y) the supports at `nodes` exert on the rotor pinned there (x, y held at
+    `positions` (n, 2) m, default 0; rotations free) under the static load `F` (all DOFs, N and N m): with two
+    supports the lever rule, with more (or with the rotor's own constant-coefficient supports) the shaft's
+    stiffness shares it."""
     nodes = tuple(nodes)
-    if len(nodes) < 2:
+    if len(nodes) < 2 and not rotor.supports:
         raise InputError(f"support nodes {list(nodes)}: need at least two supports for a static solution")
     fixed = np.array([node_dofs(rotor.check_node(n, "support node"))[[X, Y]] for n in nodes]).ravel()
     free = np.setdiff1d(np.arange(rotor.n_dof), fixed)
     q = np.zeros(rotor.n_dof)
-    q[free] = np.linalg.solve(rotor.K[np.ix_(free, free)], F[free])
+    if positions is not None:
+        q[fixed] = np.asarray(positions, dtype=float).ravel()
+    q[free] = np.linalg.solve(rotor.K[np.ix_(free, free)], F[free] - rotor.K[np.ix_(free, fixed)] @ q[fixed])
     r = rotor.K @ q - F  # support forces on the rotor
     return r[fixed].reshape(len(nodes), 2)
 
@@ -128,5 +131,131 @@ def bearing_static_loads(machine) -> np.ndarray:
     from .assembly import rotor_from_machine
 
     rotor = rotor_from_machine(machine)
+    if not statically_determinate(machine, rotor):  # 3+ supports: the films' compliance shares the weight
+        return coupled_statics(machine).loads
     reactions = simple_support_reactions(rotor, machine.gravity, nodes=[b.node for b in machine.bearings])
     return np.array([[0.0, -f] for f in reactions.forces])
+
+
+def statically_determinate(machine, rotor: Rotor | None = None) -> bool:
+    """Two fluid-film bearings and no other support: the reactions are the lever rule's, whatever the films."""
+    supports = rotor.supports if rotor is not None else getattr(machine, "supports", ())
+    return len(machine.bearings) == 2 and not supports
+
+
+@dataclass(frozen=True)
+class CoupledStatics:
+    """The static equilibrium of the shaft on its films and supports (SPEC §8, 3+ supports): each fluid-film
+    bearing's load (N, [Wx, Wy] on the journal; the tables take its vertical part, `loads`), the journals'
+    positions in their bearings (m), the constant supports' reactions (N), the iterations and the largest
+    horizontal load against the vertical one (the tables hold vertical loads only)."""
+
+    loads: np.ndarray  # (N, 2): [0, Wy] as the film tables take it
+    loads_full: np.ndarray  # (N, 2): the load with its horizontal part
+    positions: np.ndarray  # (N, 2) journal positions from the bearing centres
+    pinned_loads: np.ndarray  # (N, 2): the stiff-bearing limit (journals held at the bearing centres + offsets)
+    support_forces: np.ndarray  # (n_supports, 2): force of each constant support on the shaft
+    iterations: int
+    horizontal_share: float
+
+
+COUPLED_TOL = 1e-6  # the loads' relative change that ends the iteration
+HORIZONTAL_NOTICE = 0.05  # a static load leaning more than this (sideways over vertical) is told
+_COUPLED: dict = {}
+
+
+def _statics_key(machine) -> str:
+    import dataclasses as _dc
+    import json
+
+    def plain(v):
+        if _dc.is_dataclass(v):
+            return _dc.asdict(v)
+        if hasattr(v, "param"):
+            return {k: getattr(v, k) for k in sorted(v.param) if k != "name"}
+        return str(v)
+
+    parts = {"elements": [plain(e) if _dc.is_dataclass(e) else (e.length, e.diameter, getattr(e, "inner_diameter", 0.0))
+                          for e in machine.elements],
+             "discs": [plain(d) for d in machine.discs], "bearings": [plain(b) for b in machine.bearings],
+             "supports": [plain(s) for s in getattr(machine, "supports", ())],
+             "material": [machine.young_modulus, machine.poisson_ratio, machine.density],
+             "gravity": machine.gravity, "speed": machine.operating_speed}
+    return json.dumps(parts, sort_keys=True, default=plain)
+
+
+def coupled_statics(machine, *, max_iter: int = 30) -> CoupledStatics:
+    """The shaft's static equilibrium on its fluid films (flooded, at the machine's operating speed) and its
+    constant supports, bearing offsets included (SPEC §8: a statically indeterminate machine).
+
+    Newton on the bearings' reactions R (N, 2; the film force on each journal): each film's equilibrium under
+    -R_k gives the journal's place p_k in its bearing and the film's static stiffness K_k (the linearized film
+    force is R_k - K_k (u_k - d_k - p_k), d_k the bearing's offset); the shaft on those springs,
+    (K + sum K_k) u = F_g + sum (R_k + K_k (d_k + p_k)) at the journals, gives the next R. At the answer the
+    journals sit where their films put them under the loads they carry, and the shaft pinned there carries its
+    weight with exactly those reactions. Stiff films: the pinned (Clapeyron) reactions. The films are taken
+    flooded at the operating speed: starvation or another speed moves a journal by micrometres and the loads
+    by what the shaft's stiffness makes of that (not carried in the loads). Memoized per machine."""
+    from ..film.equilibrium import find_equilibrium
+    from ..film.feed import Feed
+    from .assembly import rotor_from_machine
+
+    key = _statics_key(machine)
+    if key in _COUPLED:
+        return _COUPLED[key]
+    rotor = rotor_from_machine(machine)
+    nodes = [b.node for b in machine.bearings]
+    offsets = np.array([tuple(getattr(b, "offset", (0.0, 0.0))) for b in machine.bearings], dtype=float)
+    F = gravity_load(rotor, machine.gravity)
+    omega = 2.0 * np.pi * machine.operating_speed
+    R = support_reactions(rotor, F, nodes, offsets)
+    pinned = -R.copy()
+    if np.any(R[:, 1] <= 0.0):
+        bad = [k + 1 for k in np.flatnonzero(R[:, 1] <= 0.0)]
+        raise InputError(f"{machine.source or machine.name}: bearing(s) {bad} would be lifted off (no downward "
+                         f"load on the journal: {np.round(-R[:, 1], 1).tolist()} N): a film cannot carry that")
+    dofs = np.array([node_dofs(n)[[X, Y]] for n in nodes])
+    positions = [None] * len(nodes)
+    for it in range(1, max_iter + 1):
+        Kf = []
+        for k, b in enumerate(machine.bearings):
+            eq = find_equilibrium(b, omega, -R[k], Feed.flooded(), start=positions[k])
+            if not eq.converged:
+                from ..errors import ConvergenceError
+
+                raise ConvergenceError(f"coupled statics: bearing {k + 1}'s film found no equilibrium under "
+                                       f"{np.round(-R[k], 1).tolist()} N ({eq.message})")
+            positions[k] = eq.position
+            Kf.append(np.asarray(eq.coefficients.K, dtype=float))
+        A = rotor.K.copy()
+        rhs = F.copy()
+        for k in range(len(nodes)):
+            idx = np.ix_(dofs[k], dofs[k])
+            A[idx] += Kf[k]
+            rhs[dofs[k]] += R[k] + Kf[k] @ (offsets[k] + positions[k])
+        u = np.linalg.solve(A, rhs)
+        new = np.array([R[k] - Kf[k] @ (u[dofs[k]] - offsets[k] - positions[k]) for k in range(len(nodes))])
+        change = np.max(np.abs(new - R)) / np.max(np.abs(new))
+        R = new
+        if change < COUPLED_TOL:
+            break
+    else:
+        from ..errors import ConvergenceError
+
+        raise ConvergenceError(f"coupled statics: the loads still changed by {change:.1e} after {max_iter} steps")
+    full = -R
+    support_forces = np.array([-(np.asarray(k) @ u[node_dofs(n)[[X, Y]]]) for n, k, _ in rotor.supports]) \
+        if rotor.supports else np.zeros((0, 2))
+    out = CoupledStatics(loads=np.stack([np.zeros(len(nodes)), full[:, 1]], axis=1), loads_full=full,
+                         positions=np.array(positions), pinned_loads=pinned, support_forces=support_forces,
+                         iterations=it, horizontal_share=float(np.max(np.abs(full[:, 0]) / np.abs(full[:, 1]))))
+    if out.horizontal_share > HORIZONTAL_NOTICE:
+        import warnings
+
+        k = int(np.argmax(np.abs(full[:, 0]) / np.abs(full[:, 1])))
+        warnings.warn(f"{machine.source or machine.name}: bearing {k + 1}'s static load leans "
+                      f"{np.degrees(np.arctan2(abs(full[k, 0]), abs(full[k, 1]))):.1f} deg from the vertical "
+                      f"({full[k, 0]:.0f} N sideways of {abs(full[k, 1]):.0f} N): its film is taken under the vertical "
+                      "part (the tables hold vertical loads)", stacklevel=2)
+    _COUPLED[key] = out
+    return out

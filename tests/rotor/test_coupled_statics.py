@@ -1,0 +1,149 @@
+"""Statically indeterminate machines (SPEC §8, issue 37): the shaft on three fluid films, on films and a constant
+support, with bearing offsets. The loads come from the coupled equilibrium of the shaft on its films
+(`statics.coupled_statics`); checked against closed forms in the stiff-bearing limit, against their own
+definition (a round trip through the pinned shaft and each film), and against ROSS for the supports' dynamics."""
+
+import math
+
+import numpy as np
+import pytest
+
+from lubeviz.model.files import load_machine
+from lubeviz.rotor.assembly import rotor_from_machine
+from lubeviz.rotor.statics import (bearing_static_loads, coupled_statics, gravity_load, statically_determinate,
+                                   support_reactions, weight)
+
+SPAN_MM, DIAMETER_MM, E = 400.0, 60.0, 2.1e11
+
+
+def uniform_machine(tmp_path, *, viscosity=0.03, offset_um=0.0, support=False, name="three"):
+    """A uniform 60 mm shaft, 800 mm long, on three equal L/D = 0.5 bearings at its ends and middle (two equal
+    spans) with a 40 kg wheel in the middle, coarse films (40 x 20) to keep the test quick; optionally the middle bearing raised by `offset_um` and
+    a ball bearing (constant coefficients) a quarter along."""
+    elements = ", ".join(f"[{SPAN_MM / 4}, {DIAMETER_MM}]" for _ in range(8))
+    bearing = """
+[[bearings]]
+node = {node}
+radius_mm = 30.0
+length_mm = 30.0
+clearance_um = 40.0
+viscosity_pa_s = {mu}
+groove_angle_deg = 0.0
+groove_length_mm = 8.0
+groove_width_mm = 15.0
+mesh_circumferential = 40
+mesh_axial = 20
+offset_um = [0.0, {dy}]
+"""
+    text = f"""
+[machine]
+name = "{name}"
+gravity_m_s2 = 9.81
+operating_speed_hz = 50.0
+[material]
+young_modulus_pa = {E}
+poisson_ratio = 0.3
+density_kg_m3 = 7850.0
+[shaft]
+damping_beta_s = 1.0e-5
+elements_mm = [{elements}]
+[[discs]]
+node = 5
+mass_kg = 40.0
+polar_inertia_kg_m2 = 0.2
+diametral_inertia_kg_m2 = 0.1
+[unbalance]
+node = 3
+moment_kg_m = 1.0e-4
+phase_deg = 0.0
+""" + "".join(bearing.format(node=n, mu=viscosity, dy=offset_um if n == 5 else 0.0) for n in (1, 5, 9))
+    if support:
+        text += """
+[[supports]]
+name = "ball bearing"
+node = 3
+stiffness_n_m = [[1.0e8, 0.0], [0.0, 1.5e8]]
+damping_ns_m = [[1.0e3, 0.0], [0.0, 1.0e3]]
+"""
+    path = tmp_path / f"{name}.toml"
+    path.write_text(text)
+    return load_machine(path)
+
+
+def test_three_films_carry_the_weight_where_each_film_puts_its_journal(tmp_path):
+    """At the answer the shaft, pinned where the films hold the journals, carries its weight with exactly the films'
+    loads (a round trip through another code path), each film puts its journal there under that load, the loads and
+    the support forces add up to the weight, and the films' compliance moves load off the middle bearing (it sits
+    lowest under the largest load) against the rigid-support answer."""
+    from lubeviz.film.equilibrium import find_equilibrium
+    from lubeviz.film.feed import Feed
+
+    m = uniform_machine(tmp_path)
+    assert not statically_determinate(m)
+    cs = coupled_statics(m)
+    rotor = rotor_from_machine(m)
+    F = gravity_load(rotor, m.gravity)
+    again = support_reactions(rotor, F, [b.node for b in m.bearings], cs.positions)
+    assert np.allclose(-again, cs.loads_full, rtol=1e-6, atol=1e-6 * np.abs(cs.loads_full).max())
+    omega = 2 * math.pi * m.operating_speed
+    for k, b in enumerate(m.bearings):
+        eq = find_equilibrium(b, omega, cs.loads_full[k], Feed.flooded())
+        assert np.allclose(eq.position, cs.positions[k], atol=1e-4 * b.clearance)
+    assert -cs.loads_full[:, 1].sum() == pytest.approx(weight(rotor, m.gravity), rel=1e-9)
+    assert abs(cs.loads[1, 1]) < abs(cs.pinned_loads[1, 1])  # compliance moves load off the middle bearing
+    assert np.allclose(bearing_static_loads(m), cs.loads)
+
+
+def test_stiff_films_give_the_continuous_beam_s_reactions_and_a_raised_middle_bearing_takes_6_EI_d_over_L3(tmp_path):
+    """Oil 10^4 as viscous makes every film nearly rigid: the loads tend to the pinned (three-moment) reactions.
+    Raising the middle support of a two-span continuous beam by d adds 6 E I d / L^3 to its reaction and takes
+    half of that from each end (here it is lowered, d < 0) (a simply supported beam of span 2L deflects P L^3 / (6 E I) under a central
+    load P)."""
+    stiff = coupled_statics(uniform_machine(tmp_path, viscosity=300.0, name="stiff"))
+    assert np.allclose(stiff.loads, stiff.pinned_loads, rtol=2e-3)
+    d = -10e-6  # lowered: the ends take more (raised, they would lift off)
+    raised = uniform_machine(tmp_path, viscosity=300.0, offset_um=d * 1e6, name="raised")
+    cs = coupled_statics(raised)
+    inertia = math.pi * (DIAMETER_MM * 1e-3) ** 4 / 64
+    extra = 6 * E * inertia * d / (SPAN_MM * 1e-3) ** 3
+    change = cs.pinned_loads[:, 1] - stiff.pinned_loads[:, 1]
+    assert change == pytest.approx([0.5 * extra, -extra, 0.5 * extra], rel=2e-2)  # shear: Timoshenko, not Euler
+    assert np.allclose(cs.loads, cs.pinned_loads, rtol=5e-3)
+
+
+def test_a_constant_support_shares_the_weight_and_two_bearings_stay_determinate(tmp_path):
+    m = uniform_machine(tmp_path, support=True, name="supported")
+    cs = coupled_statics(m)
+    rotor = rotor_from_machine(m)
+    assert cs.support_forces.shape == (1, 2) and cs.support_forces[0, 1] > 0
+    assert -cs.loads_full[:, 1].sum() + cs.support_forces[0, 1] == pytest.approx(weight(rotor, m.gravity), rel=1e-9)
+    paper = load_machine()
+    assert statically_determinate(paper)
+
+
+def test_a_machine_with_a_constant_support_matches_ross(tmp_path):
+    """The support's stiffness and damping are in the rotor (SPEC §8 [[supports]]): natural frequencies and the
+    unbalance response with linear films at the three bearings against ROSS with the support as a bearing."""
+    from lubeviz.rotor.modal import modal_analysis
+    from lubeviz.rotor.response import machine_unbalance, unbalance_response
+    from lubeviz.rotor.ross_model import RossUnavailable, ross_lateral_eigenvalues, ross_rotor, ross_unbalance_response
+
+    m = uniform_machine(tmp_path, support=True, name="ross")
+    bearings = [(np.array([[2e8, 5e7], [-3e7, 3e8]]), np.array([[2e4, 1e3], [1e3, 3e4]]))] * 3
+    omega = 2 * math.pi * 50.0
+    rotor = rotor_from_machine(m)
+    try:
+        ross = ross_rotor(m, bearings)
+    except RossUnavailable as exc:
+        pytest.skip(str(exc))
+    ours = modal_analysis(rotor, omega, bearings, n_modes=6)
+    theirs = ross_lateral_eigenvalues(ross, omega)[:6]
+    np.testing.assert_allclose(ours.damped_frequencies, theirs.imag, rtol=5e-3)
+    u = machine_unbalance(m)[0]
+    nodes = (2, 3, 5, 7)
+    mine = unbalance_response(rotor, omega, [u], bearings, nodes=nodes)
+    x, y = ross_unbalance_response(ross, omega, u, nodes)
+    for a_all, b_all in ((mine.x, x), (mine.y, y)):
+        for node, a, b in zip(nodes, a_all, b_all):
+            assert abs(a) == pytest.approx(abs(b), rel=1e-2), node
+            assert abs(math.degrees(np.angle(a / b))) < 1.0, node
