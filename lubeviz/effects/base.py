@@ -45,6 +45,8 @@ class Effect(param.Parameterized):
     forcing: ClassVar[bool] = False
     # True for an effect that is the oil's viscosity (an oil temperature reading settles it)
     oil_viscosity: ClassVar[bool] = False
+    # True for an effect that changes the bearings' static loads (the static position or several speeds settle it)
+    static_load: ClassVar[bool] = False
 
     def __init__(self, **params):
         super().__init__(**params)
@@ -141,6 +143,7 @@ class Effect(param.Parameterized):
         values.update(changes)
         new = type(self)(**values)
         new._free = tuple(p for p in self._free if p not in changes)
+        new._limits = {k: v for k, v in getattr(self, "_limits", {}).items() if k not in changes}
         return new
 
     def limited(self, **limits) -> "Effect":

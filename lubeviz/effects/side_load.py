@@ -34,6 +34,7 @@ class SideLoad(Effect):
 
     effect_name = "side_load"
     stage = "bearings"
+    static_load = True
     continuous = ("force_n", "moment_nm")
     placement = ("node",)
     neutral = {"force_n": 0.0, "moment_nm": 0.0}

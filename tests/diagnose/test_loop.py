@@ -64,9 +64,9 @@ def test_clean_records_are_explained(chain):
 
 def test_hot_oil_at_one_speed_is_reported_as_an_ambiguity_not_as_explained_flows(chain):
     d = _diagnose(chain, ("viscosity:factor=0.8",), q=(500.0, 560.0))
-    assert d.added is None  # one record cannot tell it from less oil...
-    assert d.ambiguous == ("viscosity[bearing=both]",)  # ...and says so
-    assert "static shaft position" in d.verdict
+    assert d.added is None  # one record cannot tell it from less oil (or another static load)...
+    assert d.ambiguous == ("viscosity[bearing=both]", "side_load[node=None]")  # ...and says so
+    assert "static shaft position" in d.verdict and "does not pin the oil's viscosity" in d.verdict
 
 
 def test_hot_oil_with_the_static_position_is_named_and_the_flows_recovered(chain):

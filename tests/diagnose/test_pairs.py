@@ -69,7 +69,7 @@ def test_hot_oil_and_a_turned_probe_get_intervals_that_hold(machine):
                            effects=("viscosity:factor=0.75", "probe_rotation:plane=1,angle_deg=6"))
     d = diagnose(chain, measure(make_record(spec).record))
     assert d.added is not None and "probe_rotation" in {e.effect_name for e in d.added.effects}
-    assert d.set_intervals is not None and "not pinned" in d.verdict
+    assert d.set_intervals is not None and "does not pin the oil's viscosity" in d.verdict
     for (lo, hi), q in zip(d.set_intervals, Q):
         assert lo * MLMIN_PER_M3S <= q <= (np.inf if hi is None else hi * MLMIN_PER_M3S)
     # the report's advice gives the same wider interval as the verdict, not the named effect's alone
