@@ -352,6 +352,8 @@ def _diagnose_case(case, mp) -> dict:
 def judge(case: dict, d, q_mlmin) -> dict:
     """A diagnosis `d` of `case` (true flows `q_mlmin`) judged: what it named, whether that is right, whether its
     intervals hold, and the silent-wrong flag (explained while the reported interval misses the true flows)."""
+    from ..diagnose.loop import fit_flows
+
     q = np.asarray(q_mlmin, dtype=float)
     truth = list(case["truth"])
     added = None if d.added is None else d.added.label
@@ -361,13 +363,13 @@ def judge(case: dict, d, q_mlmin) -> dict:
     right_first = bool(truth) and named is not None and set(truth) == set(added_names)
     right_in_set = bool(truth) and set(truth) <= in_set_names
     held = _held(d, q / MLMIN_PER_M3S)
-    final = d.final.values[:2] * MLMIN_PER_M3S
+    final = fit_flows(d.final) * MLMIN_PER_M3S
     labels = ([added] if added else []) + list(d.ambiguous)
     return {"q_mlmin": q.tolist(), "outcome": d.outcome, "added": added, "ambiguous": list(d.ambiguous),
             "named": named, "right_first": right_first, "right_in_set": right_in_set,
             "placement_right": _placement_right(case, labels) if truth else None,
             "explained": bool(d.explained), "held": bool(held), "silent_wrong": bool(d.explained and not held),
-            "flow_error_pct_before": (d.before.values[:2] * MLMIN_PER_M3S / q * 100 - 100).tolist(),
+            "flow_error_pct_before": (fit_flows(d.before) * MLMIN_PER_M3S / q * 100 - 100).tolist(),
             "flow_error_pct_after": (final / q * 100 - 100).tolist(),
             "node": _node_row(case, d), "seconds": float(d.seconds), "verdict": d.verdict}
 

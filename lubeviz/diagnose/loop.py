@@ -117,6 +117,7 @@ class Diagnosis:
     truth: dict = field(default_factory=dict)
     lines: tuple = ()  # lines beyond 1X present in the record(s) (`signals.lines`): no model or effect has them
     stability: object = None  # rotor.whirl.Stability at the flows found, when a sub-synchronous line calls for it
+    bearings: tuple = ()  # (name, node, supply) of each fluid-film bearing in the model file's order (SPEC §8)
     # an ambiguity's flows: per flow (low, high or None) in m^3/s, the union over the set of each candidate's
     # 95 % interval (the winner's profile interval, the others' +-1.96 sigma): what the flows are known to be
     # until a measurement separates the causes. None when nothing is ambiguous.
@@ -145,7 +146,7 @@ class Diagnosis:
     def verdicts_for(self, f: Fit) -> list[str] | None:
         """'starved', 'normal' or 'over-supplied' per bearing for fit `f` (`thresholds_for`)."""
         qt = self.thresholds_for(f)
-        return None if qt is None else [lubrication_verdict(f.values[k], qt[k]) for k in range(len(qt))]
+        return None if qt is None else [lubrication_verdict(q, t) for q, t in zip(fit_flows(f), qt)]
 
     @property
     def final(self) -> Fit:
@@ -208,13 +209,16 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
     meas = list(measured) if isinstance(measured, (list, tuple)) else [measured]
     before = fit(chains, meas, names=names, budget=budget, level=level)
     findings, lines = tuple(findings), tuple(lines)
-    common = dict(before=before, seconds=0.0, truth=dict(truth or {}), lines=lines, findings=findings)
+    from ..identify.batch import bearing_names
+
+    common = dict(before=before, seconds=0.0, truth=dict(truth or {}), lines=lines, findings=findings,
+                  bearings=bearing_names(chains[0].machine))
     broken = [f for f in findings if f.fault]
     if broken:  # the orbit is not the shaft's: an effect fitted to it would describe the fault, not the machine
         return Diagnosis(**{**common, "seconds": time.perf_counter() - t0}, candidates=(), added=None, after=None,
                          explained=False, ambiguous=(), verdict=_fault_words(before, broken))
     oil_known = _oil_declared(chains)
-    pool, orbit = _candidate_pool(candidates, oil_known, chains[0].rotor)
+    pool, orbit = _candidate_pool(candidates, oil_known, chains[0].rotor, n_planes=len(chains[0].nodes))
     tried, scans = [], []
     total, done = sum(len(e) if isinstance(e, list) else 1 for e in pool), 0
     for e in pool:
@@ -293,14 +297,13 @@ def _scan_words(scans, added, ambiguous) -> str:
 
 
 def _fault_words(before: Fit, broken) -> str:
-    return ("Measurement fault: " + ". ".join(f.text for f in broken) + ". The plain fit (Q1, Q2 = "
-            f"{before.values[0] * MLMIN_PER_M3S:.0f}, {before.values[1] * MLMIN_PER_M3S:.0f} ml/min, "
+    return ("Measurement fault: " + ". ".join(f.text for f in broken) + f". The plain fit ({_flows_text(before)}, "
             f"chi2 = {before.chi2:.1f} for "
             f"{before.dof} dof) describes the fault, not the machine, and no effect was fitted: correct the "
             "record (or leave that plane out) and diagnose again.")
 
 
-def _candidate_pool(candidates, oil_known: bool, rotor) -> tuple[list, object]:
+def _candidate_pool(candidates, oil_known: bool, rotor, *, n_planes: int) -> tuple[list, object]:
     """Every placement of every candidate a diagnosis fits (an effect scanned over nodes, `Effect.scan_nodes`: a
     list of it at each node), and the response-model candidate (large orbits, tried only when the record shows
     their 2X), or None."""
@@ -320,7 +323,7 @@ def _candidate_pool(candidates, oil_known: bool, rotor) -> tuple[list, object]:
         if nodes:
             pool.append([e.copy(node=n) for n in nodes])
         else:
-            pool.extend(e.placements())
+            pool.extend(e.placements(n_bearings=len(rotor.bearing_nodes), n_planes=n_planes))
     return pool, orbit
 
 
@@ -404,8 +407,30 @@ def _refine(chains, meas, passing, names, budget, level):
     return None, None, refused
 
 
+def fit_flows(f: Fit) -> np.ndarray:
+    """Every bearing's flow of fit `f` (m^3/s, file order; a known supply's held value among them)."""
+    return np.asarray(f.flows if getattr(f, "flows", None) is not None else f.values[:2], dtype=float)
+
+
+def fit_flows_std(f: Fit) -> np.ndarray:
+    return np.asarray(f.flows_std if getattr(f, "flows_std", None) is not None else f.std[:2], dtype=float)
+
+
+def _flow_names(f: Fit) -> tuple[str, ...]:
+    return tuple(f"q{k + 1}" for k in range(len(fit_flows(f))))
+
+
 def _flows_words(f: Fit) -> str:
-    return f"{f.values[0] * MLMIN_PER_M3S:.0f}, {f.values[1] * MLMIN_PER_M3S:.0f}"
+    return ", ".join(f"{q * MLMIN_PER_M3S:.0f}" for q in fit_flows(f))
+
+
+def _flow_labels(f: Fit) -> str:
+    return ", ".join(f"Q{k + 1}" for k in range(len(fit_flows(f))))
+
+
+def _flows_text(f: Fit) -> str:
+    """'Q1, Q2 = 420, 600 ml/min' for any number of flows."""
+    return ", ".join(f"Q{k + 1}" for k in range(len(fit_flows(f)))) + f" = {_flows_words(f)} ml/min"
 
 
 def _explained_outcome(chains, meas, before, names, budget, level, passing=()) -> dict:
@@ -418,7 +443,7 @@ def _explained_outcome(chains, meas, before, names, budget, level, passing=()) -
         separated = tuple(dict.fromkeys(w for c in others for w in c.separated_by))
         ivs.append(_set_intervals(before, others))
         out.update(ambiguous=tuple(c.label for c in others), set_intervals=ivs[0], separated_by=separated)
-        out["verdict"] += (" But " + "; ".join(f"{c.label} (Q1, Q2 = {_flows_words(c.fit)} ml/min)" for c in others)
+        out["verdict"] += (" But " + "; ".join(f"{c.label} ({_flows_text(c.fit)})" for c in others)
                            + f" fit{'s' if len(others) == 1 else ''} it better by the information criterion (AIC "
                            + ", ".join(f"{c.aic:.1f}" for c in others) + f" against the plain model's {before.aic:.1f}),"
                            f" with other flows: until a measurement tells them apart the flows are known only within "
@@ -426,7 +451,7 @@ def _explained_outcome(chains, meas, before, names, budget, level, passing=()) -
     free = _unpinned(chains, meas)
     look_alike = _unpinned_look_alike(chains, meas, before, free, names, budget, level)
     if look_alike is not None:
-        joined = tuple(union_interval(*(iv[k] for iv in (*ivs, look_alike))) for k in range(2))
+        joined = tuple(union_interval(*(iv[k] for iv in (*ivs, look_alike))) for k in range(len(look_alike)))
         separated = tuple(dict.fromkeys((*out["separated_by"], *(type(e).separated_by for e in free))))
         labels = tuple(e.label() for e in free if e.label() not in out["ambiguous"])
         out.update(ambiguous=out["ambiguous"] + labels, set_intervals=joined, separated_by=separated)
@@ -451,7 +476,10 @@ def _unpinned(chains, meas, effects=()) -> list:
     effects = (*effects, *chains[0].effects)  # what the record declares (an oil temperature reading) counts too
     out = []
     if not any(e.oil_viscosity for e in effects):
-        out.append(Viscosity(bearing="both").release("factor").limited(factor=OIL_RANGE))
+        from ..effects.base import every_bearing_word
+
+        every = every_bearing_word(len(chains[0].sources))
+        out.append(Viscosity(bearing=every).release("factor").limited(factor=OIL_RANGE))
     if not any(e.static_load for e in effects):
         side = SideLoad().bind(chains[0].machine)
         shares, loads = side._bound()
@@ -505,8 +533,8 @@ def _unpinned_after_effect(out: dict, chains, meas, best, passing, names, budget
                       budget=budget, level=level)
         except LubevizError:
             continue
-        ivs.append(tuple(res.intervals.get(n) for n in ("q1", "q2")))
-    joined = tuple(union_interval(*(iv[k] for iv in ivs if iv is not None)) for k in range(2))
+        ivs.append(tuple(res.intervals.get(n) for n in _flow_names(res)))
+    joined = tuple(union_interval(*(iv[k] for iv in ivs if iv is not None)) for k in range(len(wide)))
     out["set_intervals"] = joined
     out["separated_by"] = tuple(dict.fromkeys((*out["separated_by"], *(type(e).separated_by for e in free))))
     who = f"with {best.label}" if not out["ambiguous"] else "with any of these explanations"
@@ -523,9 +551,9 @@ def _look_alikes(before: Fit, passing) -> list:
     for c in passing:
         if c.fit is None or c.defect is not None or not c.aic < before.aic:
             continue
-        for k, n in enumerate(("q1", "q2")):
+        for k, n in enumerate(_flow_names(before)):
             lo, hi = before.intervals.get(n) or (-math.inf, math.inf)
-            if not lo <= c.fit.values[k] <= (math.inf if hi is None else hi):
+            if not lo <= fit_flows(c.fit)[k] <= (math.inf if hi is None else hi):
                 out.append(c)
                 break
     return out
@@ -545,10 +573,10 @@ def _added_outcome(chains, before, best, after, passing, ambiguity_aic) -> dict:
         verdict = (f"Ambiguous cause: a synchronous (1X) force on the rotor explains the record "
                    f"({', '.join(c.label for c in [best, *close])}), or an effect not in the library that acts "
                    f"as one ({OTHER_FORCE_EXAMPLES}). At one speed these are the same force, so the flows hardly "
-                   f"depend on which: Q1, Q2 = {flows} ml/min (plain model: {_flows_words(before)}). To tell the "
+                   f"depend on which: {_flow_labels(before)} = {flows} ml/min (plain model: {_flows_words(before)}). To tell the "
                    f"causes apart: {'; or '.join(separated)}.")
     elif close:
-        flows = "; ".join(f"{c.label}: Q1, Q2 = {_flows_words(c.fit)} ml/min" for c in [best, *close])
+        flows = "; ".join(f"{c.label}: {_flows_text(c.fit)}" for c in [best, *close])
         set_intervals = _set_intervals(after, close)
         verdict = (f"Ambiguous: {len(close) + 1} effects explain the record equally well ({flows}). "
                    f"Until a measurement tells them apart the flows are known only within "
@@ -556,8 +584,8 @@ def _added_outcome(chains, before, best, after, passing, ambiguity_aic) -> dict:
     else:
         verdict = (f"{_story(best, after, chains[0].machine)}{_oil_words(chains, best, after)}: this explains the "
                    f"record (chi2 {before.chi2:.1f} -> {after.chi2:.1f} for {after.dof} dof). Flows re-identified "
-                   f"with it: Q1 = {after.values[0] * MLMIN_PER_M3S:.0f}, "
-                   f"Q2 = {after.values[1] * MLMIN_PER_M3S:.0f} ml/min (plain model: {_flows_words(before)})."
+                   f"with it: {', '.join(f'Q{k + 1} = {q * MLMIN_PER_M3S:.0f}' for k, q in enumerate(fit_flows(after)))}"
+                   f" ml/min (plain model: {_flows_words(before)})."
                    + (ORBIT_REFINE if best.defect is not None else ""))
     return dict(added=best, after=after, explained=True, ambiguous=ambiguous, separated_by=separated,
                 set_intervals=set_intervals, verdict=verdict)
@@ -659,11 +687,11 @@ def _fit_orbit(chain, measured, effect, names, budget, level, progress) -> Candi
 def _set_intervals(after: Fit, others) -> tuple:
     """Per flow, the union of the winner's 95 % profile interval and the other candidates' +-1.96 sigma."""
     out = []
-    for k, n in enumerate(("q1", "q2")):
-        v, s = after.values[k], after.std[k]
+    for k, n in enumerate(_flow_names(after)):
+        v, s = fit_flows(after)[k], fit_flows_std(after)[k]
         low, high = after.intervals.get(n) or (v - Z95 * s, v + Z95 * s)
         for c in others:
-            v, s = c.fit.values[k], c.fit.std[k]
+            v, s = fit_flows(c.fit)[k], fit_flows_std(c.fit)[k]
             low = min(low, v - Z95 * s)
             high = None if high is None else max(high, v + Z95 * s)
         out.append((float(low), None if high is None else float(high)))
@@ -707,7 +735,10 @@ def _unpinned_look_alike(chains, meas, before: Fit, free, names, budget, level):
     except LubevizError:
         return None
     wider, ivs = False, []
-    for k, n in enumerate(("q1", "q2")):
+    for k, n in enumerate(_flow_names(before)):
+        if n not in wide.intervals or n not in before.intervals:  # a known supply: held, no interval
+            ivs.append(None)
+            continue
         lo_w, hi_w = wide.intervals[n]
         lo_n, hi_n = before.intervals[n]
         top = chains[0].bounds()[1][k]
@@ -789,6 +820,15 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
                     "warnings": s["warnings"]})
         for p in flows:
             out[f"{p.key}_interval_mlmin"] = None if p.interval is None else list(p.interval)
+        qt, verdicts = d.thresholds_for(f), d.verdicts_for(f)
+        out["flows"] = []
+        for k, p in enumerate(flows):  # SPEC §8: one object per fluid-film bearing, in file order
+            name, node, supply = d.bearings[k] if k < len(d.bearings) else (f"bearing {k + 1}", None, "unknown")
+            out["flows"].append({"bearing": name, "node": node, "q_mlmin": p.value, "q_std_mlmin": p.std,
+                                 "q_interval_mlmin": None if p.interval is None else list(p.interval),
+                                 "q_threshold_mlmin": None if qt is None else float(qt[k] * MLMIN_PER_M3S),
+                                 "verdict": None if verdicts is None else verdicts[k], "supply": supply,
+                                 "identified": bool(p.free) and supply == "unknown"})
         return out
 
     effects = [{"name": " + ".join(e.effect_name for e in c.effects), "label": c.label, "parameters": c.parameters(),
@@ -796,8 +836,8 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
                 "evidence": None if c.fit is None else {"aic": c.fit.aic, "delta_aic": c.aic - d.candidates[0].aic,
                                                          "dof": c.fit.dof, "p_value": c.fit.p_value,
                                                          "passes": c.passes,
-                                                         "q1_mlmin": c.fit.values[0] * MLMIN_PER_M3S,
-                                                         "q2_mlmin": c.fit.values[1] * MLMIN_PER_M3S},
+                                                         **{f"q{k + 1}_mlmin": v * MLMIN_PER_M3S
+                                                            for k, v in enumerate(fit_flows(c.fit))}},
                 "error": c.error or None} for c in d.candidates]
     out = {"before": fit_dict(d.before), "effects": effects,
            "added": None if d.added is None else d.added.label,
@@ -814,7 +854,7 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
                "text": d.stability.describe(), "unstable": d.stability.unstable,
                "least_stable_mode_hz": d.stability.frequency_hz, "growth_per_s": d.stability.growth,
                "damping_ratio": d.stability.damping_ratio}}
-    for k, n in enumerate(("q1", "q2")):  # an ambiguity: the flows over the whole set (None: not ambiguous)
+    for k, n in enumerate(_flow_names(d.before)):  # an ambiguity: the flows over the whole set (None: not ambiguous)
         iv = None if d.set_intervals is None else d.set_intervals[k]
         out[f"{n}_interval_set_mlmin"] = None if iv is None else [iv[0] * MLMIN_PER_M3S,
                                                                   None if iv[1] is None else iv[1] * MLMIN_PER_M3S]
@@ -824,8 +864,8 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
         out["truth"] = d.truth
         q = d.truth.get("q_mlmin")
         if q is not None:
-            out["flow_error_pct_before"] = [100 * (d.before.values[k] * MLMIN_PER_M3S / q[k] - 1) for k in range(2)]
-            out["flow_error_pct_after"] = [100 * (d.final.values[k] * MLMIN_PER_M3S / q[k] - 1) for k in range(2)]
+            out["flow_error_pct_before"] = [100 * (v * MLMIN_PER_M3S / t - 1) for v, t in zip(fit_flows(d.before), q)]
+            out["flow_error_pct_after"] = [100 * (v * MLMIN_PER_M3S / t - 1) for v, t in zip(fit_flows(d.final), q)]
     return out
 
 

@@ -25,7 +25,7 @@ import numpy as np
 
 from .. import __version__
 from ..identify.forward.budget import ModelBudget
-from .loop import fitted_effects
+from .loop import fit_flows, fit_flows_std, fitted_effects
 from ..identify.fit.result import VERDICT_BAND as BAND
 from ..model.quantity import Quantity
 from ..units import M3S_PER_MLMIN, MLMIN_PER_M3S
@@ -60,7 +60,16 @@ def _mlmin(q) -> float:
 
 
 def _flow(fit, k: int) -> str:
-    return f"{_mlmin(fit.values[k]):.0f} ± {_mlmin(fit.std[k]):.0f} ml/min"
+    return f"{_mlmin(fit_flows(fit)[k]):.0f} ± {_mlmin(fit_flows_std(fit)[k]):.0f} ml/min"
+
+
+def _flows_cell(fit) -> str:
+    return ", ".join(f"{_mlmin(q):.0f}" for q in fit_flows(fit))
+
+
+def _and(items) -> str:
+    items = list(items)
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
 
 
 def _set_words(iv) -> str:
@@ -70,7 +79,7 @@ def _set_words(iv) -> str:
 
 
 def _interval(fit, k: int) -> str:
-    iv = fit.intervals.get(("q1", "q2")[k]) if fit.intervals else None
+    iv = fit.intervals.get(f"q{k + 1}") if fit.intervals else None
     if iv is None:
         return "–"
     lo, hi = iv
@@ -140,7 +149,7 @@ def _actions(d, nodes) -> list[str]:
     qt = d.thresholds_for(f)
     if qt is not None and outcome != "unexplained":
         for k in range(len(qt)):
-            q = f.values[k]
+            q = fit_flows(f)[k]
             v = d.verdicts_for(f)[k]
             where = f"Bearing {k + 1}" + (f" (node {nodes[k]})" if nodes else "")
             own = (d.q_threshold_declared is not None and abs(qt[k] / d.q_threshold_declared[k] - 1) > 0.01)
@@ -277,7 +286,7 @@ def flows_svg(before, after, q_threshold, *, truth_mlmin=None, width: int = 760,
                                                              if after is not None else [])
         for which, f, colour, dy in fits:
             qt = q_threshold_before if (f is before and q_threshold_before is not None) else q_threshold
-            r = f.values[k] / qt[k]
+            r = fit_flows(f)[k] / qt[k]
             iv = f.intervals.get(f"q{k + 1}") if f.intervals else None
             if iv is not None:
                 a = iv[0] / qt[k]
@@ -288,7 +297,7 @@ def flows_svg(before, after, q_threshold, *, truth_mlmin=None, width: int = 760,
                     body.append(f'<path d="M{x(hi) - 6:.1f},{yc + dy - 4} L{x(hi):.1f},{yc + dy} '
                                 f'L{x(hi) - 6:.1f},{yc + dy + 4}" fill="none" stroke="{colour}" stroke-width="2"/>')
             body.append(f'<circle cx="{x(r):.1f}" cy="{yc + dy}" r="5" fill="{colour}">'
-                        f"<title>bearing {k + 1}, {which}: {_mlmin(f.values[k]):.0f} ml/min ({r:.2f} Q_T)"
+                        f"<title>bearing {k + 1}, {which}: {_mlmin(fit_flows(f)[k]):.0f} ml/min ({r:.2f} Q_T)"
                         "</title></circle>")
         if truth_mlmin is not None:
             r = _mlmin_to_ratio(truth_mlmin[k], q_threshold[k])
@@ -370,13 +379,13 @@ def _flows_table(d, nodes, truth) -> str:
     if truth is not None:
         head.append("true flow")
     rows = []
-    for k in range(2):
+    for k in range(len(fit_flows(d.before))):
         cells = [f"{k + 1}" + (f" (node {nodes[k]})" if nodes else "")]
         for f in [d.before] + ([d.after] if d.after is not None else []):
             ref = d.thresholds_for(f)  # the plain model: the bearings as declared; with the effect: as diagnosed
             v = d.verdicts_for(f)[k] if ref is not None else "–"
             cells += [f"<td class='num'>{_flow(f, k)}</td>", f"<td class='num'>{_interval(f, k)}</td>",
-                      f"<td class='{v}'>{v}" + (f" ({f.values[k] / ref[k]:.2f} Q_T)" if ref is not None else "") + "</td>"]
+                      f"<td class='{v}'>{v}" + (f" ({fit_flows(f)[k] / ref[k]:.2f} Q_T)" if ref is not None else "") + "</td>"]
         if truth is not None:
             cells.append(f"<td class='num'>{truth[k]:.0f} ml/min</td>")
         rows.append("<tr><td>" + cells[0] + "</td>" + "".join(cells[1:]) + "</tr>")
@@ -387,8 +396,8 @@ def _flows_table(d, nodes, truth) -> str:
     declared = d.q_threshold_declared
     changed = declared is not None and qt is not None and np.any(np.abs(qt / declared - 1) > 0.01)
     qt_text = "" if qt is None else (
-        f" Flooded thresholds of the bearings as diagnosed: Q_T = {_mlmin(qt[0]):.0f} and {_mlmin(qt[1]):.0f} ml/min"
-        + (f" (as declared: {_mlmin(declared[0]):.0f} and {_mlmin(declared[1]):.0f})" if changed else "")
+        f" Flooded thresholds of the bearings as diagnosed: Q_T = {_and(f'{_mlmin(v):.0f}' for v in qt)} ml/min"
+        + (f" (as declared: {_and(f'{_mlmin(v):.0f}' for v in declared)})" if changed else "")
         + f"; starved below {BAND[0]:g} Q_T, over-supplied above {BAND[1]:g} Q_T.")
     return ("<table><tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr>" + "".join(rows) + "</table>"
             + f"<p class='small'>{foot}.{qt_text} “unbounded”: the record does not limit the flow from above "
@@ -401,7 +410,7 @@ def _candidates_table(d) -> str:
     best = d.candidates[0].aic
     rows = [f"<tr><td>–</td><td>plain model (no effect)</td><td class='num'>{d.before.aic - best:+.1f}</td>"
             f"<td class='num'>{d.before.chi2 / max(d.before.dof, 1):.2f}</td><td>{'yes' if d.before.explained else 'no'}"
-            f"</td><td>–</td><td class='num'>{_mlmin(d.before.values[0]):.0f}, {_mlmin(d.before.values[1]):.0f}</td></tr>"]
+            f"</td><td>–</td><td class='num'>{_flows_cell(d.before)}</td></tr>"]
     added = d.added.label if d.added is not None else None
     for i, c in enumerate(d.candidates, start=1):
         mark = " ★ added" if c.label == added else (" ≈ as good" if c.label in d.ambiguous else "")
@@ -414,9 +423,9 @@ def _candidates_table(d) -> str:
                     f"<td>{escape(c.label)}{escape(mark)}</td><td class='num'>{c.aic - best:+.1f}</td>"
                     f"<td class='num'>{f.chi2 / max(f.dof, 1):.2f}</td><td>{'yes' if c.passes else 'no'}</td>"
                     f"<td>{_effect_parameters(c)}</td>"
-                    f"<td class='num'>{_mlmin(f.values[0]):.0f}, {_mlmin(f.values[1]):.0f}</td></tr>")
+                    f"<td class='num'>{_flows_cell(f)}</td></tr>")
     return ("<table><tr><th>#</th><th>effect</th><th>ΔAIC</th><th>χ²/dof</th><th>passes</th>"
-            "<th>fitted parameters ± 1σ</th><th>Q1, Q2 implied (ml/min)</th></tr>" + "".join(rows) + "</table>"
+            "<th>fitted parameters ± 1σ</th><th>flows implied (ml/min)</th></tr>" + "".join(rows) + "</table>"
             "<p class='small'>Ranked by Akaike's information criterion AIC = χ² + 2k (k: free parameters); ΔAIC "
             "to the best. “passes”: what the effect leaves is noise and model uncertainty (p above the test "
             "level). Two candidates within ΔAIC 4 are not told apart by this record.</p>")

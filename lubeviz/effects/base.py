@@ -184,8 +184,9 @@ class Effect(param.Parameterized):
         new._free = tuple(p for p in self.continuous if p in self.diagnose_free)
         return new
 
-    def placements(self) -> list["Effect"]:
-        """Every placement of this effect (each bearing, plane, channel...): the candidates to try."""
+    def placements(self, *, n_bearings: int, n_planes: int) -> list["Effect"]:
+        """Every placement of this effect on a machine of `n_bearings` fluid-film bearings measured at `n_planes`
+        planes (each bearing, plane, channel...): the candidates to try."""
         return [self]
 
     def scan_nodes(self, rotor) -> tuple[int, ...]:
@@ -308,3 +309,37 @@ def as_array(values: dict, effect: Effect, pname: str, shape) -> np.ndarray:
 
 EFFECTS = Registry()  # the library: every registered effect, by SPEC §7 name
 register = EFFECTS.register
+
+
+# Placements over a machine's own parts (SPEC §8: bearing = 1..N, or "both"/"all"; plane = 1..P; channel = x1..yP)
+MAX_BEARINGS = 6  # SPEC §8: 1 to 6 fluid-film bearings
+MAX_PLANES = 12
+EVERY_BEARING = ("both", "all")  # either word: every fluid-film bearing
+BEARING_CHOICES = ["both", "all", *range(1, MAX_BEARINGS + 1)]
+PLANE_CHOICES = list(range(1, MAX_PLANES + 1))
+CHANNEL_CHOICES = [f"{a}{p}" for p in PLANE_CHOICES for a in "xy"]
+
+
+def on_bearing(choice, k: int) -> bool:
+    """Whether a `bearing` choice (1..N, "both", "all") covers bearing k (0-based)."""
+    return choice in EVERY_BEARING or choice == k + 1
+
+
+def every_bearing_word(n_bearings: int) -> str:
+    """How every bearing is called: "both" for two, "all" otherwise."""
+    return "both" if n_bearings == 2 else "all"
+
+
+def first_bearing(choice) -> int:
+    """The (0-based) bearing a choice names, the first one for every bearing."""
+    return 0 if choice in EVERY_BEARING else int(choice) - 1
+
+
+def check_bearing_choice(choice, machine, what: str) -> None:
+    from ..errors import InputError
+
+    n = len(machine.bearings)
+    if choice not in EVERY_BEARING and not 1 <= int(choice) <= n:
+        raise InputError(f"effect {what}: bearing {choice!r}, but the machine has {n} fluid-film bearings (1..{n}, "
+                         f"or {every_bearing_word(n)})")
+

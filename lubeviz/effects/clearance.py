@@ -5,7 +5,7 @@ from __future__ import annotations
 import param
 
 from ..model.quantity import Quantity
-from .base import Effect, as_array, register
+from .base import BEARING_CHOICES, check_bearing_choice, first_bearing, on_bearing, Effect, as_array, register
 
 
 @register
@@ -26,25 +26,29 @@ class Clearance(Effect):
     diagnose_free = ("clearance_um",)
     separated_by = "the static shaft position (a worn bearing sits lower), or a record at a second speed"
 
-    bearing = param.Selector(default=1, objects=[1, 2, "both"], doc="Bearing whose clearance differs: 1, 2 or both")
+    bearing = param.Selector(default=1, objects=BEARING_CHOICES,
+                             doc="Bearing whose clearance differs: one (1..N) or every one (both, all)")
     clearance_um = Quantity(None, unit="um", allow_None=True, bounds=(20.0, 1000.0),
                                 doc="True radial clearance (um); None: the declared one")
 
     def bearing_change(self, k: int, values: dict, shape) -> dict:
-        if self.bearing != "both" and self.bearing != k + 1:
+        if not on_bearing(self.bearing, k):
             return {}
         if self.clearance_um is None and "clearance_um" not in values:
             return {}
         return {"clearance": 1e-6 * as_array(values, self, "clearance_um", shape)}
 
     def declared(self, pname: str, machine) -> float:
-        k = 0 if self.bearing in (1, "both") else 1
-        return machine.bearings[k].clearance * 1e6
+        return machine.bearings[first_bearing(self.bearing)].clearance * 1e6
 
 
-    def placements(self):
-        return [self.copy(bearing=b) for b in (1, 2)]
+    def bind(self, machine) -> "Clearance":
+        check_bearing_choice(self.bearing, machine, self.effect_name)
+        return self
+
+    def placements(self, *, n_bearings: int, n_planes: int):
+        return [self.copy(bearing=b) for b in range(1, n_bearings + 1)]
 
     def demo(self, machine) -> "Clearance":
-        k = 0 if self.bearing in (1, "both") else 1
+        k = first_bearing(self.bearing)
         return self.shown(clearance_um=round(1.25 * machine.bearings[k].clearance * 1e6, 1))  # worn by 25 %

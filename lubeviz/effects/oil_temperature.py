@@ -8,8 +8,7 @@ import param
 from ..errors import InputError
 from ..model.oil import Oil
 from ..model.quantity import Quantity
-from .base import Effect, as_array, register
-from .viscosity import BEARINGS
+from .base import BEARING_CHOICES, Effect, as_array, every_bearing_word, on_bearing, register
 
 
 @register
@@ -35,7 +34,8 @@ class OilTemperature(Effect):
     oil_viscosity = True
     separated_by = Effect.separated_by
 
-    bearing = param.Selector(default="both", objects=BEARINGS, doc="Bearing(s) whose oil is at this temperature")
+    bearing = param.Selector(default="both", objects=BEARING_CHOICES,
+                             doc="Bearing(s) whose oil is at this temperature: one (1..N) or every one (both, all)")
     temperature_c = Quantity(None, unit="°C", allow_None=True, bounds=(-20.0, 150.0),
                                  doc="Oil temperature in the film (°C); None: the model file's declared one")
     oil = param.ClassSelector(class_=Oil, default=None, allow_None=True, precedence=-1,
@@ -56,7 +56,7 @@ class OilTemperature(Effect):
         return super().declared(pname, machine)
 
     def bearing_change(self, k: int, values: dict, shape) -> dict:
-        if self.bearing != "both" and self.bearing != k + 1:
+        if not on_bearing(self.bearing, k):
             return {}
         if self.temperature_c is None and "temperature_c" not in values:
             return {}
@@ -66,8 +66,8 @@ class OilTemperature(Effect):
         return {"viscosity_factor": np.asarray(self.oil.factor(t), dtype=float)}
 
 
-    def placements(self):
-        return [self.copy(bearing=b) for b in BEARINGS]
+    def placements(self, *, n_bearings: int, n_planes: int):
+        return [self.copy(bearing=b) for b in (every_bearing_word(n_bearings), *range(1, n_bearings + 1))]
 
     def demo(self, machine) -> "OilTemperature":
         bound = self.bind(machine)  # raises for a machine without an [oil]

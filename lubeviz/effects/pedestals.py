@@ -6,9 +6,7 @@ import numpy as np
 import param
 
 from ..model.quantity import Quantity
-from .base import Effect, as_array, register
-
-BEARINGS = ["both", 1, 2]
+from .base import BEARING_CHOICES, Effect, as_array, check_bearing_choice, every_bearing_word, on_bearing, register
 
 
 @register
@@ -32,7 +30,8 @@ class Pedestals(Effect):
     diagnose_free = ("stiffness_n_m",)
     separated_by = "a housing vibration measurement (seismic probe) or records at several speeds"
 
-    bearing = param.Selector(default="both", objects=BEARINGS, doc="Bearing(s) on soft pedestals: both, 1 or 2")
+    bearing = param.Selector(default="both", objects=BEARING_CHOICES,
+                             doc="Bearing(s) on soft pedestals: one (1..N) or every one (both, all)")
     mass_kg = Quantity(50.0, unit="kg", bounds=(0.0, 5000.0), doc="Housing mass (kg)")
     stiffness_n_m = Quantity(2e8, unit="N/m", bounds=(1e5, 1e12),
                              doc="Pedestal stiffness to ground, each direction (N/m)")
@@ -40,7 +39,7 @@ class Pedestals(Effect):
                             doc="Pedestal damping to ground, each direction (N*s/m)")
 
     def applies(self, k: int) -> bool:
-        return self.bearing == "both" or self.bearing == k + 1
+        return on_bearing(self.bearing, k)
 
     def support(self, k: int, B: np.ndarray, omega: float, values: dict, shape):
         """(B_eff, T) for bearing k (0-based), or None: the film B in series with the pedestal."""
@@ -57,5 +56,9 @@ class Pedestals(Effect):
         return tuple(float(values.get(p, getattr(self, p))) for p in ("mass_kg", "stiffness_n_m", "damping_ns_m"))
 
 
-    def placements(self):
-        return [self.copy(bearing=b) for b in BEARINGS]
+    def bind(self, machine) -> "Pedestals":
+        check_bearing_choice(self.bearing, machine, self.effect_name)
+        return self
+
+    def placements(self, *, n_bearings: int, n_planes: int):
+        return [self.copy(bearing=b) for b in (every_bearing_word(n_bearings), *range(1, n_bearings + 1))]

@@ -6,9 +6,9 @@ import numpy as np
 import param
 
 from ..model.quantity import Quantity
-from .base import Effect, as_array, register
+from .base import CHANNEL_CHOICES, Effect, as_array, register
 
-CHANNELS = ["x1", "y1", "x2", "y2"]
+CHANNELS = CHANNEL_CHOICES
 
 
 @register
@@ -29,7 +29,7 @@ class ProbeGain(Effect):
     diagnose_free = ("gain",)
     separated_by = "a probe calibration check, or a record at a second speed (a probe error does not move with the machine)"
 
-    channel = param.Selector(default="x1", objects=CHANNELS, doc="Probe channel: x1, y1, x2 or y2")
+    channel = param.Selector(default="x1", objects=CHANNELS, doc="Probe channel: x1, y1, ... xP, yP (P planes)")
     gain = Quantity(1.1, unit="", bounds=(0.3, 3.0), doc="Actual over declared sensitivity")
 
     def probe_matrix(self, plane: int, angles_deg, values: dict, shape):
@@ -45,5 +45,5 @@ class ProbeGain(Effect):
         G[..., idx % 2, idx % 2] = g
         return np.linalg.inv(P) @ G @ P
 
-    def placements(self):
-        return [self.copy(channel=c) for c in CHANNELS]
+    def placements(self, *, n_planes: int, n_bearings: int):
+        return [self.copy(channel=c) for c in CHANNELS[:2 * n_planes]]

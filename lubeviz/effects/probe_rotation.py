@@ -6,7 +6,7 @@ import numpy as np
 import param
 
 from ..model.quantity import Quantity
-from .base import Effect, as_array, register
+from .base import PLANE_CHOICES, Effect, as_array, register
 
 
 def rotation(angle_rad) -> np.ndarray:
@@ -32,7 +32,7 @@ class ProbeRotation(Effect):
     diagnose_free = ("angle_deg",)
     separated_by = "checking the probes' mounting angles, or a record at a second speed (a probe error does not move with the machine)"
 
-    plane = param.Selector(default=1, objects=[1, 2], doc="Measurement plane of the rotated pair")
+    plane = param.Selector(default=1, objects=PLANE_CHOICES, doc="Measurement plane of the rotated pair (1..P)")
     angle_deg = Quantity(5.0, unit="deg", bounds=(-45.0, 45.0), doc="Rotation of the pair, + from +X towards +Y (deg)")
 
     def probe_matrix(self, plane: int, angles_deg, values: dict, shape):
@@ -41,5 +41,5 @@ class ProbeRotation(Effect):
         return rotation(-np.radians(as_array(values, self, "angle_deg", shape)))
 
 
-    def placements(self):
-        return [self.copy(plane=p) for p in (1, 2)]
+    def placements(self, *, n_planes: int, n_bearings: int):
+        return [self.copy(plane=p) for p in range(1, n_planes + 1)]

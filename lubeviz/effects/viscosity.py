@@ -5,9 +5,7 @@ from __future__ import annotations
 import param
 
 from ..model.quantity import Quantity
-from .base import Effect, as_array, register
-
-BEARINGS = ["both", 1, 2]
+from .base import BEARING_CHOICES, Effect, as_array, check_bearing_choice, every_bearing_word, on_bearing, register
 
 
 @register
@@ -33,16 +31,21 @@ class Viscosity(Effect):
     oil_viscosity = True
     separated_by = "the static shaft position, a record at a second speed, or an oil temperature reading"
 
-    bearing = param.Selector(default="both", objects=BEARINGS, doc="Bearing(s) whose oil differs: both, 1 or 2")
+    bearing = param.Selector(default="both", objects=BEARING_CHOICES,
+                             doc="Bearing(s) whose oil differs: one (1..N) or every one (both, all)")
     factor = Quantity(1.0, bounds=(0.4, 2.5), unit="", doc="True / declared viscosity")
 
     def bearing_change(self, k: int, values: dict, shape) -> dict:
-        if self.bearing != "both" and self.bearing != k + 1:
+        if not on_bearing(self.bearing, k):
             return {}
         return {"viscosity_factor": as_array(values, self, "factor", shape)}
 
-    def placements(self):
-        return [self.copy(bearing=b) for b in BEARINGS]
+    def bind(self, machine) -> "Viscosity":
+        check_bearing_choice(self.bearing, machine, self.effect_name)
+        return self
+
+    def placements(self, *, n_bearings: int, n_planes: int):
+        return [self.copy(bearing=b) for b in (every_bearing_word(n_bearings), *range(1, n_bearings + 1))]
 
     def demo(self, machine) -> "Viscosity":
         return self.shown(factor=0.7).bind(machine)  # oil 30 % thinner: what a hot day does

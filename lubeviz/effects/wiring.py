@@ -79,8 +79,9 @@ class Wiring(Effect):
 
         return apply(d), (None if static is None else apply(static))
 
-    def placements(self):
-        return [self.copy(fault=f) for f in FAULTS]
+    def placements(self, *, n_planes: int, n_bearings: int):
+        """Its mix-ups are those of two planes' four channels (SPEC §6 records): none on another machine's planes."""
+        return [self.copy(fault=f) for f in FAULTS] if n_planes == 2 else []
 
     def summary(self) -> str:
         return f"a measurement mix-up: {WORDS[self.fault]}"

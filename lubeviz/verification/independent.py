@@ -1,8 +1,9 @@
 """Test records made along another path than the identification's model (issue 11, item 5).
 
 `make_record(IndependentSpec(...))` builds one measured record (SPEC §6) of the machine with
-supply flows Q1, Q2 and optional effects, and returns it with the truth it was made from. How the
-path differs from the identification's model (a list also in `lubeviz.verification`):
+supply flows Q1, Q2 (or Q1..QN for a machine of N fluid-film bearings, SPEC §8) and optional effects, and
+returns it with the truth it was made from. How the path differs from the identification's model (a list
+also in `lubeviz.verification`):
 
 | stage    | identification's model                         | this source                                        |
 |----------|------------------------------------------------|----------------------------------------------------|
@@ -14,7 +15,18 @@ path differs from the identification's model (a list also in `lubeviz.verificati
 | effects  | lubeviz.effects                                | declared and applied here (effects.py)              |
 
 Node numbers (record planes, effect nodes) are the machine's own (paper 1..21); on the split rotor
-node n is node 2n - 1.
+node n is node 2n - 1. The machine's constant-coefficient supports (SPEC §8 [[supports]]) are in the split
+rotor's K and C at their node (the shaft damping is beta times the shaft's own stiffness only).
+
+Static loads on the films. Two fluid-film bearings and no other support (statically determinate): the
+reactions of the split rotor pinned at the bearing centres under its weight (and any `side_load`), whatever
+the films. Otherwise (3+ bearings, or bearings and supports) the coupled equilibrium of the split rotor on
+its supports and on each film, solved here (`static_equilibrium`): every film on the fine mesh at its actual
+supply (starved or not) and the record's speed, under its full load vector (a horizontal part included),
+each bearing centre at its offset (dX, dY); Newton on the films' reactions with each film's K (the shaft
+condensed on the journals), until the shaft pinned where the films hold the journals carries its loads with
+exactly the films' forces (relative residual < `STATIC_TOLERANCE`). Not `lubeviz.rotor.statics.
+coupled_statics` (flooded films on the model's mesh at the operating speed, the model's rotor).
 
 Static position (`static=True`, SPEC §6 `static: absolute`): each probe reads
     s = gain * (GAP + u(theta + rotation) . (p_static + d(t)))
@@ -22,6 +34,8 @@ with u(a) = (cos a, sin a), GAP = 1 mm, p_static the shaft's static position at 
 dynamic motion; the rest reading is gain * (GAP + u . p_rest). p_static solves the shaft's static
 bending under gravity with each journal held at its film equilibrium (so at a bearing centre it is
 that equilibrium, relative to the bearing centre); p_rest likewise with the journals at (0, -c_true).
+With bearing offsets the journals are held at offset + position and a plane reads relative to the centre
+of the bearing whose housing carries its probes (the nearest along the shaft, as the model takes it).
 Probes on a pedestal ride the housing, which sags equally at rest and running: not modelled in the
 DC. With `static=False` the readings carry the dynamic motion only.
 
@@ -38,6 +52,7 @@ duration_s = 5 (1 s skipped) suits well-damped points (75 Hz near Q_T: e^-12); c
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import time
@@ -49,7 +64,7 @@ from pathlib import Path
 import numpy as np
 import scipy.linalg
 
-from ..errors import InputError
+from ..errors import ConvergenceError, InputError
 from ..model.machine import DEFAULT_MACHINE, load_machine
 from ..rotor.assembly import Rotor, assemble
 from ..rotor.elements import DOF_PER_NODE, RigidDisc, TimoshenkoBeam
@@ -57,7 +72,7 @@ from ..rotor.statics import gravity_load, simple_support_reactions
 from ..signals.noise import add_noise
 from ..signals.records import Record, record_from_arrays, write_record
 from . import equilibria
-from .effects import bearings_of, normalize_effects
+from .effects import normalize_effects
 from .newmark import amplification, integrate_harmonic
 from ..units import MLMIN_PER_M3S
 
@@ -76,15 +91,21 @@ def fine_node(node: int) -> int:
 class IndependentSpec:
     """What to record: speed (Hz), supply flows (ml/min), planes, probes, effects, noise, seed.
 
+    Flows: `q1_mlmin`, `q2_mlmin` for a machine of two fluid-film bearings, or `q_mlmin` = every fluid-film
+    bearing's flow in the model file's order (any machine, SPEC §8; one of the two forms). Given for a
+    two-bearing machine, `q_mlmin` is folded into `q1_mlmin`, `q2_mlmin` (one spec, one form: equal specs
+    and the same cached keys either way); for any other count `q1_mlmin`, `q2_mlmin` are None.
+    `flows_mlmin` is every bearing's flow in either case. `nodes`: the record's two planes (a record holds
+    two, whatever the machine's count of bearings or planes).
     `effects`: (name, {params}) pairs or 'NAME:key=value,...' strings (SPEC §7 names, see
-    `lubeviz.verification.effects`). `snr_db=None`: no noise. `static`: keep the DC gap (SPEC §6
-    `static: absolute`). `total_s` is integrated from rest, the last `duration_s` kept.
-    `machine`: a model file (default the paper's machine).
+    `lubeviz.verification.effects`; `bearing = both` means every fluid-film bearing). `snr_db=None`: no
+    noise. `static`: keep the DC gap (SPEC §6 `static: absolute`). `total_s` is integrated from rest, the
+    last `duration_s` kept. `machine`: a model file (default the paper's machine).
     """
 
     speed_hz: float
-    q1_mlmin: float
-    q2_mlmin: float
+    q1_mlmin: float | None = None
+    q2_mlmin: float | None = None
     nodes: tuple[int, int] = (6, 20)
     probe_angles_deg: tuple[tuple[float, float], tuple[float, float]] = X_Y
     effects: tuple = ()
@@ -95,10 +116,14 @@ class IndependentSpec:
     seed: int = 0
     sample_rate_hz: float = 1.0e4
     machine: str | None = None
+    q_mlmin: tuple | None = None
 
     def __post_init__(self):
         put = functools.partial(object.__setattr__, self)
-        for name in ("speed_hz", "q1_mlmin", "q2_mlmin", "duration_s", "total_s", "sample_rate_hz"):
+        for name in ("speed_hz", None, "duration_s", "total_s", "sample_rate_hz"):
+            if name is None:  # the flows, in their old place among the numbers
+                self._flows(put)
+                continue
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) \
                     or not (math.isfinite(v) and v > 0):
@@ -124,6 +149,51 @@ class IndependentSpec:
         put("effects", normalize_effects(self.effects))
         put("static", bool(self.static))
         put("seed", int(self.seed))
+
+    def _flows(self, put) -> None:
+        """Check the flows against the machine's fluid-film bearings and store them in their one form."""
+
+        def positive(name, v):
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) \
+                    or not (math.isfinite(v) and v > 0):
+                raise InputError(f"IndependentSpec.{name} = {v!r}; expected a positive number")
+            return float(v)
+
+        n = len(_machine(self.machine).bearings)
+        where = f"the machine {self.machine or DEFAULT_MACHINE} has {n} fluid-film bearing(s)"
+        if self.q_mlmin is None:
+            if n != 2:
+                raise InputError(f"IndependentSpec.q_mlmin: {where}; give q_mlmin = (Q1, ..., Q{n}) ml/min, each "
+                                 "bearing's flow in file order (q1_mlmin, q2_mlmin are for two bearings)")
+            for name in ("q1_mlmin", "q2_mlmin"):
+                if getattr(self, name) is None:
+                    raise InputError(f"IndependentSpec.{name} = None; expected a positive number (or give "
+                                     "q_mlmin = (Q1, Q2))")
+                put(name, positive(name, getattr(self, name)))
+            return
+        if self.q1_mlmin is not None or self.q2_mlmin is not None:
+            raise InputError("IndependentSpec: q_mlmin with q1_mlmin/q2_mlmin; give the flows one way")
+        if isinstance(self.q_mlmin, (str, bytes)) or not isinstance(self.q_mlmin, (Sequence, np.ndarray)):
+            raise InputError(f"IndependentSpec.q_mlmin = {self.q_mlmin!r}; expected a sequence of {n} flows in ml/min")
+        flows = tuple(positive(f"q_mlmin[{k}]", v) for k, v in enumerate(self.q_mlmin))
+        if len(flows) != n:
+            raise InputError(f"IndependentSpec.q_mlmin has {len(flows)} flow(s) ({list(flows)}); {where}: expected "
+                             f"{n}, each bearing's flow in file order")
+        if n == 2:  # the two-bearing form: one spec, one form
+            put("q1_mlmin", flows[0])
+            put("q2_mlmin", flows[1])
+            put("q_mlmin", None)
+        else:
+            put("q_mlmin", flows)
+
+    @property
+    def flows_mlmin(self) -> tuple[float, ...]:
+        """Every fluid-film bearing's supply flow (ml/min), in the model file's order."""
+        return (self.q1_mlmin, self.q2_mlmin) if self.q_mlmin is None else tuple(self.q_mlmin)
+
+    def flows_text(self) -> str:
+        """'Q = (q1, q2, ...) ml/min' for messages."""
+        return "Q = (" + ", ".join(f"{q:g}" for q in self.flows_mlmin) + ") ml/min"
 
     def effects_text(self) -> list[str]:
         """The effects in SPEC §7 'NAME:key=value' form."""
@@ -157,8 +227,72 @@ def split_rotor(path: str | None = None, shaft_damping_beta: float = SHAFT_DAMPI
              if getattr(d, "lumped", False) else
              RigidDisc.annular(fine_node(d.node), d.width, d.outer_diameter, d.bore_diameter, m.density)
              for d in m.discs]
-    return assemble(beams, discs, bearing_nodes=[fine_node(b.node) for b in m.bearings],
-                    shaft_damping_beta=shaft_damping_beta)
+    rotor = assemble(beams, discs, bearing_nodes=[fine_node(b.node) for b in m.bearings],
+                     shaft_damping_beta=shaft_damping_beta)
+    return _add_supports(rotor, m)
+
+
+def _add_supports(rotor: Rotor, machine) -> Rotor:
+    """`rotor` with the machine's constant-coefficient supports (SPEC §8 [[supports]]; Lund's sign: the support's
+    force on the shaft is -K x - C v) added to K and C at the split rotor's node, x and y; the shaft damping
+    (beta K, already in C) stays the shaft's own."""
+    supports = tuple(getattr(machine, "supports", ()))
+    if not supports:
+        return rotor
+    K, C = rotor.K.copy(), rotor.C.copy()
+    added = []
+    for k, s in enumerate(supports, start=1):
+        node = rotor.check_node(fine_node(s.node), f"[[supports]] {k} node (split rotor)")
+        stiffness, damping = np.asarray(s.stiffness, dtype=float), np.asarray(s.damping, dtype=float)
+        if stiffness.shape != (2, 2) or damping.shape != (2, 2) \
+                or not (np.all(np.isfinite(stiffness)) and np.all(np.isfinite(damping))):
+            raise InputError(f"[[supports]] {k} ({s.name}): stiffness and damping must be finite 2x2 matrices")
+        i = np.ix_(_xy(node), _xy(node))
+        K[i] += stiffness
+        C[i] += damping
+        added.append((node, stiffness, damping))
+    return dataclasses.replace(rotor, K=K, C=C, supports=tuple(added))
+
+
+def _determinate(machine) -> bool:
+    """Two fluid-film bearings and no other support: the static loads are the lever rule's, whatever the films."""
+    return len(machine.bearings) == 2 and not tuple(getattr(machine, "supports", ()))
+
+
+def _offsets(machine) -> np.ndarray:
+    """(N, 2) each bearing centre's offset (dX, dY) from the straight line, m (SPEC §8 offset_um)."""
+    return np.array([tuple(getattr(b, "offset", (0.0, 0.0))) for b in machine.bearings], dtype=float).reshape(-1, 2)
+
+
+def _bearings_of(params, n: int) -> tuple[int, ...]:
+    """0-based bearing indices an effect with a `bearing` parameter applies to: `both` is every one of the
+    machine's n fluid-film bearings."""
+    if params["bearing"] == "both":
+        return tuple(range(n))
+    k = int(params["bearing"]) - 1
+    if not 0 <= k < n:
+        raise InputError(f"effect bearing = {params['bearing']!r}; the machine has {n} fluid-film bearing(s)")
+    return (k,)
+
+
+def _plane_housing(rotor: Rotor, node: int) -> int:
+    """The bearing (0-based) whose housing carries the probes of a plane at machine node `node`: the nearest
+    along the shaft (the first of two as near)."""
+    z = rotor.node_z
+    at = z[fine_node(node) - 1]
+    return int(np.argmin([abs(z[b - 1] - at) for b in rotor.bearing_nodes]))
+
+
+def _check_machine(machine) -> None:
+    """Refuse what this source does not build: a pedestal declared in the model file (give the pedestals effect)."""
+    for k, b in enumerate(machine.bearings, start=1):
+        if getattr(b, "pedestal", None) is not None:
+            raise InputError(f"{machine.source or machine.name} [[bearings]] {k} ({b.name}): a pedestal in the model "
+                             "file; the independent source takes it as the pedestals effect")
+    for k, s in enumerate(getattr(machine, "supports", ()), start=1):
+        if getattr(s, "pedestal", None) is not None:
+            raise InputError(f"{machine.source or machine.name} [[supports]] {k} ({s.name}): a pedestal under a "
+                             "constant support is not built by the independent source")
 
 
 def _xy(node: int) -> np.ndarray:
@@ -211,9 +345,11 @@ def _side_force(spec, rotor: Rotor) -> np.ndarray | None:
 
 
 def _bow_shape(rotor: Rotor, node: int) -> tuple[np.ndarray, np.ndarray]:
-    """s(z) = sin(pi (z - z1)/(z2 - z1)) between the bearing centres (0 outside) and its slope."""
+    """s(z) = sin(pi (z - z1)/(z2 - z1)) between the bearing centres (the outermost ones, 0 outside) and its
+    slope."""
     z = rotor.node_z
-    z1, z2 = (z[b - 1] for b in rotor.bearing_nodes[:2])
+    zb = [z[b - 1] for b in rotor.bearing_nodes]
+    z1, z2 = min(zb), max(zb)
     inside = (z >= z1) & (z <= z2)
     arg = math.pi * (z - z1) / (z2 - z1)
     s = np.where(inside, np.sin(arg), 0.0)
@@ -240,7 +376,7 @@ def _system(spec: IndependentSpec, rotor: Rotor, machine, omega: float, films) -
     peds = {}
     for name, p in spec.effects:
         if name == "pedestals":
-            for k in bearings_of(p):
+            for k in _bearings_of(p, len(rotor.bearing_nodes)):
                 if k in peds:
                     raise InputError(f"effect pedestals: bearing {k + 1} is given a pedestal twice")
                 peds[k] = p
@@ -304,24 +440,153 @@ def _system(spec: IndependentSpec, rotor: Rotor, machine, omega: float, films) -
     return _Build(M=M, C=C, K=K, F=F, housing=housing)
 
 
-def _films(spec: IndependentSpec, machine, rotor: Rotor, omega: float, use_cache: bool):
-    """Each bearing on the fine mesh with the effects' viscosity/clearance, solved at its supply."""
-    reactions = simple_support_reactions(rotor, machine.gravity).forces
-    loads = np.stack([np.zeros_like(reactions), -reactions], axis=-1)  # what each film carries (N)
-    side = _side_force(spec, rotor)
-    if side is not None:
-        loads = loads - _pinned_reactions(rotor, side)
+STATIC_TOLERANCE = 1e-8  # the coupled statics' residual (the films' forces against the pinned shaft's reactions)
+STATIC_FLOOR = 1e-6  # ... or below this once it stops halving: the films' own tolerance (1e-9 of the load, times
+# the shaft's stiffness over the film's) can hold it above STATIC_TOLERANCE on a stiff shaft
+STATIC_MAX_ITER = 30
+
+
+@dataclass(frozen=True)
+class StaticEquilibrium:
+    """The static equilibrium of the split rotor on its films (and supports): `loads` (N, 2) what each film
+    carries, [Wx, Wy] N (the film's force on its journal is -W), `positions` (N, 2) the journals' positions from
+    their bearing centres (m), `films` each bearing's `equilibria.FilmPoint` under its load, `support_forces`
+    (n_supports, 2) each constant support's force on the shaft (N), `iterations` (0: the determinate lever rule),
+    `residual` the largest difference between a film's force and the reaction of the shaft pinned where the films
+    hold the journals, relative to the largest load (0 when determinate)."""
+
+    loads: np.ndarray
+    positions: np.ndarray
+    films: tuple
+    support_forces: np.ndarray
+    iterations: int
+    residual: float
+    determinate: bool
+
+
+def _bearing_changes(effects, machine) -> list[dict]:
+    """Each bearing's viscosity and clearance with the effects' changes."""
+    n = len(machine.bearings)
     changes = [{"viscosity": b.viscosity, "clearance": b.clearance} for b in machine.bearings]
-    for name, p in spec.effects:
-        for k in bearings_of(p) if name in ("viscosity", "clearance") else ():
+    for name, p in effects:
+        for k in _bearings_of(p, n) if name in ("viscosity", "clearance") else ():
             if name == "viscosity":
                 changes[k]["viscosity"] *= p["factor"]
             else:
                 changes[k]["clearance"] = 1e-6 * p["clearance_um"]
-    flows = (spec.q1_mlmin / MLMIN_PER_M3S, spec.q2_mlmin / MLMIN_PER_M3S)
-    films = [equilibria.film_point(equilibria.fine_bearing(b, **ch), omega, tuple(w), q, use_cache=use_cache)
-             for b, ch, w, q in zip(machine.bearings, changes, loads, flows)]
-    return films, changes, -loads[:, 1]
+    return changes
+
+
+def _film_bearings(machine, changes, mesh=None) -> list:
+    """The bearings on the independent source's fine mesh (`mesh` = (n_circumferential, n_axial): another one,
+    groove refinement still 1, e.g. a coarser one for a quick check of the statics)."""
+    if mesh is None:
+        return [equilibria.fine_bearing(b, **ch) for b, ch in zip(machine.bearings, changes)]
+    n_c, n_a = (int(v) for v in mesh)
+    return [b.copy(n_circumferential=n_c, n_axial=n_a, groove_refinement=equilibria.GROOVE_REFINEMENT, **ch)
+            for b, ch in zip(machine.bearings, changes)]
+
+
+def _support_forces(rotor: Rotor, q: np.ndarray) -> np.ndarray:
+    """(n_supports, 2) each constant support's force on the shaft, -K x, under the static shape q."""
+    return np.array([-(k @ q[_xy(node)]) for node, k, _ in rotor.supports]).reshape(-1, 2)
+
+
+def _statics(machine, rotor: Rotor, omega: float, bearings, flows, side, use_cache: bool) -> StaticEquilibrium:
+    """The films' static loads and equilibria: the lever rule when determinate (today's path, unchanged), else the
+    coupled equilibrium (`_coupled_statics`)."""
+    if _determinate(machine):
+        reactions = simple_support_reactions(rotor, machine.gravity).forces
+        loads = np.stack([np.zeros_like(reactions), -reactions], axis=-1)  # what each film carries (N)
+        if side is not None:
+            loads = loads - _pinned_reactions(rotor, side)
+        films = [equilibria.film_point(b, omega, tuple(w), q, use_cache=use_cache)
+                 for b, w, q in zip(bearings, loads, flows)]
+        return StaticEquilibrium(loads=loads, positions=np.array([f.position for f in films]), films=tuple(films),
+                                 support_forces=np.zeros((0, 2)), iterations=0, residual=0.0, determinate=True)
+    return _coupled_statics(machine, rotor, omega, bearings, flows, side, use_cache)
+
+
+def _coupled_statics(machine, rotor: Rotor, omega: float, bearings, flows, side, use_cache: bool) -> StaticEquilibrium:
+    """The statically indeterminate shaft on its films and supports (SPEC §8), on this source's own terms.
+
+    The split rotor (its supports in K) condensed on the journals' x, y: held at x, the journals take the
+    reactions R(x) = R0 + S x (the force of the journals on the shaft; R0 the reactions pinned at the straight
+    line under gravity and any side load). Each film under the load W_k = -R_k (its full vector) puts its journal
+    at p_k from its bearing centre d_k (the offset), with stiffness K_k. Newton on R: the residual
+    r = R - R(d + p(R)), dr/dR = I + S K^-1, so with p' = p + dp, dp = (S + K)^-1 r, the next R = R - K dp.
+    Starts from the stiff-film limit (journals at the bearing centres); ends when |r| < STATIC_TOLERANCE |R| (or
+    below STATIC_FLOOR once it stops halving). Each step solves every film (fine mesh, actual supply, cached on
+    disk); the answer's films are those solved at the loads returned."""
+    n = len(bearings)
+    fixed = np.concatenate([_xy(b) for b in rotor.bearing_nodes])
+    free = np.setdiff1d(np.arange(rotor.n_dof), fixed)
+    F = gravity_load(rotor, machine.gravity)
+    if side is not None:
+        F = F + side
+    K = rotor.K
+    solved = np.linalg.solve(K[np.ix_(free, free)], np.column_stack([F[free], K[np.ix_(free, fixed)]]))
+    R0 = K[np.ix_(fixed, free)] @ solved[:, 0] - F[fixed]
+    S = K[np.ix_(fixed, fixed)] - K[np.ix_(fixed, free)] @ solved[:, 1:]
+    d = _offsets(machine).ravel()
+    R = R0 + S @ d  # the stiff-film limit: journals pinned at the bearing centres
+    scale = float(np.max(np.abs(R)))
+    residual = math.inf
+    for it in range(1, STATIC_MAX_ITER + 1):
+        loads = -R.reshape(n, 2)
+        try:
+            films = [equilibria.film_point(b, omega, tuple(w), q, use_cache=use_cache)
+                     for b, w, q in zip(bearings, loads, flows)]
+        except ConvergenceError as exc:
+            raise ConvergenceError(f"independent statics, step {it}: loads {np.round(loads, 1).tolist()} N: {exc}") \
+                from None
+        p = np.concatenate([f.position for f in films])
+        r = R - (R0 + S @ (d + p))
+        last, residual = residual, float(np.max(np.abs(r)) / max(float(np.max(np.abs(R))), 1e-12 * scale))
+        if residual < STATIC_TOLERANCE or (residual < STATIC_FLOOR and residual > 0.5 * last):
+            break
+        Kf = scipy.linalg.block_diag(*[f.K for f in films])
+        dp = np.linalg.solve(S + Kf, r)
+        R = R - Kf @ dp
+    else:
+        raise ConvergenceError(f"independent statics: the films' forces still differ from the shaft's reactions by "
+                               f"{residual:.1e} (relative) after {STATIC_MAX_ITER} steps")
+    positions = p.reshape(n, 2)
+    q = _static_shape(rotor, machine.gravity, positions + _offsets(machine), side)
+    return StaticEquilibrium(loads=loads, positions=positions, films=tuple(films),
+                             support_forces=_support_forces(rotor, q), iterations=it, residual=residual,
+                             determinate=False)
+
+
+def static_equilibrium(machine: str | None = None, speed_hz: float | None = None, q_mlmin=None, *, effects=(),
+                       mesh=None, use_cache: bool = True) -> StaticEquilibrium:
+    """The independent source's static equilibrium of `machine` (a model file, default the paper's) at `speed_hz`
+    (default its operating speed) and supply flows `q_mlmin` (every fluid-film bearing's, file order), with
+    the effects that change it (viscosity, clearance, side_load). `mesh` (n_circumferential, n_axial): the films
+    on another mesh than the fine one (a quick check; records always use the fine mesh). What `make_record`
+    uses for the same spec (with mesh=None)."""
+    m = _machine(machine)
+    _check_machine(m)
+    rotor = split_rotor(machine)
+    speed = m.operating_speed if speed_hz is None else float(speed_hz)
+    if q_mlmin is None or isinstance(q_mlmin, (str, bytes)) or not isinstance(q_mlmin, (Sequence, np.ndarray)):
+        raise InputError(f"static_equilibrium: q_mlmin = {q_mlmin!r}; expected every fluid-film bearing's flow "
+                         "(ml/min) in file order")
+    spec = IndependentSpec(speed_hz=speed, q_mlmin=tuple(q_mlmin), effects=effects, machine=machine)
+    omega = 2.0 * math.pi * spec.speed_hz
+    bearings = _film_bearings(m, _bearing_changes(spec.effects, m), mesh)
+    flows = tuple(q / MLMIN_PER_M3S for q in spec.flows_mlmin)
+    return _statics(m, rotor, omega, bearings, flows, _side_force(spec, rotor), use_cache)
+
+
+def _films(spec: IndependentSpec, machine, rotor: Rotor, omega: float, use_cache: bool):
+    """Each bearing on the fine mesh with the effects' viscosity/clearance, solved at its supply under its static
+    load (`_statics`)."""
+    changes = _bearing_changes(spec.effects, machine)
+    flows = tuple(q / MLMIN_PER_M3S for q in spec.flows_mlmin)
+    statics = _statics(machine, rotor, omega, _film_bearings(machine, changes), flows, _side_force(spec, rotor),
+                       use_cache)
+    return list(statics.films), changes, statics
 
 
 def _probes(spec: IndependentSpec):
@@ -348,16 +613,17 @@ def _resolve(readings, declared_deg):
 def _prepare(spec: IndependentSpec, use_cache: bool):
     """Films, the linear system and its eigenvalues (first-order form) of one spec."""
     machine = _machine(spec.machine)
+    _check_machine(machine)
     rotor = split_rotor(spec.machine)
     for node in spec.nodes:
         rotor.check_node(fine_node(node), "record node")
     omega = 2.0 * math.pi * spec.speed_hz
-    films, changes, reactions = _films(spec, machine, rotor, omega, use_cache)
+    films, changes, statics = _films(spec, machine, rotor, omega, use_cache)
     sys = _system(spec, rotor, machine, omega, films)
     n = len(sys.M)
     lam = scipy.linalg.eigvals(np.block([[np.zeros((n, n)), np.eye(n)],
                                          [-np.linalg.solve(sys.M, sys.K), -np.linalg.solve(sys.M, sys.C)]]))
-    return machine, rotor, omega, films, changes, reactions, sys, lam
+    return machine, rotor, omega, films, changes, statics, sys, lam
 
 
 def max_growth_rate(spec: IndependentSpec, *, use_cache: bool = True) -> float:
@@ -368,17 +634,23 @@ def max_growth_rate(spec: IndependentSpec, *, use_cache: bool = True) -> float:
 
 def _truth(spec: IndependentSpec, prepared) -> dict:
     """Everything about `spec` that needs no time integration: films, static readings, steady 1X."""
-    machine, rotor, omega, films, changes, reactions, sys, lam = prepared
+    machine, rotor, omega, films, changes, statics, sys, lam = prepared
     shaft = [_xy(fine_node(n)) for n in spec.nodes]
-    ref = [sys.housing.get(k) for k in range(2)]
+    housing = [_plane_housing(rotor, n) for n in spec.nodes]  # the bearing whose housing carries each plane's probes
+    ref = [sys.housing.get(k) for k in housing]
     Qs = np.linalg.solve(sys.K - omega**2 * sys.M + 1j * omega * sys.C, sys.F)  # steady state, all DOFs
     D = np.array([Qs[s] - (Qs[r] if r is not None else 0.0) for s, r in zip(shaft, ref)])  # (plane, xy)
 
-    # static positions (relative to the bearing centres' line) at the planes, running and at rest
+    # static positions at the planes, running and at rest: the shaft held at each journal's place (its bearing
+    # centre's offset + its position there), read from the centre of the bearing that carries the probes
     pos = np.array([f.position for f in films])
     clear = [ch["clearance"] for ch in changes]
-    p_run = _static_shape(rotor, machine.gravity, pos, _side_force(spec, rotor))[np.array(shaft)]
-    p_rest = _static_shape(rotor, machine.gravity, [(0.0, -c) for c in clear], _side_force(spec, rotor))[np.array(shaft)]
+    offsets = _offsets(machine)
+    side = _side_force(spec, rotor)
+    q_run = _static_shape(rotor, machine.gravity, pos + offsets, side)
+    p_run = q_run[np.array(shaft)] - offsets[housing]
+    p_rest = _static_shape(rotor, machine.gravity, np.array([(0.0, -c) for c in clear]) + offsets,
+                           side)[np.array(shaft)] - offsets[housing]
 
     angles, gain = _probes(spec)
     u = np.stack([np.cos(angles), np.sin(angles)], axis=-1)  # (plane, probe, xy): where each probe points
@@ -390,12 +662,16 @@ def _truth(spec: IndependentSpec, prepared) -> dict:
     phi = np.where(phi <= -0.5 * np.pi, phi + np.pi, phi)
     return {
         "speed_hz": spec.speed_hz, "q1_mlmin": spec.q1_mlmin, "q2_mlmin": spec.q2_mlmin,
+        "q_mlmin": list(spec.flows_mlmin),
         "effects": [(name, dict(p)) for name, p in spec.effects],
         "journal_positions_m": pos, "static_positions_m": p_run, "rest_positions_m": p_rest,
         "static_readings_m": gain * (GAP + np.einsum("kpj,kj->kp", u, p_run)),
         "rest_readings_m": gain * (GAP + np.einsum("kpj,kj->kp", u, p_rest)), "gap_m": GAP,
         "clearance_m": clear, "viscosity_pa_s": [ch["viscosity"] for ch in changes],
-        "bearing_loads_n": np.asarray(reactions, float),
+        "bearing_loads_n": -np.asarray(statics.loads, float)[:, 1],
+        "bearing_load_vectors_n": np.asarray(statics.loads, float), "support_forces_n": statics.support_forces,
+        "static_iterations": statics.iterations, "static_residual": statics.residual,
+        "plane_bearings": housing,
         "K": np.array([f.K for f in films]), "C": np.array([f.C for f in films]),
         "side_leakage_mlmin": [f.side_leakage * MLMIN_PER_M3S for f in films],
         "steady_xy_m": xy, "steady_true_xy_m": D, "zf": zf, "zb": zb, "fb": np.abs(zf) / np.abs(zb),
@@ -420,8 +696,8 @@ def make_record(spec: IndependentSpec, *, set_name: str | None = None, use_cache
     lam, sys, omega = prepared[-1], prepared[-2], prepared[2]
     t_film = time.perf_counter()
     if lam.real.max() >= 0.0:
-        raise InputError(f"the machine is unstable at {spec.speed_hz:g} Hz with Q = ({spec.q1_mlmin:g}, "
-                         f"{spec.q2_mlmin:g}) ml/min and effects {spec.effects_text()} (a mode grows at "
+        raise InputError(f"the machine is unstable at {spec.speed_hz:g} Hz with {spec.flows_text()} "
+                         f"and effects {spec.effects_text()} (a mode grows at "
                          f"{lam.real.max():.3g} 1/s): no steady record exists")
     truth = _truth(spec, prepared)
     shaft, ref, Qs = truth.pop("_shaft"), truth.pop("_ref"), truth.pop("_Qs")
@@ -439,8 +715,8 @@ def make_record(spec: IndependentSpec, *, set_name: str | None = None, use_cache
     steady_out = (Qs[out][:, None] * np.exp(1j * omega * dt * np.arange(keep_from, n_steps))).real
     residual = float(np.max(np.abs(q - steady_out)) / np.max(np.abs(steady_out)))
     if residual > TRANSIENT_TOLERANCE:
-        warnings.warn(f"independent record at {spec.speed_hz:g} Hz, Q = ({spec.q1_mlmin:g}, {spec.q2_mlmin:g}) "
-                      f"ml/min: the start-up transient is still {100 * residual:.2g} % of the steady 1X in the "
+        warnings.warn(f"independent record at {spec.speed_hz:g} Hz, {spec.flows_text()}: the start-up transient is "
+                      f"still {100 * residual:.2g} % of the steady 1X in the "
                       f"kept window (slowest mode decays at {-lam.real.max():.3g} 1/s); lengthen total_s",
                       stacklevel=2)
     d = q[:4].reshape(2, 2, -1)
@@ -456,7 +732,9 @@ def make_record(spec: IndependentSpec, *, set_name: str | None = None, use_cache
     if spec.snr_db is not None:
         readings = add_noise(readings, spec.snr_db, np.random.default_rng(spec.seed))
 
-    meta = {"q1_mlmin": f"{spec.q1_mlmin:.10g}", "q2_mlmin": f"{spec.q2_mlmin:.10g}", "seed": str(spec.seed),
+    flows = {"q1_mlmin": f"{spec.q1_mlmin:.10g}", "q2_mlmin": f"{spec.q2_mlmin:.10g}"} if spec.q_mlmin is None else \
+        {"truth_q_mlmin": ", ".join(f"{q:.10g}" for q in spec.flows_mlmin)}  # N flows: no record key holds them
+    meta = {**flows, "seed": str(spec.seed),
             "snr_db": "none" if spec.snr_db is None else f"{spec.snr_db:g}", "synthetic": "independent"}
     if spec.effects:
         meta["effects"] = "; ".join(spec.effects_text())
@@ -481,7 +759,7 @@ def make_set(specs: Sequence[IndependentSpec], set_name: str, *, use_cache: bool
     if not isinstance(set_name, str) or not set_name.strip() or set_name.strip() != set_name \
             or "\n" in set_name:
         raise InputError(f"set name {set_name!r}; expected one line of text without surrounding spaces")
-    same = ("q1_mlmin", "q2_mlmin", "effects", "machine")
+    same = ("q1_mlmin", "q2_mlmin", "q_mlmin", "effects", "machine")
     first = specs[0]
     for s in specs[1:]:
         for f in same:
@@ -528,8 +806,11 @@ def clean_corpus(n: int, rng: np.random.Generator, *, machine: str | None = None
 
     Each draw: a speed of `corpus_speeds` (the paper's 50-100 Hz on a `speed_step_hz` grid; Q_T is solved once per
     grid speed and cached), each flow uniform in 30-180 % of that bearing's Q_T at that speed (`thresholds_mlmin`,
-    the model's `flooded_thresholds` computation), the machine's planes or its `outside_nodes` (the paper's bearing
-    centres 6, 20 or outside them 5, 21), the planes' probes or the other of X/Y and (45, 135), one seed. `spec_options` go to every IndependentSpec (e.g. total_s=6.0).
+    the model's `flooded_thresholds` computation; every fluid-film bearing of the machine; a bearing whose supply
+    the model file declares `known` is fed its `supply_mlmin`, a `flooded` one 120-180 % of its Q_T), the
+    machine's planes or its `outside_nodes` (the paper's bearing centres 6, 20 or outside them 5, 21; of a machine
+    with more than two planes two drawn, a record holds two), the planes' probes or the other of X/Y and (45,
+    135), one seed. `spec_options` go to every IndependentSpec (e.g. total_s=6.0).
 
     Part of that range is unstable or barely stable (the oil-whirl mode near 0.65 X: e.g. 90 Hz at
     0.5 Q_T grows; 75 Hz at 0.55 Q_T decays at only 0.2 1/s), where no steady record exists. With
@@ -560,10 +841,24 @@ def clean_corpus(n: int, rng: np.random.Generator, *, machine: str | None = None
         nodes = planes[int(rng.integers(2))]
         angles = probes[int(rng.integers(2))]
         seed = int(rng.integers(0, 2**31 - 1))
+        if len(nodes) != 2:  # a record holds two planes: two of the machine's, drawn, in its order
+            if len(nodes) < 2:
+                raise InputError(f"clean_corpus: the machine {m.source or m.name} has {len(nodes)} measurement "
+                                 "plane(s); a record holds two ([[planes]])")
+            pick = sorted(int(i) for i in rng.choice(len(nodes), size=2, replace=False))
+            angles = tuple(angles[i] for i in pick) if len(angles) == len(nodes) else angles
+            nodes = tuple(nodes[i] for i in pick)
         for _attempt in range(max_draws):
-            frac = rng.uniform(0.3, 1.8, size=2)
-            s = IndependentSpec(speed_hz=speed, q1_mlmin=float(frac[0] * qt[0]), q2_mlmin=float(frac[1] * qt[1]),
-                                nodes=nodes, probe_angles_deg=angles, seed=seed, machine=machine, **spec_options)
+            frac = rng.uniform(0.3, 1.8, size=len(qt))
+            if len(qt) == 2 and all(b.supply == "unknown" for b in m.bearings):  # the paper's draws, unchanged
+                flows = dict(q1_mlmin=float(frac[0] * qt[0]), q2_mlmin=float(frac[1] * qt[1]))
+            else:
+                q = [float(b.supply_flow * MLMIN_PER_M3S) if b.supply == "known" else
+                     float((1.2 + 0.4 * (f - 0.3)) * t) if b.supply == "flooded" else float(f * t)
+                     for b, f, t in zip(m.bearings, frac, qt)]
+                flows = dict(q_mlmin=tuple(q))
+            s = IndependentSpec(speed_hz=speed, **flows, nodes=nodes, probe_angles_deg=angles, seed=seed,
+                                machine=machine, **spec_options)
             if not require_decay or max_growth_rate(s) < -5.0 / (s.total_s - s.duration_s):
                 specs.append(s)
                 break
@@ -572,6 +867,6 @@ def clean_corpus(n: int, rng: np.random.Generator, *, machine: str | None = None
     return specs
 
 
-__all__ = ["GAP", "SHAFT_DAMPING_BETA", "IndependentRecord", "IndependentSpec", "clean_corpus", "fine_node",
-           "make_record", "make_set", "max_growth_rate", "split_rotor", "steady_truth", "thresholds_mlmin",
-           "write_record_csv"]
+__all__ = ["GAP", "SHAFT_DAMPING_BETA", "STATIC_TOLERANCE", "IndependentRecord", "IndependentSpec", "StaticEquilibrium",
+           "clean_corpus", "fine_node", "make_record", "make_set", "max_growth_rate", "split_rotor",
+           "static_equilibrium", "steady_truth", "thresholds_mlmin", "write_record_csv"]

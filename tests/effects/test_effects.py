@@ -48,7 +48,7 @@ def test_every_effect_of_spec_7_is_registered():
     ("viscosity:factor=abc", "not a number"),
     ("viscosity:factor=nan", "not finite"),
     ("probe_gain:channel=z1,gain=1.1", "expected one of x1, y1, x2, y2"),
-    ("pedestals:bearing=3", "expected one of both, 1, 2"),
+    ("pedestals:bearing=7", "expected one of both, all, 1, 2, 3, 4, 5, 6"),
     ("bow:amplitude_um", "not key=value"),
     ("probe_gain:gain=1.1,gain=1.2", "given twice"),
 ])
@@ -65,9 +65,22 @@ def test_given_parameters_are_held_and_the_rest_free():
 
 
 def test_placements_cover_each_bearing_plane_and_channel():
-    assert {p.bearing for p in parse_effect("pedestals").placements()} == {"both", 1, 2}
-    assert {p.channel for p in parse_effect("probe_gain").placements()} == {"x1", "y1", "x2", "y2"}
-    assert {p.plane for p in parse_effect("probe_rotation").placements()} == {1, 2}
+    assert {p.bearing for p in parse_effect("pedestals").placements(n_bearings=2, n_planes=2)} == {"both", 1, 2}
+    assert {p.channel for p in parse_effect("probe_gain").placements(n_bearings=2, n_planes=2)} == {"x1", "y1", "x2", "y2"}
+    assert {p.plane for p in parse_effect("probe_rotation").placements(n_bearings=2, n_planes=2)} == {1, 2}
+    # another machine's own parts (SPEC §8): three bearings ("all" of them), three planes
+    assert [p.bearing for p in parse_effect("viscosity").placements(n_bearings=3, n_planes=3)] == ["all", 1, 2, 3]
+    assert [p.bearing for p in parse_effect("clearance").placements(n_bearings=3, n_planes=3)] == [1, 2, 3]
+    assert {p.channel for p in parse_effect("probe_gain").placements(n_bearings=3, n_planes=3)} == {
+        "x1", "y1", "x2", "y2", "x3", "y3"}
+    assert parse_effect("wiring").placements(n_bearings=3, n_planes=3) == []  # two planes' mix-ups only
+
+
+def test_an_effect_placed_on_a_bearing_the_machine_lacks_is_refused_by_name(machine):
+    from lubeviz.errors import InputError
+
+    with pytest.raises(InputError, match="bearing 3, but the machine has 2 fluid-film bearings"):
+        ForwardChain(machine, 75.0, (6, 20), (parse_effect("clearance:bearing=3,clearance_um=150"),))
 
 
 # --- the chain without effects is the table model -------------------------------------------------------

@@ -39,8 +39,8 @@ def toy():
                 return None
             return as_array(values, self, "gain", shape)[..., None, None] * np.eye(2)
 
-        def placements(self):
-            return [self.copy(plane=p) for p in (1, 2)]
+        def placements(self, *, n_bearings, n_planes):
+            return [self.copy(plane=p) for p in range(1, n_planes + 1)]
 
     yield PlaneGain
     del EFFECTS["toy_plane_gain"]

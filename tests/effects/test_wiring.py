@@ -43,7 +43,7 @@ def test_a_wiring_fault_writes_the_plain_records_columns_mixed_up(plain, fault):
 
 
 def test_every_fault_is_a_placement_a_diagnosis_tries():
-    assert {e.fault for e in EFFECTS["wiring"]().placements()} == set(FAULTS)
+    assert {e.fault for e in EFFECTS["wiring"]().placements(n_bearings=2, n_planes=2)} == set(FAULTS)
     assert EFFECTS["wiring"].diagnosed and not EFFECTS["wiring"]().free  # nothing to fit: a discrete choice
 
 
