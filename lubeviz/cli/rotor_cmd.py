@@ -173,6 +173,7 @@ def run_response(args) -> dict:
 
 
 def run_simulate(args) -> dict:
+    from ..signals.records.record import MAX_PLANES
     from ..signals.records import write_record
     from ..signals.synthesize import synthesize_record
 
@@ -181,9 +182,9 @@ def run_simulate(args) -> dict:
     machine.require_modelled("simulate")
     speed_hz = _speed(machine, args.speed_hz)
     nodes = nodes_arg(args.nodes) if args.nodes else tuple(machine.center_nodes)
-    if len(nodes) != 2:
+    if not 2 <= len(nodes) <= MAX_PLANES:
         given = f"--nodes {args.nodes!r}" if args.nodes else f"the machine's {len(nodes)} measurement planes"
-        raise InputError(f"{given}: a record has exactly two measurement planes today")
+        raise InputError(f"{given}: a record holds 2 to {MAX_PLANES} measurement planes")
     snr = None if args.snr_db.strip().lower() == "none" else finite_float_or_error(args.snr_db, "--snr-db")
     out = Path(args.output)
     if out.suffix.lower() not in (".csv", ".npz", ".mat"):

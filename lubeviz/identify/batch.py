@@ -41,6 +41,15 @@ class RecordIdentification:
     bearings: tuple = ()  # (name, node, supply) of each fluid-film bearing in file order (SPEC §8 `flows`)
 
 
+def fit_features(settings, chain) -> tuple[str, ...]:
+    """The features a best-mode fit uses: the settings' list, or, when it is the default (the paper's six invariants
+    of two planes), every invariant of the chain's planes (`model.plane_features`)."""
+    from .forward.model import plane_features
+
+    names = tuple(settings.features)
+    return plane_features(len(chain.nodes)) if names == ALL_FEATURES else names
+
+
 def bearing_names(machine) -> tuple:
     """(name, node, supply) of each fluid-film bearing, in the model file's order."""
     return tuple((b.name or f"bearing {k}", b.node, getattr(b, "supply", "unknown"))
@@ -81,7 +90,7 @@ def identify_record(record, machine=None, settings: IdentificationSettings | Non
     settings = settings or IdentificationSettings()
     speed = model_speed(machine, record)
     check_model_speed(machine, speed)
-    measured = measure(record, ALL_FEATURES) if measured is None else measured
+    measured = measure(record, ALL_FEATURES if settings.mode == "paper" else None) if measured is None else measured
     if settings.mode == "paper":
         if effects:
             raise InputError("paper mode identifies the flows only; declare effects in best mode")
@@ -155,14 +164,14 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
         from .fit.large_orbit import check_orbit_chain, fit_large_orbit, orbit_points, orbit_summary
 
         check_orbit_chain(chain)
-        of = fit_large_orbit(chain, measured, names=tuple(settings.features), budget=budget, lower=settings.lower,
+        of = fit_large_orbit(chain, measured, names=fit_features(settings, chain), budget=budget, lower=settings.lower,
                              upper=settings.upper, harmonics=settings.orbit_harmonics,
                              points=orbit_points(settings.orbit_harmonics),
                              time_rounds=settings.orbit_time_rounds, progress=progress)
         out = to_identification(of.fit, chain)
         out = dataclasses.replace(out, effect_details={**out.effect_details, "large_orbit": orbit_summary(of)})
         return dataclasses.replace(out, warnings=out.warnings + oil_notes) if oil_notes else out
-    res = fit(chain, measured, names=tuple(settings.features), budget=budget, lower=settings.lower,
+    res = fit(chain, measured, names=fit_features(settings, chain), budget=budget, lower=settings.lower,
               upper=settings.upper)
     out = to_identification(res, chain)
     if oil_notes:
@@ -204,7 +213,7 @@ def _oil_check(out: Identification, res, chain, measured, settings, budget) -> I
 
     oil = Viscosity(bearing="both").release("factor").limited(factor=OIL_RANGE)
     try:
-        wide = fit(chain.with_effects(chain.effects + (oil,)), measured, names=tuple(settings.features),
+        wide = fit(chain.with_effects(chain.effects + (oil,)), measured, names=fit_features(settings, chain),
                    budget=budget, lower=settings.lower, upper=settings.upper)
     except LubevizError as exc:  # the tables cannot serve the range: say so
         return dataclasses.replace(out, warnings=out.warnings + (f"oil check skipped: {exc}",))
@@ -298,13 +307,13 @@ def identify_set(records, machine=None, settings: IdentificationSettings | None 
         tolerance, notes = max(tolerance, tol), notes + list(oil_notes)
         chain = ForwardChain(machine, speed, rec.nodes, tuple(oil_effects) + tuple(effects),
                              probe_angles_deg=rec.probe_angles_deg, progress=progress)
-        m = measure(rec, ALL_FEATURES)
+        m = measure(rec)
         check_record(_NodesSpeed(chain), m, settings)
         chains.append(chain)
         meas.append(m)
     if tolerance > 0 and settings.include_model_error:
         budget = budget_with_reading(budget, tolerance)
-    res = fit(chains, meas, names=tuple(settings.features), budget=budget, lower=settings.lower,
+    res = fit(chains, meas, names=fit_features(settings, chains[0]), budget=budget, lower=settings.lower,
               upper=settings.upper)
     result = to_identification(res, chains[0])
     files = "+".join(str(r.source or "record") for r in records)

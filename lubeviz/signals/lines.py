@@ -152,9 +152,9 @@ def _zoom(z: np.ndarray, spec, order: float, record) -> tuple[float, float]:
 
 def record_lines(record) -> list[Line]:
     """+2X, -2X and the strongest sub-synchronous line of each plane of `record`."""
-    xy = record.xy()  # (2 planes, 2, n) resolved to X, Y
+    xy = record.xy()  # (P planes, 2, n) resolved to X, Y
     out = []
-    for k in range(2):
+    for k in range(xy.shape[0]):
         spec = full_spectrum(xy[k, 0] + 1j * xy[k, 1], record.sample_rate_hz, record.speed_hz)
         order, amp = spec.order, spec.amplitude
         one = abs(spec.line(1.0)) or math.inf

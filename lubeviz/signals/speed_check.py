@@ -82,12 +82,13 @@ def spectrum_speed_check(record) -> SpeedCheck:
     n, fs = record.n_samples, record.sample_rate_hz
     nfft = scipy.fft.next_fast_len(n, real=False)
     power = np.zeros(nfft, dtype=np.float32)
-    for k in range(2):  # single precision, one plane at a time: a spectrum's search needs no more
+    n_planes = record.displacement.shape[0]
+    for k in range(n_planes):  # single precision, one plane at a time: a spectrum's search needs no more
         spectrum = scipy.fft.fft(_windowed_plane(record, k), nfft, overwrite_x=True)
         power += spectrum.real ** 2
         power += spectrum.imag ** 2
         del spectrum
-    planes = (lambda: _windowed_plane(record, 0), lambda: _windowed_plane(record, 1))  # made again when refined
+    planes = tuple((lambda k=k: _windowed_plane(record, k)) for k in range(n_planes))  # made again when refined
     resolution = fs / n
     bin_hz = fs / nfft
 

@@ -26,6 +26,7 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import InputError
+from .records.record import MAX_PLANES
 from ..rotor.assembly import rotor_from_machine
 from ..rotor.film_bearings import FilmBearings, film_bearings
 from ..rotor.response import machine_unbalance, unbalance_response
@@ -51,8 +52,8 @@ def synthesize_record(machine, flows: Sequence[float], *, nodes: Sequence[int] |
         raise InputError("a noisy record needs an explicit rng (numpy.random.Generator); pass snr_db=None "
                          "for a clean one")
     nodes = tuple(machine.center_nodes) if nodes is None else tuple(int(n) for n in nodes)
-    if len(nodes) != 2:
-        raise InputError(f"a record has two measurement planes; got nodes {nodes!r}")
+    if not 2 <= len(nodes) <= MAX_PLANES or len(set(nodes)) != len(nodes):
+        raise InputError(f"a record has 2 to {MAX_PLANES} distinct measurement planes; got nodes {nodes!r}")
     omega = 2.0 * math.pi * speed_hz
     rotor = rotor_from_machine(machine) if rotor is None else rotor
     fb = film_bearings(machine, flows, omega) if bearings is None else bearings
@@ -124,8 +125,7 @@ def synthesize_record(machine, flows: Sequence[float], *, nodes: Sequence[int] |
     return Record(speed_hz=speed_hz, sample_rate_hz=sample_rate_hz, displacement=xy, nodes=nodes,
                   probe_angles_deg=angles, t0=float(t[0]),
                   machine=Path(machine.source).name if machine.source else None,
-                  metadata={"q1_mlmin": f"{flows[0] * MLMIN_PER_M3S:.6g}",
-                            "q2_mlmin": f"{flows[1] * MLMIN_PER_M3S:.6g}",
+                  metadata={**{f"q{k + 1}_mlmin": f"{q * MLMIN_PER_M3S:.6g}" for k, q in enumerate(flows)},
                             "snr_db": "none" if snr_db is None else f"{snr_db:g}", "synthetic": "lubeviz simulate",
                             **extra})
 

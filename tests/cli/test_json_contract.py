@@ -147,6 +147,11 @@ SIMULATE = {
     "seconds": "number",
 }
 
+# SPEC §8 `flows`: one object per fluid-film bearing, in the model file's order
+FLOWS = [{"bearing": "str", "node": "number", "q_mlmin": "number", "q_std_mlmin": "number",
+          "q_interval_mlmin": INTERVAL, "q_threshold_mlmin": "number", "verdict": "str", "supply": "str",
+          "identified": "bool"}]
+
 IDENTIFY = {
     "file": "str",
     "q1_mlmin": "number",
@@ -179,6 +184,7 @@ IDENTIFY = {
     "q2_interval_mlmin": INTERVAL,
     "q1_interval_any_oil_mlmin": "null",  # null without --oil-check
     "q2_interval_any_oil_mlmin": "null",
+    "flows": FLOWS,
     "oil_degeneracy": {},  # {} without --oil-check
     "chi2": "number",
     "dof": "number",
@@ -218,6 +224,7 @@ _FIT = {  # a diagnosis's fit (before, and after adding the effect)
     "warnings": ["str"],
     "q1_interval_mlmin": INTERVAL,
     "q2_interval_mlmin": INTERVAL,
+    "flows": FLOWS,
 }
 DIAGNOSE = {
     "before": _FIT,

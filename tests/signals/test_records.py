@@ -424,7 +424,9 @@ def test_arrays_are_validated_like_files():
     rec = record_from_arrays(c["x1"], c["y1"], c["y1"], c["y2"], speed_hz=SPEED, t=c["t"] + 1.0, units="um")
     assert rec.t0 == 1.0 and rec.sample_rate_hz == pytest.approx(RATE)
     with pytest.raises(DataFormatError, match="displacement: shape"):
-        Record(SPEED, RATE, np.zeros((3, 2, N)))
+        Record(SPEED, RATE, np.zeros((2, 3, N)))  # three probes in a plane
+    with pytest.raises(DataFormatError, match="displacement: shape"):
+        Record(SPEED, RATE, np.zeros((1, 2, N)))  # one plane
 
 
 def test_check_speed_refuses_a_record_far_from_the_model_speed():
@@ -630,3 +632,49 @@ def test_an_upload_named_longer_than_a_file_system_allows_is_read_under_its_name
     with pytest.raises(DataFormatError) as err:
         read_record_bytes(data.replace(b"units: m", b"units: furlong"), name)
     assert str(err.value).startswith(name + ": units") and "lubeviz-upload" not in str(err.value)
+
+
+def test_a_record_of_three_planes_round_trips_with_its_nodes_and_probes(tmp_path):
+    """SPEC §8: columns x1, y1, ..., xP, yP, `nodes: n1, ..., nP`, 2 or 2P probe angles; written and read back
+    the same in every format, the rest readings per plane too."""
+    rng = np.random.default_rng(3)
+    t = np.arange(N) / RATE
+    planes = [(a * np.cos(2 * np.pi * SPEED * t + p), a * np.sin(2 * np.pi * SPEED * t + p)) for a, p in
+              ((20e-6, 0.1), (15e-6, 1.0), (8e-6, 2.0))]
+    d = np.array(planes) + 1e-7 * rng.standard_normal((3, 2, N))
+    angles = ((45.0, 135.0), (0.0, 90.0), (30.0, 120.0))
+    rec = Record(SPEED, RATE, d, nodes=(7, 15, 23), probe_angles_deg=angles, rest_position=np.zeros((3, 2)))
+    assert rec.n_planes == 3 and rec.xy().shape == (3, 2, N) and rec.static_offset.shape == (3, 2)
+    for suffix in (".csv", ".npz", ".mat"):
+        path = tmp_path / f"three{suffix}"
+        write_record(rec, path)
+        back = read_record(path)
+        assert back.nodes == (7, 15, 23) and back.probe_angles_deg == angles
+        assert np.allclose(back.displacement, rec.displacement, rtol=1e-12, atol=1e-15)
+        assert np.allclose(back.static_offset, rec.static_offset, atol=1e-12)
+    text = (tmp_path / "three.csv").read_text()
+    assert "# nodes: 7, 15, 23" in text and "t,x1,y1,x2,y2,x3,y3" in text
+
+
+def test_a_three_plane_file_names_what_is_missing(tmp_path):
+    """A y3 column without its x3, and three planes without their nodes, are refused naming the field."""
+    rec = rich_record()
+    path = tmp_path / "r.csv"
+    write_record(rec, path)
+    lines = path.read_text().splitlines()
+    head = next(i for i, ln in enumerate(lines) if not ln.startswith("#"))
+    body = [ln + "," + ln.split(",")[1] for ln in lines[head + 1:]]
+    path.write_text("\n".join(lines[:head] + [lines[head] + ",y3"] + body) + "\n")
+    with pytest.raises(DataFormatError, match=r"x3: missing column; expected columns x1, y1, \.\.\., x3, y3"):
+        read_record(path)
+    both = lines[head].split(",")
+    body = [ln + "," + ",".join(ln.split(",")[1:3]) for ln in lines[head + 1:]]
+    kept = [ln for ln in lines[:head] if not ln.startswith(("# node1", "# node2", "# probe_angles_deg"))]
+    path.write_text("\n".join(kept + [",".join(both + ["x3", "y3"])] + body) + "\n")
+    with pytest.raises(DataFormatError, match="nodes: missing: the record has 3 planes"):
+        read_record(path)
+    path.write_text("\n".join(kept + ["# nodes: 6, 20", ",".join(both + ["x3", "y3"])] + body) + "\n")
+    with pytest.raises(DataFormatError, match="nodes: 2 values for 3 planes"):
+        read_record(path)
+    path.write_text("\n".join(kept + ["# nodes: 6, 13, 20", ",".join(both + ["x3", "y3"])] + body) + "\n")
+    assert read_record(path).nodes == (6, 13, 20)

@@ -644,7 +644,7 @@ def simulate(chain: ForwardChain, theta, *, snr_db: float | None = 12.0, rng: np
         probes[k, 1] = ub[0] * xy[k, 0] + ub[1] * xy[k, 1]
     if snr_db is not None:
         probes = add_noise(probes, snr_db, rng)
-    meta = {"q1_mlmin": f"{theta[0] * MLMIN_PER_M3S:.6g}", "q2_mlmin": f"{theta[1] * MLMIN_PER_M3S:.6g}",
+    meta = {**{f"q{k + 1}_mlmin": f"{theta[k] * MLMIN_PER_M3S:.6g}" for k in range(chain.n_flows)},
             "snr_db": "none" if snr_db is None else f"{snr_db:g}", "synthetic": "lubeviz simulate"}
     meta.update(metadata or {})
     return Record(speed_hz=chain.speed_hz, sample_rate_hz=sample_rate_hz, displacement=probes, nodes=chain.nodes,

@@ -160,7 +160,7 @@ def _write_csv(path: Path, columns: dict, meta: dict, extra: Mapping[str, str]) 
     head = []
     for key, value in {**meta, **extra}.items():
         if key == "probe_angles_deg":
-            flat = value[0] if value[0] == value[1] else (*value[0], *value[1])
+            flat = value[0] if all(v == value[0] for v in value) else tuple(a for pair in value for a in pair)
             value = ", ".join(repr(float(a)) for a in flat)
         elif key == "rest_position":
             value = ", ".join(repr(float(a)) for a in np.ravel(value))

@@ -11,10 +11,10 @@ import numpy as np
 
 from ...units import length_factor
 from .record import (
-    CHANNELS, COLUMNS, DEFAULT_NODES, DEFAULT_PROBE_ANGLES_DEG, FREE_PREFIXES, FREE_TEXT_KEYS, INFO_KEYS,
+    COLUMNS, DEFAULT_NODES, DEFAULT_PROBE_ANGLES_DEG, FREE_PREFIXES, FREE_TEXT_KEYS, INFO_KEYS,
     META_KEYS, MIN_SAMPLES, Record, STATIC_ABSOLUTE, TIME_PRECISION, TIME_RTOL, _channel_means,
-    _check_vibration, _column, _cos_sin_deg, _fail, _finite, _four_numbers, _node, _positive, _probe_angles,
-    _rest_position, _text,
+    _check_vibration, _column, _cos_sin_deg, _fail, _finite, _node, _plane_numbers, _positive, _probe_angles,
+    _numbers, _rest_position, _text, channel_names,
 )
 
 
@@ -52,7 +52,7 @@ def record_from_arrays(x1, y1, x2, y2, *, speed_hz: float, sample_rate_hz: float
     for key, value in dict(metadata or {}).items():  # file fields given as metadata act as in a file
         low = key.lower() if isinstance(key, str) else None
         if low in META_KEYS:
-            if meta[low] is not None:
+            if meta.get(low) is not None:
                 raise _fail(where, f"metadata {key!r}", "also given as an argument (or by its default)",
                             "each field once")
             meta[low] = value
@@ -63,8 +63,8 @@ def record_from_arrays(x1, y1, x2, y2, *, speed_hz: float, sample_rate_hz: float
     columns = {k: _column(v, where, k) for k, v in columns.items() if v is not None}
     meta = {k: v for k, v in meta.items() if v is not None}
     if static_offset is not None:
-        static_offset = _four_numbers(static_offset, where, "static_offset",
-                                      "X1, Y1, X2, Y2 (2 planes x 2) in the record's units")
+        static_offset = _plane_numbers(static_offset, where, "static_offset",
+                                       "X1, Y1, X2, Y2 (2 planes x 2) in the record's units", 2)
     return _assemble(columns, meta, extra, _Origin(where), DEFAULT_NODES, static_offset=static_offset)
 
 
@@ -90,10 +90,15 @@ def _assemble(columns: dict, meta: dict, extra: dict, origin: _Origin, default_n
     where = origin.where
     warnings = list(origin.notes) + [_unknown_key_warning(where, key) for key in extra
                                      if not _is_free_key(key)]
-    for name in CHANNELS:
+    # the planes: x1, y1, ..., xP, yP (SPEC §8), P the highest plane any column names, at least two
+    given = [int(c[1:]) for c in columns if len(c) > 1 and c[0] in "xy" and c[1:].isdigit()]
+    n_planes = max([2, *given])
+    channels = channel_names(n_planes)
+    for name in channels:
         if name not in columns:
             found = ", ".join(repr(c) for c in origin.names or columns) or "none"
-            raise _fail(where, name, "missing column", f"columns x1, y1, x2, y2 (found: {found})")
+            listed = "x1, y1, x2, y2" if n_planes == 2 else f"x1, y1, ..., x{n_planes}, y{n_planes}"
+            raise _fail(where, name, "missing column", f"columns {listed} (found: {found})")
     lengths = {name: len(col) for name, col in columns.items()}
     if len(set(lengths.values())) > 1:
         raise _fail(where, "columns", f"different lengths {lengths}", "the same number of samples")
@@ -127,15 +132,16 @@ def _assemble(columns: dict, meta: dict, extra: dict, origin: _Origin, default_n
         raise _fail(where, "sample_rate_hz", "missing metadata",
                     "samples per second (CSV: '# sample_rate_hz: 10000') or a 't' column")
 
-    nodes = tuple(_node(meta[f"node{k + 1}"], where, f"node{k + 1}") if f"node{k + 1}" in meta
-                  else default_nodes[k] for k in range(2))
-    angles = meta.get("probe_angles_deg", DEFAULT_PROBE_ANGLES_DEG if default_probe_angles is None
-                      else tuple(tuple(a) for a in default_probe_angles))
-    rest = _static_fields(meta, where)
-    # One (2, 2, n) array filled channel by channel; each column is let go once copied (peak memory of a
+    nodes = _nodes(meta, where, n_planes, default_nodes)
+    angles = meta.get("probe_angles_deg")
+    if angles is None:
+        defaults = DEFAULT_PROBE_ANGLES_DEG if default_probe_angles is None else default_probe_angles
+        angles = tuple(tuple(a) for a in defaults) if len(defaults) == n_planes else (0.0, 90.0)
+    rest = _static_fields(meta, where, n_planes)
+    # One (P, 2, n) array filled channel by channel; each column is let go once copied (peak memory of a
     # large record: the samples about once, not three times).
-    displacement = np.empty((2, 2, lengths["x1"]))
-    for j, c in enumerate(CHANNELS):
+    displacement = np.empty((n_planes, 2, lengths["x1"]))
+    for j, c in enumerate(channels):
         displacement[j // 2, j % 2] = columns.pop(c)
     _check_vibration(displacement, where, units, scale=scale)
     if scale != 1.0:
@@ -144,7 +150,7 @@ def _assemble(columns: dict, meta: dict, extra: dict, origin: _Origin, default_n
     if rest is not None:
         rest = rest * scale
         if static_offset is not None:  # the readings were the dynamic part: give them this mean
-            angles = _probe_angles(angles, where)
+            angles = _probe_angles(angles, where, n_planes)
             probe_offset = np.array([[ca * x + sa * y for ca, sa in map(_cos_sin_deg, pair)]
                                      for pair, (x, y) in zip(angles, static_offset * scale)])
             mean, _ = _channel_means(displacement, speed, rate)
@@ -157,8 +163,34 @@ def _assemble(columns: dict, meta: dict, extra: dict, origin: _Origin, default_n
                   warnings=tuple(warnings), units=units.strip().lower())
 
 
-def _static_fields(meta: dict, where: str) -> np.ndarray | None:
-    """The rest readings (2 planes, 2 probes, record units) of a `static: absolute` record, else None."""
+def _nodes(meta: dict, where: str, n_planes: int, default_nodes) -> tuple[int, ...]:
+    """The planes' model nodes: `nodes: n1, ..., nP`, or node1 ... nodeP, or the machine's planes (`default_nodes`)
+    when the file names none and they are as many as its planes."""
+    if "nodes" in meta:
+        if any(f"node{k + 1}" in meta for k in range(n_planes)):
+            raise _fail(where, "nodes", "given both as 'nodes' and as node1, node2, ...", "one of the two forms")
+        values = _numbers(meta["nodes"], where, "nodes", f"{n_planes} node numbers n1, ..., n{n_planes}")
+        if len(values) != n_planes:
+            raise _fail(where, "nodes", f"{len(values)} values for {n_planes} planes",
+                        f"{n_planes} node numbers, one per plane (columns x1 ... y{n_planes})")
+        return tuple(_node(v, where, f"nodes ({k + 1})") for k, v in enumerate(values))
+    named = [f"node{k + 1}" in meta for k in range(n_planes)]
+    if not any(named) and len(default_nodes) != n_planes:
+        raise _fail(where, "nodes", f"missing: the record has {n_planes} planes and the machine {len(default_nodes)}",
+                    f"'nodes: n1, ..., n{n_planes}', the model node of each plane")
+    out = []
+    for k in range(n_planes):
+        if named[k]:
+            out.append(_node(meta[f"node{k + 1}"], where, f"node{k + 1}"))
+        elif k < len(default_nodes):
+            out.append(default_nodes[k])
+        else:
+            raise _fail(where, f"node{k + 1}", "missing metadata", f"the model node of plane {k + 1}")
+    return tuple(out)
+
+
+def _static_fields(meta: dict, where: str, n_planes: int = 2) -> np.ndarray | None:
+    """The rest readings (P planes, 2 probes, record units) of a `static: absolute` record, else None."""
     has_static, has_rest = "static" in meta, "rest_position" in meta
     if has_static:
         value = _text(meta["static"], where, "static", f"'{STATIC_ABSOLUTE}'")
@@ -172,7 +204,7 @@ def _static_fields(meta: dict, where: str) -> np.ndarray | None:
     if has_rest and not has_static:
         raise _fail(where, "static", "missing metadata, although 'rest_position' is given",
                     "'# static: absolute' (the columns keep the probes' DC gap), or no rest_position")
-    return _rest_position(meta["rest_position"], where) if has_rest else None
+    return _rest_position(meta["rest_position"], where, n_planes) if has_rest else None
 
 
 def _time_spacing(*times: float) -> float:

@@ -16,7 +16,7 @@ from .fields import _assemble, _time_spacing
 from .mat_format import _MATLAB_NAME, _read_mat
 from .npz_format import _read_npz, _write_npz
 from .record import (
-    CHANNELS, DEFAULT_NODES, DEFAULT_PROBE_ANGLES_DEG, FORMATS, Record, STATIC_ABSOLUTE, TIME_PRECISION, _fail,
+    DEFAULT_NODES, DEFAULT_PROBE_ANGLES_DEG, FORMATS, Record, STATIC_ABSOLUTE, TIME_PRECISION, _fail, channel_names,
 )
 from . import record as _record  # its MAX_RECORD_BYTES read at call time
 
@@ -86,13 +86,16 @@ def write_record(record: Record, path, *, units: str = "m") -> Path:
     t_end = record.t0 + record.duration
     lossy_t = _time_spacing(record.t0, t_end) > TIME_PRECISION / record.sample_rate_hz
     columns = {} if lossy_t else {"t": record.t}  # a t0 too large for a t column: '# t0_s' instead
-    for k, a in np.ndindex(2, 2):
+    names = channel_names(record.n_planes)
+    for k, a in np.ndindex(record.n_planes, 2):
         reading = record.displacement[k, a]
-        columns[CHANNELS[2 * k + a]] = reading if scale == 1.0 else reading / scale
+        columns[names[2 * k + a]] = reading if scale == 1.0 else reading / scale
     if record.keyphasor is not None:
         columns["keyphasor"] = record.keyphasor
     meta = {"speed_hz": record.speed_hz, "sample_rate_hz": record.sample_rate_hz,
-            "units": units.strip().lower(), "node1": record.nodes[0], "node2": record.nodes[1]}
+            "units": units.strip().lower(),
+            **({"node1": record.nodes[0], "node2": record.nodes[1]} if record.n_planes == 2 else
+               {"nodes": ", ".join(str(n) for n in record.nodes)})}
     if lossy_t:
         meta["t0_s"] = record.t0
     meta["probe_angles_deg"] = record.probe_angles_deg  # always: a machine's planes may default to others (SPEC §8)
@@ -111,7 +114,10 @@ def write_record(record: Record, path, *, units: str = "m") -> Path:
         else:
             arrays = {**columns, **meta, **record.metadata}
             arrays["probe_angles_deg"] = np.array(record.probe_angles_deg)
-            arrays["node1"], arrays["node2"] = (np.int64(v) for v in record.nodes)
+            if record.n_planes == 2:
+                arrays["node1"], arrays["node2"] = (np.int64(v) for v in record.nodes)
+            else:
+                arrays["nodes"] = np.array(record.nodes, dtype=np.int64)
             if suffix == ".npz":
                 _write_npz(path, arrays)
             else:

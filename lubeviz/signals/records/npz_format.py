@@ -12,7 +12,7 @@ import numpy as np
 
 from ...errors import DataFormatError
 from .fields import _split_entries
-from .record import COLUMNS, META_KEYS, RESERVED, _fail
+from .record import COLUMNS, MAX_PLANES, META_KEYS, RESERVED, _fail
 from . import record as _record  # its MAX_RECORD_BYTES read at call time
 
 
@@ -51,7 +51,7 @@ def _read_npz(path: Path, where: str):
     return _split_entries(entries, where)
 
 
-_NPZ_SMALL = 4  # values a metadata array may hold (probe angles and rest readings: 4)
+_NPZ_SMALL = 2 * MAX_PLANES  # values a metadata array may hold (probe angles, rest readings, nodes: 2 per plane)
 
 
 _READ_CHUNK = 1 << 20  # bytes read from a member at a time (zipfile copies each read once)

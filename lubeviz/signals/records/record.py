@@ -58,13 +58,23 @@ DEFAULT_PROBE_ANGLES_DEG = ((0.0, 90.0), (0.0, 90.0))  # probe a along +X, probe
 FORMATS = (".csv", ".npz", ".mat")
 
 
-CHANNELS = ("x1", "y1", "x2", "y2")  # file names of displacement[plane][probe], row-major
+MAX_PLANES = 12  # measurement planes a record may hold (SPEC §8: columns x1, y1, ..., xP, yP)
 
 
-COLUMNS = ("t", *CHANNELS, "keyphasor")
+def channel_names(n_planes: int) -> tuple[str, ...]:
+    """The columns of `n_planes` planes, displacement[plane][probe] row-major: x1, y1, x2, y2, ..."""
+    return tuple(f"{a}{p}" for p in range(1, n_planes + 1) for a in "xy")
 
 
-META_KEYS = ("speed_hz", "sample_rate_hz", "units", "node1", "node2", "probe_angles_deg",
+CHANNELS = channel_names(2)  # the paper's two planes (SPEC §6); any record: `channel_names(P)`
+ALL_CHANNELS = channel_names(MAX_PLANES)
+
+
+COLUMNS = ("t", *ALL_CHANNELS, "keyphasor")
+
+
+META_KEYS = ("speed_hz", "sample_rate_hz", "units", "nodes", *(f"node{p}" for p in range(1, MAX_PLANES + 1)),
+             "probe_angles_deg",
              "machine", "t0_s", "set", "static", "rest_position", "oil_temperature_c")
 
 
@@ -75,7 +85,7 @@ RESERVED = frozenset(COLUMNS + META_KEYS)
 
 
 # Informational keys `lubeviz simulate` writes, and free-text keys: kept without a warning.
-INFO_KEYS = ("q1_mlmin", "q2_mlmin", "snr_db", "synthetic", "seed", "effects", "method", "static_shift_um", "ratio_2x",
+INFO_KEYS = (*(f"q{k}_mlmin" for k in range(1, 7)), "snr_db", "synthetic", "seed", "effects", "method", "static_shift_um", "ratio_2x",
              "stability", "whirl_hz", "whirl_growth_per_s", "orbit_stability", "orbit_stability_state")
 
 
@@ -138,12 +148,13 @@ class Record:
         put("t0", _finite(self.t0, where, "t0_s", "the time of the first sample in s"))
 
         d = _numeric_array(self.displacement, where, "displacement")
-        if d.ndim != 3 or d.shape[:2] != (2, 2):
+        if d.ndim != 3 or d.shape[1] != 2 or not 2 <= d.shape[0] <= MAX_PLANES:
             raise _fail(where, "displacement", f"shape {d.shape}",
-                        "(2 planes, 2 probes, n_samples)")
+                        f"(P planes, 2 probes, n_samples) with 2 <= P <= {MAX_PLANES}")
+        names = channel_names(d.shape[0])
         for k, a in zip(*np.nonzero(~np.isfinite(d).all(axis=2))):
             i = int(np.flatnonzero(~np.isfinite(d[k, a]))[0])
-            raise _fail(where, f"{CHANNELS[2 * k + a]}, index {i}", f"{d[k, a, i]} is not finite",
+            raise _fail(where, f"{names[2 * k + a]}, index {i}", f"{d[k, a, i]} is not finite",
                         "finite displacements")
         put("displacement", d if _owned_frozen(d) else _frozen_copy(d))
         n = d.shape[2]
@@ -164,14 +175,18 @@ class Record:
             nodes = tuple(self.nodes)
         except TypeError:
             nodes = ()
-        if len(nodes) != 2:
-            raise _fail(where, "nodes", f"{self.nodes!r}", "two node numbers (node1, node2)")
+        n_planes = d.shape[0]
+        if len(nodes) != n_planes:
+            raise _fail(where, "nodes", f"{self.nodes!r}", f"{n_planes} node numbers, one per plane"
+                        + (" (node1, node2)" if n_planes == 2 else f" (nodes: n1, ..., n{n_planes})"))
         nodes = tuple(_node(v, where, f"node{k + 1}") for k, v in enumerate(nodes))
-        if nodes[0] == nodes[1]:
-            raise _fail(where, "node2", f"{nodes[1]} is the same node as node1",
-                        "two different model nodes, one per measurement plane")
+        for k in range(1, n_planes):
+            if nodes[k] in nodes[:k]:
+                j = nodes.index(nodes[k])
+                raise _fail(where, f"node{k + 1}", f"{nodes[k]} is the same node as node{j + 1}",
+                            "different model nodes, one per measurement plane")
         put("nodes", nodes)
-        put("probe_angles_deg", _probe_angles(self.probe_angles_deg, where))
+        put("probe_angles_deg", _probe_angles(self.probe_angles_deg, where, n_planes))
 
         if self.keyphasor is not None:
             kp = _numeric_array(self.keyphasor, where, "keyphasor")
@@ -197,11 +212,11 @@ class Record:
         put("warnings", _warnings(self.warnings, where))
 
         if self.rest_position is not None:
-            rest = _frozen_copy(_rest_position(self.rest_position, where))
+            rest = _frozen_copy(_rest_position(self.rest_position, where, n_planes))
             put("rest_position", rest)
             mean, mean_std = _channel_means(self.displacement, self.speed_hz, self.sample_rate_hz)
-            offset = np.stack([self._resolve(k, mean[k] - rest[k]) for k in range(2)])
-            std = np.stack([self._resolve_std(k, mean_std[k]) for k in range(2)])
+            offset = np.stack([self._resolve(k, mean[k] - rest[k]) for k in range(n_planes)])
+            std = np.stack([self._resolve_std(k, mean_std[k]) for k in range(n_planes)])
             for k, xy in enumerate(offset):
                 big = np.flatnonzero(np.abs(xy) > MAX_VIBRATION_PTP)
                 if big.size:
@@ -234,24 +249,28 @@ class Record:
         return self.duration * self.speed_hz
 
     @property
+    def n_planes(self) -> int:
+        return self.displacement.shape[0]
+
+    @property
     def is_static(self) -> bool:
         """True for `static: absolute` records (the readings keep the DC gap, `static_offset` is set)."""
         return self.rest_position is not None
 
     def xy(self) -> np.ndarray:
-        """(2, 2, n) shaft displacement along X and Y (SPEC §1 axes), from the probe readings.
+        """(P, 2, n) shaft displacement along X and Y (SPEC §1 axes), from the probe readings.
 
         Each probe at angle a from +X reads s = x cos a + y sin a; the 2x2 system of a plane is
         solved exactly (for the default probes at 0° and 90° the result equals `displacement`).
         A static record's readings keep their DC gap, so its `xy()` does too (the 1X features
         fit and drop the mean).
         """
-        return np.stack([self._plane_xy(k) for k in range(2)])
+        return np.stack([self._plane_xy(k) for k in range(self.n_planes)])
 
     def complex_signal(self, plane: int) -> np.ndarray:
-        """Z = V + iW = x + iy (Eq. 10) of plane 0 or 1 (node `nodes[plane]`)."""
-        if plane not in (0, 1) or isinstance(plane, bool):
-            raise InputError(f"plane must be 0 or 1 (index into nodes {self.nodes}), not {plane!r}")
+        """Z = V + iW = x + iy (Eq. 10) of plane `plane` (0-based; node `nodes[plane]`)."""
+        if isinstance(plane, bool) or plane not in range(self.n_planes):
+            raise InputError(f"plane must be 0..{self.n_planes - 1} (index into nodes {self.nodes}), not {plane!r}")
         x, y = self._plane_xy(plane)
         return x + 1j * y
 
@@ -303,7 +322,7 @@ class Record:
 
 def journal_static_position(record: Record, clearances, *,
                             tolerance: float = STATIC_TOLERANCE) -> np.ndarray:
-    """(2 planes, 2) journal centre X, Y relative to its bearing centre, metres (SPEC §6).
+    """(P planes, 2) journal centre X, Y relative to its bearing centre, metres (SPEC §6).
 
     `static_offset` + (0, -c_k): at rest the journal lies at the bottom of its bearing, (0, -c).
     `clearances` are the true radial clearances c_k (m) of the bearings at the record's two planes
@@ -317,13 +336,14 @@ def journal_static_position(record: Record, clearances, *,
     try:
         c = np.asarray(clearances, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError):
-        raise InputError(f"clearances {clearances!r}: expected two radial clearances in metres") from None
-    if c.size != 2 or not np.all(np.isfinite(c)) or not np.all(c > 0):
-        raise InputError(f"clearances {clearances!r}: expected two positive radial clearances in metres")
+        raise InputError(f"clearances {clearances!r}: expected one radial clearance per plane, in metres") from None
+    if c.size != record.n_planes or not np.all(np.isfinite(c)) or not np.all(c > 0):
+        raise InputError(f"clearances {clearances!r}: expected {record.n_planes} positive radial clearances in "
+                         "metres, one per plane")
     if not (math.isfinite(tolerance) and tolerance >= 0):
         raise InputError(f"tolerance {tolerance!r}: expected a non-negative fraction of the clearance")
-    position = record.static_offset + np.stack([np.zeros(2), -c], axis=1)
-    for k in range(2):
+    position = record.static_offset + np.stack([np.zeros(c.size), -c], axis=1)
+    for k in range(c.size):
         r = float(np.hypot(*position[k]))
         limit = c[k] * (1.0 + tolerance) + 3.0 * float(np.hypot(*record.static_offset_std[k]))
         if r > limit:
@@ -441,28 +461,30 @@ def _numbers(value, where: str, name: str, expected: str) -> list[float]:
     return [_finite(x, where, name, expected) for x in a]
 
 
-def _four_numbers(value, where: str, name: str, expected: str) -> np.ndarray:
+def _plane_numbers(value, where: str, name: str, expected: str, n_planes: int) -> np.ndarray:
     flat = _numbers(value, where, name, expected)
-    if len(flat) != 4:
+    if len(flat) != 2 * n_planes:
         raise _fail(where, name, f"{len(flat)} values", expected)
-    return np.array(flat, dtype=np.float64).reshape(2, 2)
+    return np.array(flat, dtype=np.float64).reshape(n_planes, 2)
 
 
-def _rest_position(value, where: str) -> np.ndarray:
-    return _four_numbers(value, where, "rest_position",
-                         "4 finite numbers X1, Y1, X2, Y2: each probe's reading at rest, in the"
-                         " record's units, along the probe directions")
+def _rest_position(value, where: str, n_planes: int = 2) -> np.ndarray:
+    names = ", ".join(f"X{p}, Y{p}" for p in range(1, n_planes + 1))
+    return _plane_numbers(value, where, "rest_position",
+                          f"{2 * n_planes} finite numbers {names}: each probe's reading at rest, in the record's "
+                          "units, along the probe directions", n_planes)
 
 
-def _probe_angles(value, where: str) -> tuple[tuple[float, float], tuple[float, float]]:
+def _probe_angles(value, where: str, n_planes: int = 2) -> tuple[tuple[float, float], ...]:
     name = "probe_angles_deg"
-    expected = "2 angles (both planes) or 4 (plane 1 a, b, plane 2 a, b) in degrees from +X"
+    expected = (f"2 angles (every plane) or {2 * n_planes} (plane 1 a, b, plane 2 a, b"
+                + (", ..." if n_planes > 2 else "") + ") in degrees from +X")
     flat = _numbers(value, where, name, expected)
     if len(flat) == 2:
-        flat = flat * 2
-    if len(flat) != 4:
+        flat = flat * n_planes
+    if len(flat) != 2 * n_planes:
         raise _fail(where, name, f"wrong probe-angle count: {len(flat)} values", expected)
-    pairs = ((flat[0], flat[1]), (flat[2], flat[3]))
+    pairs = tuple((flat[2 * k], flat[2 * k + 1]) for k in range(n_planes))
     for k, (a, b) in enumerate(pairs):
         separation = abs(math.remainder(b - a, 180.0))  # distance to the nearest parallel pair
         if separation < MIN_PROBE_SEPARATION_DEG:
@@ -511,8 +533,9 @@ def _check_vibration(displacement: np.ndarray, where: str, units: str | None = N
     if displacement.shape[-1] < MIN_SAMPLES:
         return  # too short to judge; refused for its length where that is checked
     ptp = np.ptp(displacement, axis=-1) * scale
-    for k, a in np.ndindex(2, 2):
-        name = CHANNELS[2 * k + a]
+    names = channel_names(displacement.shape[0])
+    for k, a in np.ndindex(displacement.shape[0], 2):
+        name = names[2 * k + a]
         if ptp[k, a] < MIN_VIBRATION_PTP:
             raise _fail(where, name, f"no vibration: the channel is constant"
                         f" ({float(displacement[k, a, 0]) * scale!r} m throughout)",
@@ -528,7 +551,7 @@ def _check_vibration(displacement: np.ndarray, where: str, units: str | None = N
 
 def _channel_means(displacement: np.ndarray, speed_hz: float, sample_rate_hz: float
                    ) -> tuple[np.ndarray, np.ndarray]:
-    """Mean reading of each channel and its standard error, (2, 2) each, units of `displacement`.
+    """Mean reading of each channel and its standard error, (P, 2) each, units of `displacement`.
 
     Mean: the constant of a least-squares fit of the mean plus the 1X..3X lines (those below 0.45 of
     the sample rate), so a non-whole number of revolutions leaks no 1X into it; for whole
@@ -545,7 +568,8 @@ def _channel_means(displacement: np.ndarray, speed_hz: float, sample_rate_hz: fl
     than about a tenth of the record cannot be told from the mean and is under-counted. The rest
     reading is taken as exact (the record gives no uncertainty for it).
     """
-    d = displacement.reshape(4, -1)
+    n_channels = displacement.shape[0] * displacement.shape[1]
+    d = displacement.reshape(n_channels, -1)
     n = d.shape[1]
     omega = 2.0 * math.pi * speed_hz / sample_rate_hz  # rad per sample
     harmonics = [h for h in (1, 2, 3) if h * speed_hz < 0.45 * sample_rate_hz] or [1]
@@ -557,8 +581,8 @@ def _channel_means(displacement: np.ndarray, speed_hz: float, sample_rate_hz: fl
     residual = d - (design @ coef).T
     per_rev = sample_rate_hz / speed_hz
     n_rev = int(math.floor(n / per_rev + 1e-9))
-    std = np.full(4, np.inf)  # too short to tell (such a record is refused for its length anyway)
-    for c in range(4):
+    std = np.full(n_channels, np.inf)  # too short to tell (such a record is refused for its length anyway)
+    for c in range(n_channels):
         revs = 1
         while n_rev // revs >= MIN_BATCHES:
             n_batch = n_rev // revs
@@ -570,7 +594,7 @@ def _channel_means(displacement: np.ndarray, speed_hz: float, sample_rate_hz: fl
             if lag1 < 2.0 / math.sqrt(n_batch):  # batches longer than the noise's memory: done
                 break
             revs *= 2
-    return coef[0].reshape(2, 2), std.reshape(2, 2)
+    return coef[0].reshape(displacement.shape[:2]), std.reshape(displacement.shape[:2])
 
 
 def _numeric_array(value, where: str, name: str) -> np.ndarray:
