@@ -409,11 +409,11 @@ def _refine(chains, meas, passing, names, budget, level):
 
 def fit_flows(f: Fit) -> np.ndarray:
     """Every bearing's flow of fit `f` (m^3/s, file order; a known supply's held value among them)."""
-    return np.asarray(f.flows if getattr(f, "flows", None) is not None else f.values[:2], dtype=float)
+    return f.flow_values() if hasattr(f, "flow_values") else np.asarray(f.values[:2], dtype=float)
 
 
 def fit_flows_std(f: Fit) -> np.ndarray:
-    return np.asarray(f.flows_std if getattr(f, "flows_std", None) is not None else f.std[:2], dtype=float)
+    return f.flow_stds() if hasattr(f, "flow_stds") else np.asarray(f.std[:2], dtype=float)
 
 
 def _flow_names(f: Fit) -> tuple[str, ...]:

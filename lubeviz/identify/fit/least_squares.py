@@ -83,12 +83,27 @@ class Fit:
     q_threshold: np.ndarray | None = None
     features_sigma: np.ndarray | None = None  # 1 sigma of each feature: noise + model budget (the fit's weights)
     params: tuple = ()  # every parameter, fitted and held (`result.FitParameter`), what every rendering reads
-    flows: np.ndarray | None = None  # every bearing's flow (m^3/s), fitted or held (a known supply), in file order
-    flows_std: np.ndarray | None = None  # their std (0 for a held one)
+    flows: np.ndarray | None = None  # every bearing's flow (m^3/s) at the search's answer, fitted or held (a known
+    # supply), in file order: read them through `flow_values` (a later refinement changes `values`, not these)
 
     @property
     def message(self) -> str:
         return STATUS[self.status]
+
+    def flow_values(self) -> np.ndarray:
+        """Every bearing's flow (m^3/s, file order): the fitted ones from `values` (whatever refined them after the
+        search, e.g. the large-orbit rounds), a held one (a known supply) from `flows`."""
+        out = np.array(self.flows if self.flows is not None else self.values[:2], dtype=float)
+        for k in range(out.size):
+            if f"q{k + 1}" in self.names:
+                out[k] = self.values[self.names.index(f"q{k + 1}")]
+        return out
+
+    def flow_stds(self) -> np.ndarray:
+        """Their std (0 for a held one), from `std` like `flow_values`."""
+        n = len(self.flows) if self.flows is not None else 2
+        return np.array([float(self.std[self.names.index(f"q{k + 1}")]) if f"q{k + 1}" in self.names else 0.0
+                         for k in range(n)])
 
     @property
     def explained(self) -> bool | None:
@@ -375,8 +390,7 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
                features_model=fs, residual=r, intervals=ivals, alternatives=tuple(alternatives),
                paths=tuple(x[5] for x in reversed(refined)), inflation=inflation, warnings=tuple(warnings),
                q_threshold=ref.q_threshold.copy(), features_sigma=np.sqrt(np.sum(prob.L ** 2, axis=1)),
-               params=params, flows=theta[:nq].copy(),
-               flows_std=np.array([dict(zip(free, std)).get(k, 0.0) for k in range(nq)]))
+               params=params, flows=theta[:nq].copy())
 
 
 def parameters(chain, theta, std: dict, *, initial, bounds, intervals: dict) -> tuple[FitParameter, ...]:
@@ -525,7 +539,7 @@ def to_identification(res: Fit, chain) -> "Identification":
     nq = chain.n_flows
     alternatives = tuple(a[0][:nq] for a in res.alternatives)
     return Identification(
-        q=res.flows, q_std=res.flows_std, converged=res.status in (0, 1), iterations=res.iterations,
+        q=res.flow_values(), q_std=res.flow_stds(), converged=res.status in (0, 1), iterations=res.iterations,
         starts_tried=len(res.paths), paths=res.paths, features_names=res.features_names,
         features_measured=res.features_measured, features_model=res.features_model, residual=res.residual,
         total_error=res.chi2, mode="best", evaluations=res.evaluations, seconds=res.seconds,
