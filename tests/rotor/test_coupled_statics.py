@@ -13,61 +13,13 @@ from lubeviz.rotor.assembly import rotor_from_machine
 from lubeviz.rotor.statics import (bearing_static_loads, coupled_statics, gravity_load, statically_determinate,
                                    support_reactions, weight)
 
-SPAN_MM, DIAMETER_MM, E = 400.0, 60.0, 2.1e11
+from tests.machines import DIAMETER_MM, E, SPAN_MM, uniform_three_bearing_file
 
 
 def uniform_machine(tmp_path, *, viscosity=0.03, offset_um=0.0, support=False, name="three"):
-    """A uniform 60 mm shaft, 800 mm long, on three equal L/D = 0.5 bearings at its ends and middle (two equal
-    spans) with a 40 kg wheel in the middle, coarse films (40 x 20) to keep the test quick; optionally the middle bearing raised by `offset_um` and
-    a ball bearing (constant coefficients) a quarter along."""
-    elements = ", ".join(f"[{SPAN_MM / 4}, {DIAMETER_MM}]" for _ in range(8))
-    bearing = """
-[[bearings]]
-node = {node}
-radius_mm = 30.0
-length_mm = 30.0
-clearance_um = 40.0
-viscosity_pa_s = {mu}
-groove_angle_deg = 0.0
-groove_length_mm = 8.0
-groove_width_mm = 15.0
-mesh_circumferential = 40
-mesh_axial = 20
-offset_um = [0.0, {dy}]
-"""
-    text = f"""
-[machine]
-name = "{name}"
-gravity_m_s2 = 9.81
-operating_speed_hz = 50.0
-[material]
-young_modulus_pa = {E}
-poisson_ratio = 0.3
-density_kg_m3 = 7850.0
-[shaft]
-damping_beta_s = 1.0e-5
-elements_mm = [{elements}]
-[[discs]]
-node = 5
-mass_kg = 40.0
-polar_inertia_kg_m2 = 0.2
-diametral_inertia_kg_m2 = 0.1
-[unbalance]
-node = 3
-moment_kg_m = 1.0e-4
-phase_deg = 0.0
-""" + "".join(bearing.format(node=n, mu=viscosity, dy=offset_um if n == 5 else 0.0) for n in (1, 5, 9))
-    if support:
-        text += """
-[[supports]]
-name = "ball bearing"
-node = 3
-stiffness_n_m = [[1.0e8, 0.0], [0.0, 1.5e8]]
-damping_ns_m = [[1.0e3, 0.0], [0.0, 1.0e3]]
-"""
-    path = tmp_path / f"{name}.toml"
-    path.write_text(text)
-    return load_machine(path)
+    """`tests.machines.uniform_three_bearing_file`, loaded; `support`: a ball bearing of 1e8 / 1.5e8 N/m."""
+    return load_machine(uniform_three_bearing_file(tmp_path, viscosity=viscosity, offset_um=offset_um,
+                                                   support=(1.0e8, 1.5e8) if support else None, name=name))
 
 
 def test_three_films_carry_the_weight_where_each_film_puts_its_journal(tmp_path):
@@ -97,8 +49,8 @@ def test_three_films_carry_the_weight_where_each_film_puts_its_journal(tmp_path)
 def test_stiff_films_give_the_continuous_beam_s_reactions_and_a_raised_middle_bearing_takes_6_EI_d_over_L3(tmp_path):
     """Oil 10^4 as viscous makes every film nearly rigid: the loads tend to the pinned (three-moment) reactions.
     Raising the middle support of a two-span continuous beam by d adds 6 E I d / L^3 to its reaction and takes
-    half of that from each end (here it is lowered, d < 0) (a simply supported beam of span 2L deflects P L^3 / (6 E I) under a central
-    load P)."""
+    half of that from each end (here it is lowered, d < 0): a simply supported beam of span 2L deflects
+    P L^3 / (6 E I) under a central load P."""
     stiff = coupled_statics(uniform_machine(tmp_path, viscosity=300.0, name="stiff"))
     assert np.allclose(stiff.loads, stiff.pinned_loads, rtol=2e-3)
     d = -10e-6  # lowered: the ends take more (raised, they would lift off)
