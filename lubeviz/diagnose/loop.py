@@ -820,15 +820,9 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
                     "warnings": s["warnings"]})
         for p in flows:
             out[f"{p.key}_interval_mlmin"] = None if p.interval is None else list(p.interval)
-        qt, verdicts = d.thresholds_for(f), d.verdicts_for(f)
-        out["flows"] = []
-        for k, p in enumerate(flows):  # SPEC §8: one object per fluid-film bearing, in file order
-            name, node, supply = d.bearings[k] if k < len(d.bearings) else (f"bearing {k + 1}", None, "unknown")
-            out["flows"].append({"bearing": name, "node": node, "q_mlmin": p.value, "q_std_mlmin": p.std,
-                                 "q_interval_mlmin": None if p.interval is None else list(p.interval),
-                                 "q_threshold_mlmin": None if qt is None else float(qt[k] * MLMIN_PER_M3S),
-                                 "verdict": None if verdicts is None else verdicts[k], "supply": supply,
-                                 "identified": bool(p.free) and supply == "unknown"})
+        from ..identify.output.export import flow_objects
+
+        out["flows"] = flow_objects(flows, d.bearings, d.thresholds_for(f), d.verdicts_for(f))  # SPEC §8
         return out
 
     effects = [{"name": " + ".join(e.effect_name for e in c.effects), "label": c.label, "parameters": c.parameters(),

@@ -306,6 +306,7 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     scale = _scales(ref)
     nq = ref.n_flows
     known = ref.known_flows  # a supply the model file gives is held (SPEC §8)
+    clipped = [k for k, v in known.items() if abs(v - ref.machine.bearings[k].supply_flow) > 1e-12 * v]
     free = np.array([i for i in range(ref.n_params) if i not in known and (hold_flows is None or i >= nq)], dtype=int)
     free_flows = [k for k in range(nq) if k in free]
     n_free = free.size
@@ -346,6 +347,10 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     explained = p is None or p > level
     inflation = 1.0 if (explained or dof == 0) else chi2 / dof
     warnings = []
+    for k in clipped:  # the tables span 25-200 % of Q_T: the film beyond is taken at the edge, and said so
+        warnings.append(f"bearing {k + 1}'s known supply {ref.machine.bearings[k].supply_flow * MLMIN_PER_M3S:.0f} "
+                        f"ml/min lies outside 25-200 % of its Q_T ({ref.q_threshold[k] * MLMIN_PER_M3S:.0f} ml/min): "
+                        f"held at {known[k] * MLMIN_PER_M3S:.0f} ml/min, the tables' edge")
     Js = J * scale[free]  # scaled columns: flows (m^3/s) and e.g. a stiffness (N/m) differ by 1e15
     cov = scale[free][:, None] * np.linalg.pinv(Js.T @ Js) * scale[free][None, :] * inflation
     std = np.sqrt(np.maximum(np.diag(cov), 0.0))

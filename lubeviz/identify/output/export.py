@@ -63,15 +63,23 @@ def result_dict(item) -> dict:
 
 
 def flows_list(item, r, flows) -> list[dict]:
+    """SPEC §8 `flows` of an identification (`flow_objects` with its thresholds and verdicts)."""
+    return flow_objects(flows, getattr(item, "bearings", ()), r.q_threshold,
+                        [r.verdict(k) for k in range(len(flows))])
+
+
+def flow_objects(flows, bearings, q_threshold, verdicts) -> list[dict]:
     """SPEC §8 `flows`: one object per fluid-film bearing in the model file's order (its name and node, the flow, its
-    std and 95 % interval, Q_T and the verdict; `identified`: whether the record gave it)."""
-    names = list(getattr(item, "bearings", ()) or ())
+    std and 95 % interval, Q_T and the verdict; `identified`: whether the record gave it). `flows`: the fit's flow
+    `FitParameter`s; `bearings`: (name, node, supply) each; `q_threshold` (m^3/s) and `verdicts` may be None."""
+    names = list(bearings or ())
     out = []
     for k, p in enumerate(flows):
         name, node, supply = names[k] if k < len(names) else (f"bearing {k + 1}", None, "unknown")
         out.append({"bearing": name, "node": node, "q_mlmin": p.value, "q_std_mlmin": p.std,
                     "q_interval_mlmin": None if p.interval is None else list(p.interval),
-                    "q_threshold_mlmin": float(r.q_threshold[k] * MLMIN_PER_M3S), "verdict": r.verdict(k),
+                    "q_threshold_mlmin": None if q_threshold is None else float(q_threshold[k] * MLMIN_PER_M3S),
+                    "verdict": None if verdicts is None else verdicts[k],
                     "supply": supply, "identified": bool(p.free) and supply == "unknown"})
     return out
 
