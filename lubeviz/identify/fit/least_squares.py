@@ -346,11 +346,7 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     p = float(stats.chi2.sf(chi2, dof)) if dof > 0 else None
     explained = p is None or p > level
     inflation = 1.0 if (explained or dof == 0) else chi2 / dof
-    warnings = []
-    for k in clipped:  # the tables span 25-200 % of Q_T: the film beyond is taken at the edge, and said so
-        warnings.append(f"bearing {k + 1}'s known supply {ref.machine.bearings[k].supply_flow * MLMIN_PER_M3S:.0f} "
-                        f"ml/min lies outside 25-200 % of its Q_T ({ref.q_threshold[k] * MLMIN_PER_M3S:.0f} ml/min): "
-                        f"held at {known[k] * MLMIN_PER_M3S:.0f} ml/min, the tables' edge")
+    warnings = [_clipped_text(ref, k, known[k]) for k in clipped]
     Js = J * scale[free]  # scaled columns: flows (m^3/s) and e.g. a stiffness (N/m) differ by 1e15
     cov = scale[free][:, None] * np.linalg.pinv(Js.T @ Js) * scale[free][None, :] * inflation
     std = np.sqrt(np.maximum(np.diag(cov), 0.0))
@@ -363,12 +359,7 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
         status = 3
     # 3. alternatives that pass the same test
     crit = stats.chi2.ppf(1 - level, dof) if dof > 0 else np.inf
-    alternatives = []
-    for c2, th, *_ in refined[1:]:
-        sep = np.max(np.abs(th[:nq] - theta[:nq]) / ref.q_threshold) > 0.03
-        dup = any(np.max(np.abs(th[:nq] - a[:nq]) / ref.q_threshold) < 0.03 for a, _ in alternatives)
-        if sep and not dup and (c2 <= crit or c2 - chi2 < CHI2_95_1DOF * inflation):
-            alternatives.append((th, c2))
+    alternatives = _alternatives(refined[1:], theta, chi2, crit, inflation, ref.q_threshold)
     if alternatives:
         warnings.append(f"not unique: another fit passes as well at {flows_text(alternatives[0][0][:nq])}; "
                         "a record at another speed or the static shaft position would tell them apart")
@@ -396,6 +387,26 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
                paths=tuple(x[5] for x in reversed(refined)), inflation=inflation, warnings=tuple(warnings),
                q_threshold=ref.q_threshold.copy(), features_sigma=np.sqrt(np.sum(prob.L ** 2, axis=1)),
                params=params, flows=theta[:nq].copy())
+
+
+def _clipped_text(chain, k: int, held: float) -> str:
+    """The tables span 25-200 % of Q_T: a known supply beyond is taken at their edge, and said so."""
+    return (f"bearing {k + 1}'s known supply {chain.machine.bearings[k].supply_flow * MLMIN_PER_M3S:.0f} "
+            f"ml/min lies outside 25-200 % of its Q_T ({chain.q_threshold[k] * MLMIN_PER_M3S:.0f} ml/min): "
+            f"held at {held * MLMIN_PER_M3S:.0f} ml/min, the tables' edge")
+
+
+def _alternatives(others, theta, chi2: float, crit: float, inflation: float, q_threshold) -> list:
+    """The other refined basins that pass the same test, each at flows > 3 % of Q_T from the best and from
+    each other: (theta, chi2) pairs."""
+    nq = len(q_threshold)
+    alternatives = []
+    for c2, th, *_ in others:
+        sep = np.max(np.abs(th[:nq] - theta[:nq]) / q_threshold) > 0.03
+        dup = any(np.max(np.abs(th[:nq] - a[:nq]) / q_threshold) < 0.03 for a, _ in alternatives)
+        if sep and not dup and (c2 <= crit or c2 - chi2 < CHI2_95_1DOF * inflation):
+            alternatives.append((th, c2))
+    return alternatives
 
 
 def parameters(chain, theta, std: dict, *, initial, bounds, intervals: dict) -> tuple[FitParameter, ...]:
