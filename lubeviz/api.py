@@ -34,11 +34,12 @@ from .signals.records import read_record
 
 
 def identify_record(record, machine, settings: IdentificationSettings | None = None, effects: Sequence = (), *,
-                    progress: ProgressFn = silent, model=None, measured=None) -> RecordIdentification:
-    """Identify one record (`read_record`) of `machine`. `model`, `measured`: a forward model and the record's
-    features already at hand (the app's shared cache), else made here."""
+                    progress: ProgressFn = silent, model=None, tables=None, measured=None) -> RecordIdentification:
+    """Identify one record (`read_record`) of `machine`. `model` (paper mode) or `tables` (best mode: one
+    coefficient table per bearing at the record's speed), `measured`: what is already at hand (the app's shared
+    cache), else made here."""
     return _identify_record(record, machine, settings, effects=tuple(effects), progress=progress, model=model,
-                            measured=measured)
+                            tables=tables, measured=measured)
 
 
 def identify_set(records: Sequence, machine, settings: IdentificationSettings | None = None,

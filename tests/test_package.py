@@ -117,7 +117,8 @@ def test_a_page_opened_the_first_time_switches_its_tab_before_its_module_is_impo
     timer.start()
     index, (at_once, settled) = _open_first_time(monkeypatch, slow_import)
     assert at_once == (index, "Column", False)  # the tab shows, with its spinner, while the module imports
-    assert seen == ["lubeviz.app.diagnose_page"]
+    # (the preload thread of a process's first session may import libraries meanwhile: only the page's counts)
+    assert [n for n in seen if n.startswith("lubeviz.")] == ["lubeviz.app.diagnose_page"]
     assert settled.object == "the Diagnose page"
 
 

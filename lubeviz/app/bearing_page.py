@@ -95,7 +95,7 @@ def _groove_box(frame: SupplyFrame, deg: np.ndarray, order: np.ndarray):
 class BearingPage(pn.viewable.Viewer):
     """The Bearing page of one session."""
 
-    bearing = param.Selector(default=0, objects={"Bearing 1": 0, "Bearing 2": 1},
+    bearing = param.Selector(default=0, objects={"Bearing 1": 0},
                              doc="Which bearing of the machine to show")
     colour_scale = param.Selector(
         default="fixed", objects=["fixed", "auto"], label="Colour scale",
@@ -133,7 +133,7 @@ class BearingPage(pn.viewable.Viewer):
         self._layout = self._build()
         self.param.watch(self._on_bearing, "bearing")
         self.param.watch(self._on_colour_scale, "colour_scale")
-        self.op.param.watch(self._on_flow, ["q1", "q2"])
+        self.op.param.watch(self._on_flow, list(self.op.flow_names))
         self.op.param.watch(self._on_speed, "speed")
 
     # --- layout --------------------------------------------------------------------------------
@@ -196,7 +196,7 @@ class BearingPage(pn.viewable.Viewer):
         return self.op.speed
 
     def _q(self) -> float:
-        return self.op.q1 if self.bearing == 0 else self.op.q2
+        return self.op.flows[self.bearing]
 
     async def start(self):
         """Called once the page is shown: Q_T, the first frame, then the whole sweep in the background."""
@@ -246,10 +246,11 @@ class BearingPage(pn.viewable.Viewer):
     def _make_slider(self, k: int):
         qt = self._q_threshold[(k, self.speed)]
         grid = resources.frame_grid(qt)  # multiples of FRAME_STEP_MLMIN: the slider moves on round flows
-        name = "q1" if k == 0 else "q2"
+        name = self.op.flow_names[k]
         key = (k, self.speed)
         if key not in self._sliders:
-            setattr(self.op, name, resources.snap(min(max(getattr(self.op, name), grid[0]), grid[-1])))
+            q = qt if self.op.provisional else getattr(self.op, name)  # a first guess: start at this bearing's Q_T
+            setattr(self.op, name, resources.snap(min(max(q, grid[0]), grid[-1])))
             self._sliders[key] = quantity_slider(
                 self.op, name, start=float(grid[0]), end=float(grid[-1]),
                 step=resources.FRAME_STEP_MLMIN * M3S_PER_MLMIN, format="0",
@@ -356,7 +357,7 @@ class BearingPage(pn.viewable.Viewer):
 
     # --- events --------------------------------------------------------------------------------------
     async def _on_flow(self, event):
-        if not self._ready or event.name != ("q1" if self.bearing == 0 else "q2"):
+        if not self._ready or event.name != self.op.flow_names[self.bearing]:
             return
         try:
             await self._show_current()

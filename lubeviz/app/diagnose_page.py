@@ -29,25 +29,28 @@ from ..errors import LubevizError
 from ..identify.forward.chain import simulate
 from ..identify.forward.measured import measure
 from ..model.machine import Machine
-from ..model.operating import OperatingPoint
+from ..model.operating import operating_point
 from ..progress import Cancelled
 from ..signals.records import MAX_RECORD_BYTES, read_record_bytes
 from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
+from .machine_view import initial_flows
 from .session import SessionState
-from .text import file_label, plain, plain_text_formatters, without_upload_dirs
+from .text import TABLE_CSS, file_label, plain, table_html, without_upload_dirs
 from .widgets import (RecordDropper, not_loaded_message, quantity_slider, record_warnings_markdown, refused_message,
                       show_effect)
 
 hv.extension("bokeh", logo=False)
 
 UPLOAD_LIMIT_MB = 50
-SAMPLE_FLOWS_MLMIN = (420.0, 600.0)
+# The sample's true flows as fractions of each bearing's Q_T (the published one of the paper's machine, where they
+# make 420 and 600 ml/min; else the tables', once the page is shown): one starved, one flooded, and so on.
+SAMPLE_FRACTIONS = (420.0 / 546.0, 600.0 / 546.0, 0.9, 1.3, 0.6, 1.5)
 
 EXPLAIN = """
 ### The residual loop
-The plain model knows only the two supply flows. When a record holds something else — oil hotter than
+The plain model knows only the bearings' supply flows. When a record holds something else — oil hotter than
 declared, a worn bearing, a second unbalance, soft pedestals, a probe turned or miscalibrated, a bowed
 shaft — the best flows leave a **residual**: features the model cannot match, in standard deviations
 of the noise and of the model's own uncertainty. The diagnosis tries every effect of the library in
@@ -57,6 +60,11 @@ measurement would tell them apart), or that none does. The flows are then identi
 
 **Try it**: pick an effect below, *Simulate a sample with this effect*, then *Diagnose*.
 """
+
+
+def _per_bearing(q) -> str:
+    """'546 / 545 ml/min'-style flows (m^3/s), one per bearing."""
+    return " / ".join(f"{v / M3S_PER_MLMIN:.0f}" for v in q)
 
 
 def _verdict_badge(v: str) -> str:
@@ -80,8 +88,8 @@ class DiagnosePage(pn.viewable.Viewer):
         super().__init__(**params)
         self.machine = machine
         self.state = state
-        self.sample = OperatingPoint(speed=machine.operating_speed, q1=SAMPLE_FLOWS_MLMIN[0] * M3S_PER_MLMIN,
-                                     q2=SAMPLE_FLOWS_MLMIN[1] * M3S_PER_MLMIN, name="sample")
+        self.sample = operating_point(machine, flows=self._sample_flows(initial_flows(machine)), name="sample")
+        self._started = False
         self.effect = None
         self.jobs = JobPanel()
         self._record = self._measured = self._truth = None
@@ -114,14 +122,13 @@ class DiagnosePage(pn.viewable.Viewer):
         self._verdict = pn.pane.Alert("", alert_type="info", visible=False, sizing_mode="stretch_width",
                                       css_classes=["lubeviz-verdict"])
         self._flows = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["lubeviz-diagnosis-flows"])
-        self._candidates = pn.Column(sizing_mode="stretch_width")  # a Tabulator made afresh per result
+        self._candidates = pn.Column(sizing_mode="stretch_width")  # a table made afresh per result
         self._residuals = pn.pane.HoloViews(self._residual_plot(None), sizing_mode="stretch_width",
                                             linked_axes=False, css_classes=["lubeviz-residuals"])
         self._scans = pn.Column(sizing_mode="stretch_width")  # each node scan's profile (diagnose.report.scan_svg)
         self._maps = pn.FlexBox(flex_wrap="wrap")  # the two χ² maps side by side, or one above the other when narrow
-        flows = [quantity_slider(self.sample, n, start=0.3 * 546 * M3S_PER_MLMIN, end=2.0 * 546 * M3S_PER_MLMIN,
-                                 step=M3S_PER_MLMIN, label=f"Sample: true flow Q{k + 1} (ml/min)",
-                                 sizing_mode="stretch_width") for k, n in enumerate(("q1", "q2"))]
+        self._flow_sliders = pn.Column(*self._sliders(initial_flows(machine)), sizing_mode="stretch_width")
+        flows = [self._flow_sliders]
         sample_settings = pn.Param(self.param, parameters=["effect_name", "snr_db", "seed"], show_name=False,
                                    widgets={"effect_name": {"type": pn.widgets.Select, "name": "Effect in the sample"},
                                             "snr_db": {"type": pn.widgets.FloatSlider, "name": "Sample SNR (dB)"},
@@ -143,6 +150,35 @@ class DiagnosePage(pn.viewable.Viewer):
 
     def __panel__(self):
         return self._layout
+
+    async def start(self):
+        """Once shown: the sample's flows and sliders at fractions of each bearing's Q_T (from the coefficient
+        tables, shared with the other pages), in place of the first guess they start from."""
+        if self._started:
+            return
+        self._started = True
+        if "flooded_threshold_mlmin" in self.machine.reference:  # the published Q_T: the sample starts from it
+            return
+        try:
+            tables = await self.jobs.run(resources.tables, self.machine, self.machine.operating_speed, quiet=True,
+                                         label="bearing coefficient tables")
+        except Exception:  # noqa: BLE001 - the sample keeps its first guess; a diagnosis reports its own errors
+            return
+        qt = [t.q_threshold for t in tables]
+        self.sample.flows = self._sample_flows(qt)
+        self._flow_sliders.objects = self._sliders(qt)
+
+    @staticmethod
+    def _sample_flows(q_threshold) -> list[float]:
+        return [round(f * q / M3S_PER_MLMIN) * M3S_PER_MLMIN for f, q in zip(SAMPLE_FRACTIONS, q_threshold)]
+
+    def _sliders(self, q_threshold) -> list:
+        """The sample's flow sliders over 30-200 % of `q_threshold` (per bearing), in whole ml/min."""
+        return [quantity_slider(self.sample, n, start=max(math.floor(0.3 * q / M3S_PER_MLMIN), 1) * M3S_PER_MLMIN,
+                                end=math.ceil(2.0 * q / M3S_PER_MLMIN) * M3S_PER_MLMIN,
+                                step=M3S_PER_MLMIN, label=f"Sample: true flow Q{k + 1} (ml/min)",
+                                sizing_mode="stretch_width", css_classes=[f"lubeviz-sample-q{k + 1}"])
+                for k, (n, q) in enumerate(zip(self.sample.flow_names, q_threshold))]
 
     # --- the sample's effect ----------------------------------------------------------------------------
     def _choose_effect(self, name: str):
@@ -180,8 +216,8 @@ class DiagnosePage(pn.viewable.Viewer):
         n = record.displacement.shape[-1]
         dur = n / record.sample_rate_hz
         lines = [f"**{plain(name)}**", "",
-                 f"speed {record.speed_hz:g} Hz; {dur:.2f} s ({dur * record.speed_hz:.0f} revolutions); planes at "
-                 f"nodes {record.nodes[0]} and {record.nodes[1]}"]
+                 f"speed {record.speed_hz:g} Hz; {dur:.2f} s ({dur * record.speed_hz:.0f} revolutions); "
+                 f"{len(record.nodes)} planes at nodes {', '.join(str(n) for n in record.nodes)}"]
         t_oil = getattr(record, "oil_temperature_c", None)
         if t_oil is not None:
             oil = getattr(self.machine, "oil", None)
@@ -192,13 +228,13 @@ class DiagnosePage(pn.viewable.Viewer):
             lines += ["", "static shaft position: present (it separates hotter oil, wear and less oil)"]
         if truth:
             q = truth["q_mlmin"]
-            lines += ["", f"Truth: Q1 = {q[0]:.0f}, Q2 = {q[1]:.0f} ml/min" +
+            lines += ["", "Truth: " + ", ".join(f"Q{k + 1} = {v:.0f}" for k, v in enumerate(q)) + " ml/min" +
                       (f", effect {plain(truth['effect'])}" if truth.get("effect") else "")]
         return "\n".join(lines)
 
     async def _on_sample(self, event):
         effect = self.effect.hold()
-        theta = np.array([self.sample.q1, self.sample.q2])
+        theta = np.array(self.sample.flows)
         self._message.visible = False
         try:
             loaded = await self.jobs.run(self._simulate, effect, theta, self.snr_db, self.seed,
@@ -311,10 +347,8 @@ class DiagnosePage(pn.viewable.Viewer):
         self._verdict.visible = True
         self._residuals.object = self._residual_plot(d)
         table = self._candidates_table(d, s)
-        self._candidates.objects = [pn.widgets.Tabulator(table, disabled=True, show_index=False,
-                                                         sizing_mode="stretch_width",
-                                                         formatters=plain_text_formatters(table),
-                                                         css_classes=["lubeviz-candidates"])]
+        self._candidates.objects = [pn.pane.HTML(table_html(table), stylesheets=[TABLE_CSS], sizing_mode="stretch_width",
+                                                 css_classes=["lubeviz-candidates"])]
         self._scans.objects = ([pn.pane.Markdown("### Where along the shaft", sizing_mode="stretch_width")] + [
             pn.Column(pn.pane.HTML(scan_svg(sc), css_classes=["lubeviz-node-scan"]),
                       pn.pane.Markdown(plain(sc.words()[0].upper() + sc.words()[1:]) + ".",
@@ -332,7 +366,7 @@ class DiagnosePage(pn.viewable.Viewer):
                (" | truth |" if truth else " |")
         lines = [f"### Supply flows of {plain(record_name)}, before and after", head,
                  "|---" * (1 + 2 * len(cols) + (1 if truth else 0)) + "|"]
-        for k in range(2):
+        for k in range(len(declared)):
             cells = [f"{k + 1} (node {self.machine.bearings[k].node})"]
             for name, f, fd in cols:
                 iv = fd[f"q{k + 1}_interval_mlmin"]
@@ -345,10 +379,9 @@ class DiagnosePage(pn.viewable.Viewer):
             lines.append("| " + " | ".join(cells) + " |")
         lines.append("")
         lines.append("; ".join(f"{name}: χ² = {fd['chi2']:.1f} for {fd['dof']} dof (p = {fd['p_value']:.2g})"
-                               for name, _, fd in cols) + f". Q_T = {qt[0] / M3S_PER_MLMIN:.0f} / "
-                     f"{qt[1] / M3S_PER_MLMIN:.0f} ml/min"
+                               for name, _, fd in cols) + f". Q_T = {_per_bearing(qt)} ml/min"
                      + ("" if np.allclose(qt, declared, rtol=0.01) else
-                        f" as diagnosed (declared: {declared[0] / M3S_PER_MLMIN:.0f} / {declared[1] / M3S_PER_MLMIN:.0f})")
+                        f" as diagnosed (declared: {_per_bearing(declared)})")
                      + f". Diagnosis in {d.seconds:.1f} s.")
         if d.ambiguous:
             lines += ["", f"**Look-alikes**: {plain(', '.join(d.ambiguous))} fit as well. To tell them apart: "
@@ -375,8 +408,8 @@ class DiagnosePage(pn.viewable.Viewer):
             rows.append({"rank": i, "effect": c.label, "": mark, "ΔAIC": round(ev.get("delta_aic", math.nan), 1),
                          "χ²/dof": round(c.fit.chi2 / max(c.fit.dof, 1), 2) if c.fit is not None else math.nan,
                          "passes": "yes" if c.passes else "no", "fitted parameters ± 1σ": fitted or e["error"] or "",
-                         "Q1 (ml/min)": round(ev.get("q1_mlmin", math.nan)),
-                         "Q2 (ml/min)": round(ev.get("q2_mlmin", math.nan))})
+                         **{f"Q{k} (ml/min)": round(ev.get(f"q{k}_mlmin", math.nan))
+                            for k in range(1, len(d.before.q_threshold) + 1)}})
         return pd.DataFrame(rows)
 
     def _residual_plot(self, d):
@@ -408,11 +441,11 @@ class DiagnosePage(pn.viewable.Viewer):
         for path in fit.paths:
             p = np.asarray(path) / M3S_PER_MLMIN
             layers.append(hv.Curve((p[:, 0], p[:, 1]), *kd).opts(color="white", line_width=1.5, alpha=0.7))
-        answer = fit.values[:2] / M3S_PER_MLMIN
+        answer = fit.flow_values()[:2] / M3S_PER_MLMIN
         layers.append(hv.Points([tuple(answer)], kd, label="fit").opts(color="white", size=10, marker="circle",
                                                                      line_color="black"))
         if truth:
-            layers.append(hv.Points([tuple(truth["q_mlmin"])], kd, label="truth").opts(color="red", size=12,
+            layers.append(hv.Points([tuple(truth["q_mlmin"][:2])], kd, label="truth").opts(color="red", size=12,
                                                                                      marker="x", line_width=3))
         return hv.Overlay(layers).opts(title=f"χ² over Q1 × Q2, {title}", frame_width=330, frame_height=330,
                                        legend_position="top_right", framewise=True)

@@ -8,6 +8,7 @@ are the headless package's.
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
 import math
@@ -33,20 +34,24 @@ from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .session import SessionState
-from .text import file_label, plain, plain_text_formatters, without_upload_dirs
+from .text import TABLE_CSS, file_label, plain, table_html, without_upload_dirs
 from .widgets import RecordDropper, not_loaded_message, record_warnings_markdown, refused_message
 
 hv.extension("bokeh", logo=False)
 
-SAMPLE = Path(__file__).resolve().parents[2] / "assets" / "sample_record.csv"
+SAMPLE = Path(__file__).resolve().parents[2] / "assets" / "sample_record.csv"  # the paper's machine
+SAMPLES_DIR = SAMPLE.parent / "samples"  # one per shipped example machine, named as its model file
+SAMPLE_FRACTIONS = (0.8, 1.2, 1.0, 0.9, 1.3, 0.7)  # a machine without a sample file: flows simulated at these x Q_T
 UPLOAD_LIMIT_MB = 50  # the browser refuses larger files before sending them (the reader allows more from disk)
 
 EXPLAIN = f"""
 ### Identify the supply flows from a record
-Upload a record of shaft vibration at one steady speed: two measurement planes, each with an X and a Y
-proximity probe (CSV, NumPy `.npz` or MATLAB `.mat`; SPEC §6 of the README: `# speed_hz: 75`,
-`# sample_rate_hz: 10000`, `# units: um`, then columns `x1, y1, x2, y2`). Files up to {UPLOAD_LIMIT_MB} MB.
-Or load the sample record (machine of the paper, bearings fed 420 and 600 ml/min, 12 dB noise).
+Upload a record of shaft vibration at one steady speed: the machine's measurement planes, each with two
+proximity probes (CSV, NumPy `.npz` or MATLAB `.mat`; SPEC §6 of the README: `# speed_hz: 75`,
+`# sample_rate_hz: 10000`, `# units: um`, then columns `x1, y1, x2, y2, …`). Files up to {UPLOAD_LIMIT_MB} MB.
+Or load the machine's sample record (for the paper's machine: bearings fed 420 and 600 ml/min, 12 dB noise;
+for the other shipped machines a record made by direct film solves; for an uploaded machine one simulated by
+the identification's own model at 0.8, 1.2, 1.0 … × Q_T).
 
 **Best mode** (default) searches the whole flow box and fits all the orbit's invariants, weighted by the
 noise measured in the record and the model's own uncertainty; each flow gets a 95 % interval, and the χ²
@@ -54,6 +59,17 @@ test says whether the model explains the record at all.
 **Paper mode** is the method of the paper (Eq. 11 errors, Newton from 3 × 3 starts). The search paths are
 drawn on the Maps page (choose "the record of the Identify page" there).
 """
+
+
+def sample_file(machine) -> Path | None:
+    """The sample record shipped for `machine` (a model file of `models/`), or None."""
+    from ..model.parts import MODELS_DIR
+
+    source = Path(machine.source)
+    if source.parent.resolve() != MODELS_DIR.resolve():
+        return None
+    path = SAMPLE if source.stem == "paper_machine" else SAMPLES_DIR / f"{source.stem}.csv"
+    return path if path.exists() else None
 
 
 ICONS = {"starved": "🟠 starved", "normal": "🟢 normal", "over-supplied": "🔵 over-supplied"}
@@ -93,7 +109,7 @@ class IdentifyPage(pn.viewable.Viewer):
         self._sample = pn.widgets.Button(name="Load the sample record", button_type="default",
                                          css_classes=["lubeviz-sample"])
         self._sample.on_click(self._on_sample)
-        self._run = pn.widgets.Button(name="Identify Q1 and Q2", button_type="primary", disabled=True,
+        self._run = pn.widgets.Button(name="Identify the supply flows", button_type="primary", disabled=True,
                                       css_classes=["lubeviz-identify"])
         self._run.on_click(self._on_run)
         self._record_info = pn.pane.Markdown("No record yet.", sizing_mode="stretch_width",
@@ -105,8 +121,7 @@ class IdentifyPage(pn.viewable.Viewer):
         self._result = pn.pane.Markdown("", sizing_mode="stretch_width", css_classes=["lubeviz-result"])
         self._warning = pn.pane.Alert("", alert_type="warning", visible=False, sizing_mode="stretch_width",
                                       css_classes=["lubeviz-model-warning"])
-        # Holds a table made afresh for each result: a Tabulator first drawn while hidden can show no
-        # rows once made visible (its virtual renderer sized them at zero height).
+        # Holds the features' table, made afresh for each result (plain HTML: see text.table_html).
         self._features = pn.Column(sizing_mode="stretch_width")
         self._download_json = pn.widgets.FileDownload(callback=self._export_json, filename="identification.json",
                                                       label="Export JSON", button_type="success", disabled=True,
@@ -114,9 +129,8 @@ class IdentifyPage(pn.viewable.Viewer):
         self._download_csv = pn.widgets.FileDownload(callback=self._export_csv, filename="identification.csv",
                                                      label="Export CSV", button_type="success", disabled=True)
         self._signals = pn.pane.HoloViews(None, sizing_mode="stretch_width", linked_axes=False)
-        # The two orbits in a wrapping row: side by side while they fit, one above the other in a narrow window.
-        self._orbit_panes = [pn.pane.HoloViews(None, linked_axes=False) for _ in range(2)]
-        self._orbits = pn.FlexBox(*self._orbit_panes, flex_wrap="wrap", css_classes=["lubeviz-record-orbits"])
+        # The planes' orbits in a wrapping row: side by side while they fit, one above the other in a narrow window.
+        self._orbits = pn.FlexBox(flex_wrap="wrap", css_classes=["lubeviz-record-orbits"])
         self._spectra = pn.pane.HoloViews(None, sizing_mode="stretch_width", linked_axes=False,
                                           css_classes=["lubeviz-record-spectra"])
         settings = pn.Param(self.settings.param, parameters=["mode", "include_model_error", "max_iterations"],
@@ -162,7 +176,12 @@ class IdentifyPage(pn.viewable.Viewer):
             self._not_loaded(filename, f"{filename}: unexpected problem ({type(exc).__name__}): "
                                        f"{without_upload_dirs(exc)}")
             return False
-        self._record_name = name or filename
+        self._use(record, measured, name or filename)
+        return True
+
+    def _use(self, record, measured, name: str) -> None:
+        """Show a record read or simulated, and make it the session's."""
+        self._record_name = name
         self.state.record, self.state.measured = record, measured
         self.state.identification = None
         self._item = None
@@ -175,7 +194,6 @@ class IdentifyPage(pn.viewable.Viewer):
         self._record_warnings.object = record_warnings_markdown(record, self.machine)
         self._record_warnings.visible = bool(self._record_warnings.object)
         self._draw_record(record, measured)
-        return True
 
     def _read(self, content, filename, progress):
         record = read_record_bytes(content, filename, **self.machine.record_defaults())
@@ -200,7 +218,35 @@ class IdentifyPage(pn.viewable.Viewer):
             self._not_loaded(file_label(event.new[0]), refused_message(*event.new, UPLOAD_LIMIT_MB))
 
     async def _on_sample(self, event):
-        await self._load(SAMPLE.read_bytes(), SAMPLE.name, name=f"sample record ({SAMPLE.name})")
+        path = sample_file(self.machine)
+        if path is not None:
+            await self._load(path.read_bytes(), path.name, name=f"sample record ({path.name})")
+            return
+        self._message.visible = False
+        try:
+            record, measured = await self.jobs.run(self._simulated_sample, label="simulating a sample record")
+        except Cancelled:
+            return
+        except Exception as exc:  # noqa: BLE001 - shown on the page
+            self._show_error(f"**No sample.** {plain(exc)}")
+            return
+        self._use(record, measured, record.source)
+
+    def _simulated_sample(self, progress):
+        """A record of a machine that ships no sample: the model's own (the chain), at SAMPLE_FRACTIONS of Q_T."""
+        from ..identify.forward.chain import simulate
+
+        m = self.machine
+        planes = m.measurement_planes
+        chain = resources.chain(m, m.operating_speed, [p.node for p in planes], [p.probe_angles_deg for p in planes],
+                                progress=progress)
+        theta = chain.start()
+        theta[:chain.n_flows] = [SAMPLE_FRACTIONS[k % len(SAMPLE_FRACTIONS)] * q
+                                 for k, q in enumerate(chain.q_threshold)]
+        record = simulate(chain, theta, snr_db=12.0, rng=np.random.default_rng(1))
+        flows = ", ".join(f"{q / M3S_PER_MLMIN:.0f}" for q in theta[:chain.n_flows])
+        record = dataclasses.replace(record, source=f"simulated sample ({flows} ml/min, the model's own)")
+        return record, measure(record)
 
     def _info(self, record, measured) -> str:
         n = record.displacement.shape[-1]
@@ -210,9 +256,10 @@ class IdentifyPage(pn.viewable.Viewer):
             f"**{plain(self._record_name)}**", "",
             f"speed {record.speed_hz:g} Hz; {record.sample_rate_hz:g} samples/s; {dur:.2f} s "
             f"({dur * record.speed_hz:.0f} revolutions)", "",
-            f"planes at nodes {record.nodes[0]} and {record.nodes[1]}; probes at "
-            f"{record.probe_angles_deg[0][0]:g}°/{record.probe_angles_deg[0][1]:g}°", "",
-            f"1X lines over noise: forward {snr[0, 0]:.0f}/{snr[1, 0]:.0f}, backward {snr[0, 1]:.0f}/{snr[1, 1]:.0f} σ",
+            f"{len(record.nodes)} planes at nodes {', '.join(str(n) for n in record.nodes)}; probes at "
+            + ", ".join(f"{a[0]:g}°/{a[1]:g}°" for a in record.probe_angles_deg), "",
+            "1X lines over noise: forward " + "/".join(f"{v:.0f}" for v in snr[:, 0]) + ", backward "
+            + "/".join(f"{v:.0f}" for v in snr[:, 1]) + " σ",
         ])
 
     # --- identification ---------------------------------------------------------------------------------
@@ -245,8 +292,11 @@ class IdentifyPage(pn.viewable.Viewer):
     def _identify(self, record, measured, settings, progress):
         speed = model_speed(self.machine, record)
         check_model_speed(self.machine, speed)
-        model = resources.forward_model(self.machine, speed, record.nodes, progress=progress)
-        return identify_record(record, self.machine, settings, model=model, measured=measured, progress=progress)
+        if settings.mode == "paper":  # the paper's method: two bearings, its table model
+            model = resources.forward_model(self.machine, speed, record.nodes, progress=progress)
+            return identify_record(record, self.machine, settings, model=model, measured=measured, progress=progress)
+        return identify_record(record, self.machine, settings, tables=resources.tables(self.machine, speed, progress),
+                               measured=measured, progress=progress)
 
     def _show_result(self, item, name: str):
         r = item.result
@@ -258,8 +308,9 @@ class IdentifyPage(pn.viewable.Viewer):
         for k, p in enumerate(flows):
             iv = p.interval
             if iv is not None:
-                hi = "open (flooded: more oil changes nothing measurable)" if iv[1] is None else f"{iv[1]:.0f}"
-                interval = f"{iv[0]:.0f} – {hi} ml/min"
+                digits = 0 if qt[k] >= 100 else 1  # a bearing fed tens of ml/min: its interval in tenths
+                hi = "open (flooded: more oil changes nothing measurable)" if iv[1] is None else f"{iv[1]:.{digits}f}"
+                interval = f"{iv[0]:.{digits}f} – {hi} ml/min"
             else:
                 interval = "—" if p.std is None else f"± {Z95 * p.std:.1f} ml/min"
             lines.append(f"| {k + 1} (node {self.machine.bearings[k].node}) | **Q{k + 1} = {p.value:.1f} ml/min** | "
@@ -283,7 +334,8 @@ class IdentifyPage(pn.viewable.Viewer):
             if not w.startswith("the model does not explain") and not w.startswith("not unique"):
                 warn.append(plain(w[0].upper() + w[1:] + "."))
         if not r.unique:
-            alt = "; ".join(f"{a[0] / M3S_PER_MLMIN:.0f} / {a[1] / M3S_PER_MLMIN:.0f} ml/min" for a in r.alternatives)
+            alt = "; ".join(" / ".join(f"{q / M3S_PER_MLMIN:.0f}" for q in a[:len(flows)]) + " ml/min"
+                            for a in r.alternatives)
             warn.append(f"**Not unique**: other flows fit as well ({alt}).")
         if not r.converged:
             warn.append(f"The search did not converge: {plain(r.message)}")
@@ -303,11 +355,9 @@ class IdentifyPage(pn.viewable.Viewer):
             "σ noise + model": np.round(sig * conv, 5), "model": np.round(model * conv, 5),
             "difference / σ": np.round(z, 2)})
         beyond = [n for n, v in zip(names, z) if abs(v) > 3]
-        tab = pn.widgets.Tabulator(table, disabled=True, show_index=False, sizing_mode="stretch_width",
-                                   formatters=plain_text_formatters(table), css_classes=["lubeviz-features"])
         # a feature the model misses by more than 3 sigma (noise and model) is marked, and named below
-        tab.style.apply(lambda row: ["background-color: #f8d7da; color: #58151c" if abs(row["difference / σ"]) > 3
-                                     else "" for _ in row], axis=1)
+        tab = pn.pane.HTML(table_html(table, marked=[i for i, v in enumerate(z) if abs(v) > 3]),
+                           stylesheets=[TABLE_CSS], sizing_mode="stretch_width", css_classes=["lubeviz-features"])
         note = pn.pane.Markdown(
             f"Beyond 3σ (noise and model): **{plain(', '.join(beyond))}** — the **Diagnose** page looks for the "
             "cause."
@@ -323,12 +373,12 @@ class IdentifyPage(pn.viewable.Viewer):
 
     # --- plots ------------------------------------------------------------------------------------------
     def _draw_record(self, record, measured):
-        xy = record.xy() * 1e6  # (2 planes, 2, n) µm in X, Y
+        xy = record.xy() * 1e6  # (P planes, 2, n) µm in X, Y
         t = record.t
         n_show = min(xy.shape[-1], int(round(5 * record.sample_rate_hz / record.speed_hz)))
         kd = "t (s)"
         curves = []
-        for k in range(2):
+        for k in range(xy.shape[0]):
             for j, axis in enumerate("xy"):
                 curves.append(hv.Curve((t[:n_show], xy[k, j, :n_show]), kd, "displacement (µm)",
                                        label=f"{axis}{k + 1} (node {record.nodes[k]})"))
@@ -336,7 +386,7 @@ class IdentifyPage(pn.viewable.Viewer):
                                                        min_height=280, legend_position="right")
         orbits, spectra = [], []
         th = np.linspace(0, 2 * math.pi, 181)
-        for k in range(2):
+        for k in range(xy.shape[0]):
             m = min(xy.shape[-1], 2000)
             raw = hv.Scatter((xy[k, 0, :m], xy[k, 1, :m]), "x (µm)", "y (µm)", label="samples").opts(
                 size=2, color="#9ecae1")
@@ -354,6 +404,5 @@ class IdentifyPage(pn.viewable.Viewer):
             spectra.append(hv.Spikes((f[keep], amp[keep]), "frequency (Hz)", "amplitude (µm)").opts(
                 title=f"Full spectrum, plane {k + 1} (+ forward, − backward)", responsive=True, min_height=260,
                 line_width=2, color="#2c5f8a"))
-        for pane, orbit in zip(self._orbit_panes, orbits):
-            pane.object = orbit
+        self._orbits.objects = [pn.pane.HoloViews(orbit, linked_axes=False) for orbit in orbits]
         self._spectra.object = hv.Layout(spectra).cols(2).opts(shared_axes=False)

@@ -22,7 +22,7 @@ from ..identify.batch import model_speed
 from ..identify.paper.maps import domain_axes, feature_grid, identification_map, simulated_measurement
 from ..identify.fit.settings import IdentificationSettings
 from ..model.machine import Machine
-from ..model.operating import OperatingPoint
+from ..model.operating import OperatingPoint, operating_point
 from ..progress import Cancelled
 from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
@@ -84,8 +84,10 @@ class MapsPage(pn.viewable.Viewer):
         self.settings = IdentificationSettings.paper(name="maps identification")
         # The simulated record's operating point: the session's speed, this page's own flows (set in `start`,
         # once Q_T is known from the model).
-        self.record_point = OperatingPoint(speed=operating.speed, q1=operating.q1, q2=operating.q2,
-                                           name="simulated record")
+        self.record_point = operating_point(machine, speed=operating.speed, flows=operating.flows,
+                                            name="simulated record")
+        if not machine.outside_nodes:  # a machine whose file names no planes outside the bearings
+            self.param.planes.objects = {k: v for k, v in PLANES.items() if v == "center"}
         self.jobs = JobPanel()
         self._result = None
         self._flow_sliders = pn.Column(sizing_mode="stretch_width")

@@ -140,10 +140,10 @@ def chain(m: Machine, speed_hz: float, nodes, probe_angles_deg=None,
     """The plain forward chain (no effects) at `speed_hz` and planes `nodes`; add effects with
     `.with_effects(...)`. Every chain of one machine and speed shares its bearings' coefficient views (a
     viscosity or clearance change is built once per server, whatever the planes)."""
-    from ..identify.forward.chain import DEFAULT_PROBE_ANGLES, ForwardChain
+    from ..identify.forward.chain import ForwardChain
 
-    if probe_angles_deg is None:
-        probe_angles_deg = DEFAULT_PROBE_ANGLES
+    if probe_angles_deg is None:  # probes along X and Y at every plane
+        probe_angles_deg = ((0.0, 90.0),) * len(tuple(nodes))
     angles = tuple(tuple(float(a) for a in p) for p in probe_angles_deg)
     key = (m.source, round(float(speed_hz), 9), tuple(int(n) for n in nodes), angles)
     t = tables(m, speed_hz, progress)

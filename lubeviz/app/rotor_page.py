@@ -41,6 +41,7 @@ from ..rotor.orbit_balance import HARMONICS, POINTS
 from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
+from .machine_view import disc_box
 from .text import plain
 from .widgets import quantity_slider, show_effect
 
@@ -90,6 +91,11 @@ WRAPPING = dict(sizing_mode="stretch_width", min_width=420, styles={"flex": "1 1
 HALF = dict(min_width=340, styles={"flex": "1 1 480px"})  # two in a row when each has 480 px, else one
 
 
+def _flows(flows) -> str:
+    """'Q1 = 546, Q2 = 556 ml/min' (m^3/s in)."""
+    return ", ".join(f"Q{k + 1} = {q / M3S_PER_MLMIN:.0f}" for k, q in enumerate(flows)) + " ml/min"
+
+
 def effect_choices() -> list[str]:
     """'none' and every registered effect the linear response carries (large_orbit has its own section)."""
     return ["none", *(n for n, c in EFFECTS.items() if c.stage != "response")]
@@ -98,7 +104,8 @@ def effect_choices() -> list[str]:
 class RotorPage(pn.viewable.Viewer):
     """The Rotor page of one session."""
 
-    node = param.Integer(6, bounds=(1, 21), doc="Node (paper numbering) whose orbit, signals and spectrum are shown")
+    node = param.Integer(1, bounds=(1, None), doc="Node whose orbit, signals and spectrum are shown (first shown: "
+                                                  "the first measurement plane's)")
     snr_db = param.Number(12.0, bounds=(-5.0, 60.0), doc="Signal-to-noise ratio of the simulated probes (dB)")
     revolutions = param.Integer(5, bounds=(1, 50), doc="Revolutions shown in the time signals")
     # large_orbit replaces the linear response (a harmonic balance, tens of seconds): its own section below
@@ -114,6 +121,8 @@ class RotorPage(pn.viewable.Viewer):
         self.machine = machine
         self.op = operating
         self.param.node.bounds = (1, machine.n_nodes)
+        if "node" not in params:
+            self.node = machine.measurement_planes[0].node
         self.param.effect_name.objects = effect_choices()  # the library as registered now
         self.jobs = JobPanel()
         self.campbell_jobs = JobPanel()
@@ -143,9 +152,9 @@ class RotorPage(pn.viewable.Viewer):
         self._layout = self._build()
         self.param.watch(self._on_effect, "effect_name")
         self.param.watch(self._refresh, ["node", "snr_db", "revolutions"])
-        self.op.param.watch(self._refresh, ["q1", "q2"])
-        self.op.param.watch(self._show_campbell, ["q1", "q2", "speed"])
-        self.op.param.watch(self._show_large_orbit, ["q1", "q2", "speed"])
+        self.op.param.watch(self._refresh, list(self.op.flow_names))
+        self.op.param.watch(self._show_campbell, [*self.op.flow_names, "speed"])
+        self.op.param.watch(self._show_large_orbit, [*self.op.flow_names, "speed"])
         self.param.watch(self._show_large_orbit, ["node", "unbalance_scale"])
 
     def _build(self):
@@ -171,7 +180,7 @@ class RotorPage(pn.viewable.Viewer):
         modes = pn.pane.HoloViews(hv.DynamicMap(self._modes, streams=[self._pipe]), **HALF, **pane)
         centreline = [pn.pane.HoloViews(hv.DynamicMap(lambda data, k=k: self._centreline(data, k), streams=[self._pipe]),
                                         linked_axes=False, css_classes=[f"lubeviz-centreline{k + 1}"])
-                      for k in range(2)]
+                      for k in range(len(self.machine.bearings))]
         # Replaced whole when computed (the number of tracked modes varies): no DynamicMap here.
         self._campbell_pane = campbell = pn.pane.HoloViews(self._campbell(None), css_classes=["lubeviz-campbell-plot"],
                                                            **pane)
@@ -205,11 +214,19 @@ class RotorPage(pn.viewable.Viewer):
             self._fail(exc)
             return
         qt = [t.q_threshold for t in self._tables]
+        # The sliders move by whole ml/min over the tables' span; the session's first guess on a machine without
+        # a published Q_T (or a flow outside the span) starts at each bearing's Q_T.
+        span = [(math.ceil(t.q_min / M3S_PER_MLMIN) * M3S_PER_MLMIN, math.floor(t.q_max / M3S_PER_MLMIN) * M3S_PER_MLMIN)
+                for t in self._tables]
+        first = self.op.provisional
+        self.op.flows = [round((t.q_threshold if first or not lo <= q <= hi else q) / M3S_PER_MLMIN) * M3S_PER_MLMIN
+                         for q, (lo, hi), t in zip(self.op.flows, span, self._tables)]
+        self.op.provisional = False
         self._sliders.objects = [
-            quantity_slider(self.op, name, start=t.q_min, end=t.q_max, step=M3S_PER_MLMIN,
+            quantity_slider(self.op, name, start=lo, end=hi, step=M3S_PER_MLMIN,
                             label=f"Supply flow Q{k + 1} (ml/min); Q_T = {qt[k] / M3S_PER_MLMIN:.0f}",
                             sizing_mode="stretch_width", css_classes=[f"lubeviz-q{k + 1}"])
-            for k, (name, t) in enumerate(zip(("q1", "q2"), self._tables))]
+            for k, (name, (lo, hi)) in enumerate(zip(self.op.flow_names, span))]
         await self._refresh()
 
     def _state(self, node: int, flows, effect, progress=None) -> dict:
@@ -227,7 +244,7 @@ class RotorPage(pn.viewable.Viewer):
         try:
             effect = None if self.effect is None else self.effect.hold()  # a copy: widgets may move meanwhile
             label = "response" if effect is None else f"response with {effect.label()}"
-            state = await self.jobs.run(self._state, self.node, (self.op.q1, self.op.q2), effect, label=label,
+            state = await self.jobs.run(self._state, self.node, self.op.flows, effect, label=label,
                                         quiet=True)
         except Cancelled:
             return
@@ -258,11 +275,11 @@ class RotorPage(pn.viewable.Viewer):
     async def _on_campbell(self, event):
         if self._tables is None:
             return
-        flows, speed = (self.op.q1, self.op.q2), self.op.speed
+        flows, speed = self.op.flows, self.op.speed
         ratios = tuple(q / t.q_threshold for q, t in zip(flows, self._tables))
         speeds = 2 * math.pi * np.linspace(max(self.machine.speed_min, 5.0), self.machine.speed_max, 30)
         key = ("campbell", self.machine.source, self._campbell_ratios(flows))
-        label = f"Campbell diagram at Q1 = {flows[0] / M3S_PER_MLMIN:.0f}, Q2 = {flows[1] / M3S_PER_MLMIN:.0f} ml/min"
+        label = f"Campbell diagram at {_flows(flows)}"
         self._campbell_error.visible = False
         cached = resources.memo_get(key)
         if cached is None:
@@ -292,7 +309,7 @@ class RotorPage(pn.viewable.Viewer):
         if d is None or self._tables is None:
             return []
         changes = []
-        if self._campbell_ratios((self.op.q1, self.op.q2)) != self._campbell_ratios(d["flows"]):
+        if self._campbell_ratios(self.op.flows) != self._campbell_ratios(d["flows"]):
             changes.append("the flows have changed")
         if self.op.speed != d["speed"]:
             changes.append("the speed has changed")
@@ -303,8 +320,7 @@ class RotorPage(pn.viewable.Viewer):
         if d is None:
             return
         changes = self._campbell_changes()
-        q = [f / M3S_PER_MLMIN for f in d["flows"]]
-        self._campbell_stale.object = (f"Campbell diagram computed for Q1 = {q[0]:.0f}, Q2 = {q[1]:.0f} ml/min "
+        self._campbell_stale.object = (f"Campbell diagram computed for {_flows(d['flows'])} "
                                        f"at {d['speed']:g} Hz; {' and '.join(changes)}: "
                                        "press the button to recompute.")
         self._campbell_stale.visible = bool(changes)
@@ -360,7 +376,7 @@ class RotorPage(pn.viewable.Viewer):
         return large_orbit(machine, resources.rotor(machine), flows, speed_hz, node, scale, resolution, progress)
 
     async def _on_large_orbit(self, event=None):
-        flows, speed = (self.op.q1, self.op.q2), self.op.speed
+        flows, speed = self.op.flows, self.op.speed
         node, scale = self.node, self.unbalance_scale
         label = f"large orbit at node {node}, unbalance ×{scale:g}"
         self._large_orbit_error.visible = False
@@ -396,7 +412,7 @@ class RotorPage(pn.viewable.Viewer):
             return []
         changes = []
         rounded = [round(q / M3S_PER_MLMIN, 1) for q in d["flows"]]  # the sliders move by 1 ml/min
-        if [round(q / M3S_PER_MLMIN, 1) for q in (self.op.q1, self.op.q2)] != rounded:
+        if [round(q / M3S_PER_MLMIN, 1) for q in self.op.flows] != rounded:
             changes.append("the flows have changed")
         if self.op.speed != d["speed"]:
             changes.append("the speed has changed")
@@ -411,8 +427,7 @@ class RotorPage(pn.viewable.Viewer):
         if d is None:
             return
         changes = self._large_orbit_changes()
-        q = [f / M3S_PER_MLMIN for f in d["flows"]]
-        self._large_orbit_stale.object = (f"Large orbit computed for Q1 = {q[0]:.0f}, Q2 = {q[1]:.0f} ml/min at "
+        self._large_orbit_stale.object = (f"Large orbit computed for {_flows(d['flows'])} at "
                                           f"{d['speed']:g} Hz, node {d['node']}, unbalance ×{d['scale']:g}; "
                                           f"{' and '.join(changes)}: press the button to recompute.")
         self._large_orbit_stale.visible = bool(changes)
@@ -433,8 +448,7 @@ class RotorPage(pn.viewable.Viewer):
         m = self.machine
         xs = np.concatenate([[0.0], np.cumsum([e.length for e in m.elements])]) * 1e3
         shaft = [(xs[i], -e.diameter / 2e-3, xs[i + 1], e.diameter / 2e-3) for i, e in enumerate(m.elements)]
-        discs = [(xs[d.node - 1] - d.width / 2e-3, -d.outer_diameter / 2e-3, xs[d.node - 1] + d.width / 2e-3,
-                  d.outer_diameter / 2e-3) for d in m.discs]
+        discs = [(x - hw, -r, x + hw, r) for x, hw, r in (disc_box(d, xs) for d in m.discs)]  # lumped ones too
         top = max(d[3] for d in discs) if discs else 100.0
         bearings = []
         for b in m.bearings:
@@ -442,9 +456,14 @@ class RotorPage(pn.viewable.Viewer):
             r = b.radius * 1e3
             bearings += [(x0 - b.length / 2e-3, r, x0 + b.length / 2e-3, r + 25),
                          (x0 - b.length / 2e-3, -r - 25, x0 + b.length / 2e-3, -r)]
+        supports = []
+        for sp in m.supports:
+            x0, r = xs[sp.node - 1], m.elements[min(sp.node - 1, len(m.elements) - 1)].diameter / 2e-3
+            supports += [(x0 - 8, r, x0 + 8, r + 25), (x0 - 8, -r - 25, x0 + 8, -r)]
         el = (hv.Rectangles(shaft, ["x (mm)", "radius (mm)", "x1", "y1"]).opts(color="#9aa5b1", line_color="black")
               * hv.Rectangles(discs).opts(color="#51606f", line_color="black")
-              * hv.Rectangles(bearings).opts(color="#e8a33d", line_color="black"))
+              * hv.Rectangles(bearings).opts(color="#e8a33d", line_color="black")
+              * hv.Rectangles(supports).opts(color="#5a9e5a", line_color="black"))
         meas = list(m.center_nodes) + list(m.outside_nodes)
         labels = hv.Labels([(xs[n - 1], -top - 40, str(n)) for n in range(1, m.n_nodes + 1)],
                            ["x (mm)", "radius (mm)"], "node").opts(text_font_size="8pt", text_color="gray")
@@ -456,7 +475,8 @@ class RotorPage(pn.viewable.Viewer):
         unb = hv.Points([(xs[m.unbalance_node - 1], 0.0)], ["x (mm)", "radius (mm)"], label="unbalance").opts(
             marker="star", size=14, color="#d62728")
         return (el * labels * probes * sel * unb).opts(
-            title="The machine to scale: shaft, discs, bearings (orange), measurement planes (▼)",
+            title="The machine to scale: shaft, discs, oil-film bearings (orange), other supports (green), "
+                  "measurement planes (▼)",
             # 600 px: about 705 with its axes, within the plots' column of an 800 px window (a responsive
             # width would lose the 1:1 scale, data_aspect fixes the height)
             frame_width=600, data_aspect=1, xlim=(-50.0, xs[-1] + 50.0), ylim=(-top - 70, top + 60),
@@ -561,7 +581,8 @@ class RotorPage(pn.viewable.Viewer):
         text = "; ".join(f"{name} {a:.1f} Hz" for a, _, name in marks) or "no crossing in range"
         r = "/".join(f"{x:.2f}" for x in data["ratios"])
         q = "/".join(f"{f / M3S_PER_MLMIN:.0f}" for f in data["flows"])
-        title = f"Campbell diagram at Q/Q_T = {r} (Q1/Q2 = {q} ml/min): {text}{' (stale)' if stale else ''}"
+        names = "/".join(f"Q{k + 1}" for k in range(len(data["flows"])))
+        title = f"Campbell diagram at Q/Q_T = {r} ({names} = {q} ml/min): {text}{' (stale)' if stale else ''}"
         return (hv.Overlay(tracks) * one_x * pts * hv.VLine(data["speed"], label="operating speed").opts(
             color="green")).opts(**dict(opts, title=title, ylim=(0.0, 1.5 * speeds[-1])))
 
@@ -684,7 +705,7 @@ class RotorPage(pn.viewable.Viewer):
         fr = ", ".join(f"{f:.1f}" for f in modal.damped_frequencies_hz[:4])
         return "\n".join([
             f"#### Node {s['node']} at {s['speed']:.1f} Hz",
-            f"Q1 = {q[0]}, Q2 = {q[1]}", "",
+            ", ".join(f"Q{k + 1} = {v}" for k, v in enumerate(q)), "",
             "| feature | model | from the noisy signal |", "|---|---|---|",
             f"| \\|Zf\\| forward 1X | {abs(zf) * 1e6:.2f} µm | {abs(spec.line(1.0)) * 1e6:.2f} µm |",
             f"| \\|Zb\\| backward 1X | {abs(zb) * 1e6:.2f} µm | {abs(spec.line(-1.0)) * 1e6:.2f} µm |",

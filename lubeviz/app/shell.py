@@ -19,11 +19,11 @@ from pathlib import Path
 
 import panel as pn
 
-from ..model.operating import OperatingPoint
-from ..units import M3S_PER_MLMIN
+from ..model.operating import operating_point
 from . import resources
 from .glossary import GLOSSARY
 from .jobs import JobPanel
+from .machine_view import MachineChooser, initial_flows
 from .session import SessionState
 from .text import plain
 
@@ -31,7 +31,8 @@ ASSETS = Path(__file__).resolve().parents[2] / "assets"
 # The start page's pictures (assets/, drawn for it): file, kind (its CSS class), caption.
 PICTURES = (
     ("machine.svg", "machine",
-     "The paper's machine, drawn to scale: a stepped shaft with three discs (the unbalance on the middle one) on "
+     "The paper's machine, the example the dashboard opens on (the machine chosen above is drawn from its file "
+     "there), drawn to scale: a stepped shaft with three discs (the unbalance on the middle one) on "
      "two grooved oil-film bearings, each fed its own supply flow (Q1, Q2); an X and a Y probe measure the "
      "shaft's vibration in each of two planes."),
     ("bearing_section.svg", "bearing",
@@ -46,7 +47,7 @@ INTRO = """
 How well is each hydrodynamic bearing of a machine lubricated? lubeviz answers from the shaft's
 vibration alone: a mass-conserving film model whose oil **supply flow** is an input, a finite-element
 rotor, the **full spectrum** of the shaft's orbit (forward and backward whirl: {fb}, {phi}), and a search
-for the two supply flows Q1, Q2 that make the model's orbit features match the measured ones (Oliveira,
+for the supply flows Q1, Q2, … of its bearings that make the model's orbit features match the measured ones (Oliveira,
 Cunha & Daniel; see the README). A bearing fed less than {q_t} is {starved}.
 """
 
@@ -120,7 +121,7 @@ def _svg(name: str) -> str:
     return text[text.index("<svg"):]  # from the <svg> element on (no XML declaration inside HTML)
 
 
-def start_page(tabs: pn.Tabs) -> pn.Column:
+def start_page(tabs: pn.Tabs, chooser: MachineChooser | None = None) -> pn.Column:
     """The start page. Its "Open NAME" buttons switch `tabs` to that page's tab in the browser itself: the switch
     does not wait for the server, which may be busy building a page opened before (tens of seconds on a loaded
     2-core machine); the server sees the new active tab when it is free and builds the page then."""
@@ -140,7 +141,9 @@ def start_page(tabs: pn.Tabs) -> pn.Column:
                                                     margin=(0, 10)), sizing_mode="stretch_width"))
     glossary = pn.pane.HTML(glossary_html(), sizing_mode="stretch_width", stylesheets=[_GLOSSARY_CSS],
                             css_classes=["lubeviz-start-glossary"])
-    return pn.Column(intro, figures, pn.pane.Markdown("### What each page is for", sizing_mode="stretch_width"),
+    machine = [chooser.panel()] if chooser is not None else []
+    return pn.Column(intro, *machine, figures,
+                     pn.pane.Markdown("### What each page is for", sizing_mode="stretch_width"),
                      *rows, pn.pane.Markdown(WHERE_TO_START, sizing_mode="stretch_width"),
                      pn.pane.Markdown("### Glossary", sizing_mode="stretch_width"), glossary,
                      sizing_mode="stretch_width", css_classes=["lubeviz-start"])
@@ -159,8 +162,11 @@ def _rotor(m, op, state):
 
 
 def _maps(m, op, state):
-    from .maps_page import MapsPage
-    return MapsPage(m, op, state)
+    if len(m.bearings) == 2:  # the paper's maps: its error functions and Newton search over Q1 x Q2
+        from .maps_page import MapsPage
+        return MapsPage(m, op, state)
+    from .pair_maps_page import PairMapsPage  # any pair of flows, the others held at their identified ones
+    return PairMapsPage(m, op, state)
 
 
 def _identify(m, op, state):
@@ -183,7 +189,7 @@ def _preload(machine, op) -> None:
     pages' modules follow. Module imports and the shared deterministic caches only: no session state."""
     try:
         resources.import_numerics()
-        films = resources.first_films(machine, 0, op.speed, op.q1)
+        films = resources.first_films(machine, 0, op.speed, op.flows[0])
         from . import bearing_page  # noqa: F401
         films.exception()  # waits: the other pages' imports would slow the films of a Bearing page opened now
         _draw_once(machine, op)
@@ -200,7 +206,7 @@ def _draw_once(machine, op) -> None:
 
     from .bearing_page import BearingPage
 
-    page = BearingPage(machine, OperatingPoint(speed=op.speed, q1=op.q1, q2=op.q2, name="warm-up"))
+    page = BearingPage(machine, operating_point(machine, speed=op.speed, flows=op.flows, name="warm-up"))
     page.__panel__().get_root(Document())
 
 
@@ -222,30 +228,43 @@ PRELOAD_WAIT_S = 30.0
 
 
 PAGES = {"Bearing": _bearing, "Rotor": _rotor, "Maps": _maps, "Identify": _identify, "Diagnose": _diagnose}
-PAGE_MODULES = {name: f"{__package__}.{name.lower()}_page" for name in PAGES}
+PAGE_MODULES = {name: f"{__package__}.{name.lower()}_page" for name in PAGES}  # pair_maps_page: imported by _maps
 
 
 def build() -> pn.template.FastListTemplate:
-    """The dashboard of one session. Pages are built when first opened, so the start page comes up at once."""
-    pn.extension("tabulator", "filedropper", notifications=True)  # JS of lazily built pages, loaded up front
-    machine = resources.machine()
-    q_t = machine.reference.get("flooded_threshold_mlmin", 546.0) * M3S_PER_MLMIN
-    op = OperatingPoint(speed=machine.operating_speed, q1=q_t, q2=q_t, name="operating point")
-    state = SessionState(name="session")
+    """The dashboard of one session. Pages are built when first opened, so the start page comes up at once.
+    The session works on one machine at a time (the start page's chooser): choosing another builds every page
+    afresh for it, with its own operating point (one flow per fluid-film bearing) and session state."""
+    pn.extension("filedropper", notifications=True)  # JS of lazily built pages, loaded up front
+    first = resources.machine()
+    work = {"machine": first, "op": operating_point(first, flows=initial_flows(first)),
+            "state": SessionState(name="session")}
     names = list(PAGES)
     pages: dict[str, object] = {}
 
-    tabs = pn.Tabs(("Start", pn.Column()),
-                   *[(name, pn.Column(pn.indicators.LoadingSpinner(value=True, size=40), sizing_mode="stretch_width"))
-                     for name in names],
-                   dynamic=True, sizing_mode="stretch_width", css_classes=["lubeviz-pages"])
+    def spinner():
+        return pn.Column(pn.indicators.LoadingSpinner(value=True, size=40), sizing_mode="stretch_width")
 
-    tabs[0] = ("Start", start_page(tabs))  # its buttons switch the tabs in the browser; the watcher builds
+    tabs = pn.Tabs(("Start", pn.Column()), *[(name, spinner()) for name in names],
+                   dynamic=True, sizing_mode="stretch_width", css_classes=["lubeviz-pages"])
     building: dict[str, asyncio.Future] = {}
+
+    def use_machine(machine) -> None:
+        cancel_jobs()
+        pages.clear()
+        building.clear()
+        work.update(machine=machine, op=operating_point(machine, flows=initial_flows(machine)),
+                    state=SessionState(name="session"))
+        for i, name in enumerate(names, start=1):
+            tabs[i] = (name, spinner())
+        template.lubeviz_machine = machine
+
+    chooser = MachineChooser(first, use_machine)
+    tabs[0] = ("Start", start_page(tabs, chooser))  # its buttons switch the tabs in the browser; the watcher builds
 
     def build_page(name: str, index: int):
         if name not in pages:
-            pages[name] = PAGES[name](machine, op, state)
+            pages[name] = PAGES[name](work["machine"], work["op"], work["state"])
             tabs[index] = (name, pages[name])
         if hasattr(pages[name], "start") and tabs.active == index:  # else started when the tab is next shown
             asyncio.ensure_future(pages[name].start())
@@ -276,13 +295,16 @@ def build() -> pn.template.FastListTemplate:
         if name not in building or building[name].done():  # done here: it failed, try again
             building[name] = asyncio.ensure_future(import_then_build(name, index))
 
-    def closed(session_context):
-        # A closed browser tab stops its page's jobs at their next step (work already in a worker process
-        # finishes, and its result, shared with other sessions, is kept).
+    def cancel_jobs():
+        # A closed browser tab (or another machine) stops its pages' jobs at their next step (work already in a
+        # worker process finishes, and its result, shared with other sessions, is kept).
         for page in pages.values():
             for jobs in vars(page).values():
                 if isinstance(jobs, JobPanel):
                     jobs.cancel()
+
+    def closed(session_context):
+        cancel_jobs()
 
     tabs.param.watch(lambda e: show(e.new), "active")
     pn.state.onload(lambda: show(tabs.active))
@@ -298,5 +320,7 @@ def build() -> pn.template.FastListTemplate:
         accent_base_color="#2c5f8a", header_background="#2c5f8a", raw_css=[_HEADER_CSS])
     glossary_button.on_click(lambda event: template.open_modal())
     template.lubeviz_pages = pages  # for tests and scripts: the pages built so far, by name
-    preload(machine, op)
+    template.lubeviz_machine = first
+    template.lubeviz_chooser = chooser
+    preload(first, work["op"])
     return template

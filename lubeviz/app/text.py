@@ -5,7 +5,7 @@ a record's metadata value, a column or file name, a machine name or an error mes
 could carry `<img src=x onerror=...>` or a Markdown link into the browser. Every such text passes through
 `plain` where the page puts it into its markup: each character that HTML or Markdown could read as syntax
 becomes a numeric character reference, which Markdown shows as that very character (CommonMark: entity
-references are literal text, never structure). Tables of such text use `plain_text_formatters`.
+references are literal text, never structure). Tables of such text are made by `table_html`, which escapes every cell.
 
 `file_label` is what a page calls an uploaded file: its base name only (never a server path), printable,
 at most FILE_LABEL_CHARS characters. `without_upload_dirs` takes the server's temporary upload folder out
@@ -60,6 +60,30 @@ def without_upload_dirs(message: str) -> str:
     return re.sub(tmp + r"[/\\]lubeviz-upload-[^/\\\s'\"]*[/\\]", "", str(message))
 
 
-def plain_text_formatters(frame) -> dict:
-    """Tabulator `formatters` showing every text column of `frame` as plain text (HTML shown, not run)."""
-    return {str(c): {"type": "plaintext"} for c in frame.columns if frame[c].dtype.kind not in "biufcmM"}
+TABLE_CSS = """
+table.lubeviz-table { border-collapse: collapse; width: 100%; font-size: 0.9em; }
+table.lubeviz-table th, table.lubeviz-table td { border: 1px solid #c8ced6; padding: 3px 8px; text-align: left; }
+table.lubeviz-table th { background: #eef1f5; }
+table.lubeviz-table tr.beyond td { background: #f8d7da; color: #58151c; }
+"""
+
+
+def table_html(frame, *, marked=(), css_class: str = "") -> str:
+    """`frame` (a pandas DataFrame) as an HTML table, every header and cell escaped (text from a file is shown,
+    never run); rows whose index is in `marked` get the class "beyond" (TABLE_CSS colours them). A plain table,
+    not a Tabulator: a Tabulator drawn after the Rotor page had been shown put Chromium's renderer in a loop at
+    100 % CPU (the identification's result never appeared)."""
+    import html as _html
+
+    def cell(v) -> str:
+        if isinstance(v, float) and v != v:
+            return ""
+        return _html.escape(str(v), quote=True)
+
+    head = "".join(f"<th>{cell(c)}</th>" for c in frame.columns)
+    rows = []
+    for i, (_, row) in enumerate(frame.iterrows()):
+        cls = ' class="beyond"' if i in set(marked) else ""
+        rows.append(f"<tr{cls}>" + "".join(f"<td>{cell(v)}</td>" for v in row) + "</tr>")
+    klass = f"lubeviz-table {_html.escape(css_class, quote=True)}".strip()
+    return f'<table class="{klass}"><thead><tr>{head}</tr></thead><tbody>{"".join(rows)}</tbody></table>'

@@ -864,9 +864,10 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
 
 
 def cost_map(chain, measured, *, effect=None, names=None, budget=None, n: int = 60, lower: float = 0.25,
-             upper: float = 2.0, candidate: Candidate | None = None):
-    """chi^2 over the Q1 x Q2 box (the other parameters at `effect`'s values), for drawing the search:
-    returns (q1 (n,), q2 (n,), chi2 (n, n)), flows in m^3/s; the same whitening as the fit at Q_T.
+             upper: float = 2.0, candidate: Candidate | None = None, pair: tuple[int, int] = (0, 1), flows=None):
+    """chi^2 over the box of two flows `pair` (0-based; the effect's parameters at `effect`'s values, the other
+    flows at `flows`, default their Q_T), for drawing the search: returns (qi (n,), qj (n,), chi2 (n, n)),
+    flows in m^3/s; the same whitening as the fit at Q_T.
     `candidate`: a diagnosis's candidate instead of `effect` (large orbits: the chain with its correction,
     which holds near its fit and is drawn over the whole box as the fit saw it)."""
     if candidate is not None:
@@ -874,20 +875,13 @@ def cost_map(chain, measured, *, effect=None, names=None, budget=None, n: int = 
             chain = [c.with_defect(candidate.defect) for c in (chain if isinstance(chain, (list, tuple)) else [chain])]
         else:
             effect = candidate.effect
-    from ..identify.fit.least_squares import _parts, _Problem
+    from ..identify.fit.maps import chi2_grid, pair_grid
 
     chains = list(chain) if isinstance(chain, (list, tuple)) else [chain]
-    meas = list(measured) if isinstance(measured, (list, tuple)) else [measured]
     if effect is not None:
         chains = [c.adding(effect.hold()) for c in chains]
-    parts, noise = _parts(chains, meas, names)
-    ref = chains[0]
-    start = ref.start()
-    free = np.arange(ref.n_params)
-    prob = _Problem(parts, np.eye(len(noise)), free)
-    prob = _Problem(parts, prob.model_cov(start, budget, noise), free)
-    s = np.linspace(math.sqrt(lower), math.sqrt(upper), n) ** 2
-    q1, q2 = s * ref.q_threshold[0], s * ref.q_threshold[1]
-    pts = np.repeat(start[None, None, :], n, axis=0).repeat(n, axis=1)
-    pts[..., 0], pts[..., 1] = np.meshgrid(q1, q2, indexing="ij")
-    return q1, q2, prob.cost_many(pts)
+    held = chains[0].start()
+    if flows is not None:
+        held[:chains[0].n_flows] = np.asarray(flows, dtype=float)
+    q1, q2, pts = pair_grid(chains, pair, held, n=n, lower=lower, upper=upper)
+    return q1, q2, chi2_grid(chains, measured, pts, names=names, budget=budget)

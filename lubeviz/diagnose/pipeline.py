@@ -37,8 +37,10 @@ def run_diagnosis(records: Sequence, machine, settings: DiagnosisSettings | None
     d = diagnose(chains, meas, candidates=candidates, level=settings.level, progress=progress, truth=truth,
                  budget=inputs.budget, lines=inputs.lines, findings=inputs.findings)
     maps, map_points = [], settings.map_points
-    if map_points > 0:
-        maps.append(("plain model", cost_map(chains, meas, n=map_points), d.before))
+    if map_points > 0 and chains[0].n_flows >= 2:  # one flow: no map over two
+        # over Q1 x Q2; on a machine of more bearings the others held at each fit's flows
+        maps.append(("plain model", cost_map(chains, meas, n=map_points, flows=d.before.flow_values()), d.before))
         if d.added is not None and d.after is not None:
-            maps.append((f"with {d.added.label}", cost_map(chains, meas, candidate=d.added, n=map_points), d.after))
+            maps.append((f"with {d.added.label}", cost_map(chains, meas, candidate=d.added, n=map_points,
+                                                          flows=d.after.flow_values()), d.after))
     return DiagnosisRun(diagnosis=d, inputs=inputs, maps=tuple(maps))

@@ -329,7 +329,8 @@ def _mlmin_to_ratio(q_mlmin: float, q_threshold: float) -> float:
 
 
 def map_svg(q1, q2, chi2, *, paths=(), truth_mlmin=None, title: str = "", width: int = 380) -> str:
-    """chi^2 over Q1 x Q2 (ml/min; the darker the better fit) with search paths [(label, (n, 2) m^3/s, colour)]."""
+    """chi^2 over Q1 x Q2 (ml/min; the darker the better fit) with search paths [(label, (n, >= 2) m^3/s, colour):
+    their first two columns, Q1 and Q2]."""
     q1, q2 = np.asarray(q1) / M3S_PER_MLMIN, np.asarray(q2) / M3S_PER_MLMIN
     c = np.log10(np.asarray(chi2, dtype=float) - np.nanmin(chi2) + 1.0)
     c = c / max(float(np.nanmax(c)), 1e-12)
@@ -350,7 +351,7 @@ def map_svg(q1, q2, chi2, *, paths=(), truth_mlmin=None, title: str = "", width:
             body.append(f'<rect x="{px(e1[i]):.1f}" y="{py(e2[j + 1]):.1f}" width="{px(e1[i + 1]) - px(e1[i]) + 0.3:.1f}" '
                         f'height="{py(e2[j]) - py(e2[j + 1]) + 0.3:.1f}" fill="rgb({g},{g},{min(255, g + 25)})"/>')
     for label, path, colour in paths:
-        p = np.asarray(path) / M3S_PER_MLMIN
+        p = np.asarray(path)[:, :2] / M3S_PER_MLMIN  # Q1, Q2 (the search's other parameters are not drawn)
         pts = " ".join(f"{px(a):.1f},{py(b):.1f}" for a, b in p)
         body.append(f'<polyline points="{pts}" fill="none" stroke="{colour}" stroke-width="2"/>')
         body.append(f'<circle cx="{px(p[-1, 0]):.1f}" cy="{py(p[-1, 1]):.1f}" r="4" fill="{colour}">'

@@ -79,8 +79,10 @@ def model_speed(machine, record) -> float:
 
 def identify_record(record, machine=None, settings: IdentificationSettings | None = None, *,
                     progress: ProgressFn = silent, model: ForwardModel | None = None,
-                    measured=None, effects=(), budget=None) -> RecordIdentification:
-    """Identify Q1, Q2 (and the free parameters of declared `effects`) from a `Record` (already read).
+                    measured=None, effects=(), budget=None, tables=None) -> RecordIdentification:
+    """Identify every unknown supply flow (and the free parameters of declared `effects`) from a `Record`
+    (already read). `model` (paper mode) or `tables` (best mode, one per bearing at the record's speed): what the
+    caller already holds (the dashboard's shared ones), else built or read from the cache.
 
     Best mode: the fit on named parameters (`fit.fit`: global search over the flow box, model budget,
     profile intervals) through the forward chain with the record's probe angles. Paper mode: the paper's
@@ -98,7 +100,9 @@ def identify_record(record, machine=None, settings: IdentificationSettings | Non
             model = model_for(machine, speed, record.nodes, progress=progress)
         result = identify(model, measured, settings)
     else:
-        result = _fit_record(record, machine, speed, measured, settings, effects, budget, progress, model)
+        if tables is None and model is not None:
+            tables = model.tables
+        result = _fit_record(record, machine, speed, measured, settings, effects, budget, progress, tables)
     lines, notes = beyond_1x(record)
     findings = record_checks([record], [measured], machine)
     return RecordIdentification(file=str(record.source or "record"), result=result, nodes=tuple(record.nodes),
@@ -143,7 +147,7 @@ def beyond_1x(records) -> tuple[tuple, tuple[str, ...]]:
 
 
 
-def _fit_record(record, machine, speed, measured, settings, effects, budget, progress, model) -> Identification:
+def _fit_record(record, machine, speed, measured, settings, effects, budget, progress, tables) -> Identification:
     from .forward.chain import ForwardChain
     from .fit.least_squares import fit, to_identification
     from .fit.result import check_record
@@ -156,7 +160,8 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
     if oil_effects and settings.include_model_error:
         budget = budget_with_reading(budget, tolerance)
     effects, settings = response_setting(tuple(oil_effects) + tuple(effects), settings)
-    tables = model.tables if model is not None and abs(model.omega / (2 * math.pi) - speed) < 1e-9 else None
+    if tables is not None and any(abs(t.omega / (2 * math.pi) - speed) > 1e-9 * speed for t in tables):
+        tables = None  # tables of another speed: the chain reads its own
     chain = ForwardChain(machine, speed, record.nodes, effects, probe_angles_deg=record.probe_angles_deg,
                          tables=tables, progress=progress)
     check_record(_NodesSpeed(chain), measured, settings)
@@ -210,6 +215,7 @@ def _oil_check(out: Identification, res, chain, measured, settings, budget) -> I
     how strongly it is tied to the flows: what a single record at one speed can and cannot say."""
     from ..effects import Viscosity
     from .fit.least_squares import fit
+    from .forward.chain import flow_names
 
     oil = Viscosity(bearing="both").release("factor").limited(factor=OIL_RANGE)
     try:
@@ -218,24 +224,26 @@ def _oil_check(out: Identification, res, chain, measured, settings, budget) -> I
     except LubevizError as exc:  # the tables cannot serve the range: say so
         return dataclasses.replace(out, warnings=out.warnings + (f"oil check skipped: {exc}",))
     j = wide.names.index("viscosity.factor")
-    corr = wide.correl[j, :2]
+    names = flow_names(chain.n_flows)
+    corr = [float(wide.correl[j, wide.names.index(n)]) if n in wide.names else 0.0 for n in names]
     # over any oil in the range, the declared oil included: never an interval that leaves out the answer
-    iv = tuple(union_interval(wide.intervals.get(n), own) for n, own in zip(("q1", "q2"), out.intervals))
+    iv = tuple(union_interval(wide.intervals.get(n), own) for n, own in zip(names, out.intervals))
     warnings = out.warnings
-    width = [(b if b is not None else chain.bounds(settings.lower, settings.upper)[1][k]) - a
-             for k, (a, b) in enumerate(iv)]
-    narrow = [(b if b is not None else chain.bounds(settings.lower, settings.upper)[1][k]) - a
-              for k, (a, b) in enumerate(out.intervals)]
-    if any(w > 2 * n for w, n in zip(width, narrow)):
-        lo = [a * MLMIN_PER_M3S for a, _ in iv]
-        hi = ["open" if b is None else f"{b * MLMIN_PER_M3S:.0f}" for _, b in iv]
+    top = chain.bounds(settings.lower, settings.upper)[1]
+
+    def width(interval, k):
+        return 0.0 if interval is None else (interval[1] if interval[1] is not None else top[k]) - interval[0]
+
+    if any(width(w, k) > 2 * width(n, k) for k, (w, n) in enumerate(zip(iv, out.intervals)) if w is not None):
+        spans = ", ".join(f"Q{k + 1} in [{a * MLMIN_PER_M3S:.0f}, {'open' if b is None else f'{b * MLMIN_PER_M3S:.0f}'}]"
+                          for k, (a, b) in ((k, w) for k, w in enumerate(iv) if w is not None))
         warnings = warnings + (
             "the flows are tied to the oil viscosity in this record (correlation "
-            f"{corr[0]:+.2f}, {corr[1]:+.2f}): if the oil may be x{OIL_RANGE[0]:g}-{OIL_RANGE[1]:.2f} as viscous as "
-            f"declared, Q1 lies in [{lo[0]:.0f}, {hi[0]}] and Q2 in [{lo[1]:.0f}, {hi[1]}] ml/min; the oil "
-            "temperature, the static shaft position or records at other speeds would pin it",)
+            + ", ".join(f"{c:+.2f}" for c in corr) + f"): if the oil may be x{OIL_RANGE[0]:g}-{OIL_RANGE[1]:.2f} as "
+            f"viscous as declared, {spans} ml/min; the oil temperature, the static shaft position or records at "
+            "other speeds would pin it",)
     return dataclasses.replace(out, intervals_any_oil=iv, warnings=warnings,
-                               oil_degeneracy={"correlation_q1": float(corr[0]), "correlation_q2": float(corr[1]),
+                               oil_degeneracy={**{f"correlation_q{k + 1}": c for k, c in enumerate(corr)},
                                                "factor": float(wide.values[j]), "factor_std": float(wide.std[j]),
                                                "range": list(OIL_RANGE)})
 

@@ -50,7 +50,7 @@ def identify_the_sample(page) -> tuple[float, float]:
     open_tab(page, "Identify")
     page.get_by_role("button", name="Load the sample record").click()
     expect(page.locator(".lubeviz-record-info")).to_contain_text("sample_record.csv", timeout=SLOW_MS)
-    page.get_by_role("button", name="Identify Q1 and Q2").click()
+    page.get_by_role("button", name="Identify the supply flows").click()
     result = page.locator(".lubeviz-result")
     expect(result).to_contain_text("Q1 =", timeout=SLOW_MS)
     expect(result).to_contain_text("best mode")

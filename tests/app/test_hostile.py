@@ -201,13 +201,13 @@ def test_an_over_long_file_name_is_shown_short_and_never_as_a_server_path(kind, 
 def test_tables_show_text_cells_as_plain_text():
     import pandas as pd
 
-    from lubeviz.app.text import plain_text_formatters
+    from lubeviz.app.text import table_html
 
-    frame = pd.DataFrame({"effect": [IMG], "rank": [1]})
-    table = pn.widgets.Tabulator(frame, formatters=plain_text_formatters(frame))
-    columns = {c["field"]: c for c in table.get_root().configuration["columns"]}
-    assert columns["effect"].get("formatter") == "plaintext"  # Tabulator's formatter that escapes HTML
-    assert "formatter" not in columns["rank"]
+    frame = pd.DataFrame({IMG: [IMG, SCRIPT], "rank": [1, 2]})
+    markup = table_html(frame, marked=[1])
+    assert not HOSTILE.search(markup), markup  # neither a header nor a cell becomes markup
+    assert visible(markup).count(IMG) == 2 and SCRIPT in visible(markup)
+    assert markup.count('class="beyond"') == 1
 
 
 # --- the upload limit on the server ------------------------------------------------------------------

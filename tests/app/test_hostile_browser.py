@@ -96,7 +96,7 @@ def test_html_in_a_record_is_shown_as_text_and_never_runs(app_page, hostile, tab
     expect(warnings).to_contain_text("unknown key 'unitz' ignored; did you mean 'units'?")
     assert_no_script_ran(page)
     if tab == "Identify":  # the result names the record too
-        page.get_by_role("button", name="Identify Q1 and Q2").click()
+        page.get_by_role("button", name="Identify the supply flows").click()
         result = page.locator(".lubeviz-result")
         expect(result).to_contain_text(f"Identified supply flows of {FILE_NAME}", timeout=SLOW_MS)
         assert_no_script_ran(page)

@@ -85,7 +85,7 @@ def test_identify_page_identifies_the_sample_record(app_page, screenshot):
     upload(app_page, SAMPLE)
     expect(app_page.locator(".lubeviz-record-info")).to_contain_text("sample_record.csv", timeout=SLOW_MS)
     wait_for_plot_title(app_page, "Orbit, plane 1 (node 6)")
-    app_page.get_by_role("button", name="Identify Q1 and Q2").click()
+    app_page.get_by_role("button", name="Identify the supply flows").click()
     result = app_page.locator(".lubeviz-result")
     expect(result).to_contain_text("Q1 =", timeout=SLOW_MS)
     shown = text(result)

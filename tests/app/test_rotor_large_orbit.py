@@ -26,7 +26,7 @@ from lubeviz.app import resources, rotor_page
 from lubeviz.identify.forward import explore
 from lubeviz.app.rotor_page import RotorPage
 from lubeviz.errors import ConvergenceError
-from lubeviz.model.operating import OperatingPoint
+from lubeviz.model.operating import operating_point
 from lubeviz.rotor.film_bearings import film_bearings
 from lubeviz.rotor.orbit_balance import HARMONICS, POINTS
 from lubeviz.rotor.response import machine_unbalance, unbalance_response
@@ -48,7 +48,7 @@ def run(coroutine):
 def make_page() -> RotorPage:
     machine = resources.machine()
     q = FLOODED_MLMIN * M3S_PER_MLMIN
-    op = OperatingPoint(speed=machine.operating_speed, q1=q, q2=q)
+    op = operating_point(machine, flows=(q, q))
     return RotorPage(machine, op, _orbit_resolution=COARSE)
 
 
@@ -92,7 +92,7 @@ def linear_1x():
 
 def test_the_page_default_is_the_modules_resolution():
     machine = resources.machine()
-    page = RotorPage(machine, OperatingPoint(speed=machine.operating_speed))
+    page = RotorPage(machine, operating_point(machine))
     assert page._orbit_resolution == (HARMONICS, POINTS)
     assert page.unbalance_scale == 1.0 and page.param.unbalance_scale.bounds == (0.25, 2.0)
 
@@ -202,7 +202,7 @@ def test_above_the_threshold_the_page_says_the_periodic_orbit_is_not_what_the_ma
     omega = 2 * math.pi * 100.0
     q = 1.25 * flooded_thresholds(machine, omega)
     assert equilibrium_stability(resources.rotor(machine), film_bearings(machine, list(q), omega)).unstable
-    op = OperatingPoint(speed=100.0, q1=float(q[0]), q2=float(q[1]))
+    op = operating_point(machine, speed=100.0, flows=(float(q[0]), float(q[1])))
     page = RotorPage(machine, op, _orbit_resolution=COARSE)
     page.unbalance_scale = 0.25
     run(page._on_large_orbit())

@@ -68,7 +68,7 @@ def test_identify_page_reloads_every_upload_even_the_same_file(app_page, records
             expect(info).to_contain_text("10000 samples/s")
             dropped_item(page, "lubeviz-upload", good.name)
     # The record shown is the file's indeed: identified near its own flows, not the sample's 420 / 600.
-    page.get_by_role("button", name="Identify Q1 and Q2").click()
+    page.get_by_role("button", name="Identify the supply flows").click()
     result = page.locator(".lubeviz-result")
     expect(result).to_contain_text("Q1 =", timeout=SLOW_MS)
     expect(result).to_contain_text(good.name)
@@ -88,7 +88,7 @@ def test_identify_page_rejected_upload_is_marked_and_leaves_no_stale_result(app_
     message = page.locator(".lubeviz-upload-error")
     drop(page, "lubeviz-upload", good)
     expect(info).to_contain_text(good.name, timeout=30_000)
-    page.get_by_role("button", name="Identify Q1 and Q2").click()
+    page.get_by_role("button", name="Identify the supply flows").click()
     expect(result).to_contain_text("Q1 =", timeout=SLOW_MS)
     item = dropped_item(page, "lubeviz-upload", good.name)
     expect(item.locator(".filepond--panel-center")).not_to_have_css("background-color", REJECTED_RED)

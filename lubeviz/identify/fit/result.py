@@ -98,8 +98,9 @@ def summary(result) -> dict:
     warnings. `result`: a `least_squares.Fit` or an `Identification` (both carry `params`)."""
     names = list(result.features_names)
     sigma = getattr(result, "features_sigma", None)
-    alternatives = [{"flows_mlmin": [float(v) * MLMIN_PER_M3S for v in np.asarray(a)[:2]], "chi2": c}
-                    for a, c in _alternatives(result)]
+    nq = len(result.q_threshold)
+    alternatives = [{"flows_mlmin": [float(v) * MLMIN_PER_M3S for v in np.asarray(a)[:nq]], "chi2": c}
+                    for a, c in _alternatives(result, nq)]
     return {
         "parameters": [p.as_dict() for p in result.params],
         "chi2": result.chi2, "dof": result.dof, "p_value": result.p_value, "level": result.level,
@@ -112,12 +113,12 @@ def summary(result) -> dict:
     }
 
 
-def _alternatives(result):
-    """(flows, chi2 or None) of the other fits that pass the test."""
+def _alternatives(result, nq: int):
+    """(flows, chi2 or None) of the other fits that pass the test (`nq` flows)."""
     if hasattr(result, "alternatives_chi2"):  # Identification: flows and their chi2 in parallel
         chi2 = result.alternatives_chi2
         return [(a, chi2[j] if j < len(chi2) else None) for j, a in enumerate(result.alternatives)]
-    return [(a[0][:2], a[1]) for a in result.alternatives]  # Fit: (parameter vector, chi2)
+    return [(a[0][:nq], a[1]) for a in result.alternatives]  # Fit: (parameter vector, chi2)
 
 
 def union_interval(*intervals) -> tuple[float, float | None] | None:

@@ -142,7 +142,8 @@ class ForwardModel:
         self.machine = machine
         self.tables = tuple(tables)
         if len(self.tables) != 2:
-            raise InputError(f"the forward model needs one table per bearing (2), got {len(self.tables)}")
+            raise InputError(f"the paper's table model (paper mode, its maps) is for a machine of two oil-film "
+                             f"bearings; this one has {len(self.tables)}: use best mode")
         omega = self.tables[0].omega
         if any(abs(t.omega - omega) > 1e-9 * omega for t in self.tables):
             raise InputError("coefficient tables at different speeds")
