@@ -10,13 +10,15 @@ from .common import add_common, finite_float
 def register(sub) -> None:
     p = sub.add_parser("bench", help="performance figures of BENCHMARKS.md")
     add_common(p)
-    p.add_argument("what", choices=("film", "mesh", "smoothness", "rotor", "stability", "identify", "table",
+    p.add_argument("what", choices=("film", "mesh", "smoothness", "rotor", "stability", "identify", "flows", "table",
                                     "coverage", "budget", "diagnose", "read", "broken", "loop"),
                    help="film: solver timings; mesh: mesh study; smoothness: roughness of K, C over Q; "
                         "rotor: assembly, response, modes, 15 s record (ROSS alongside); stability: critical speed and "
                         "instability threshold across 50-150 %% Q_T; "
                         "identify: tables, one identification (and --reproduce: the 128 cases; "
                         "--accuracy: tables vs direct solves); "
+                        "flows: a machine of N bearings (default the fan): its first identification on an empty "
+                        "cache, the fit of its N flows, diagnoses of five of its records (--extra-bearing: N + 1); "
                         "table: the dimensionless (S, Q/Q_T) table: full-range cold build, size, accuracy over "
                         "speed 5-150 Hz x viscosity x0.5-2 x clearance x0.8-1.5, cold first identification; "
                         "coverage: error, 95 %% interval coverage and chi2 flag rate over --records clean independent "
@@ -68,6 +70,8 @@ def register(sub) -> None:
                    help="loop: only the first N cases (drawn round-robin over the kinds; the same cases as the "
                         "full run's)")
     p.add_argument("--no-ross", action="store_true", help="rotor: skip the side-by-side ROSS timings")
+    p.add_argument("--extra-bearing", action="store_true",
+                   help="flows: the machine's first [[supports]] replaced by a sleeve bearing (N + 1 flows)")
     p.add_argument("--reproduce", action="store_true",
                    help="identify: also time the paper's whole protocol, both locations, both modes (cold tables)")
     p.add_argument("--accuracy", action="store_true",
@@ -107,6 +111,11 @@ def run_bench(args) -> dict:
 
         return bench_identify(args.machine, repeat=args.repeat, reproduce_all=args.reproduce, accuracy=args.accuracy,
                               progress=StderrBar())
+    if args.what == "flows":
+        from ..bench.flows import bench_flows
+
+        return bench_flows(args.machine or "models/three_bearing_fan.toml", repeat=args.repeat,
+                           extra_bearing=args.extra_bearing, progress=StderrBar())
     if args.what == "table":
         from pathlib import Path
 
