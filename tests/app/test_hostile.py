@@ -9,10 +9,8 @@ The same cases in a real browser: test_hostile_browser.py.
 
 from __future__ import annotations
 
-import asyncio
 import html
 import re
-import threading
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -22,6 +20,7 @@ import pytest
 from lubeviz.app import resources
 from lubeviz.app.text import FILE_LABEL_CHARS, file_label, plain, without_upload_dirs
 from lubeviz.app.widgets import RecordDropper
+from tests.app.threads import run_coro
 
 IMG = '<img src=x onerror="window.__xss=1">'
 SCRIPT = "<script>window.__xss=1</script>"
@@ -32,23 +31,7 @@ TAGS = re.compile(r"<\s*(img|script|a|code|em|h1|li|svg|iframe)\b", re.IGNORECAS
 HOSTILE = re.compile(r"<\s*(img|script|svg|iframe|object|embed)\b|<[^>]*\son\w+\s*=", re.IGNORECASE)
 
 
-def _run(coro):
-    """Run `coro` to its end on a thread of its own: a browser test before this file in the same worker leaves
-    Playwright's event loop running in the main thread, where asyncio.run refuses to start."""
-    out = {}
-
-    def target():
-        try:
-            out["value"] = asyncio.run(coro)
-        except BaseException as exc:  # re-raised in the test's thread
-            out["error"] = exc
-
-    thread = threading.Thread(target=target)
-    thread.start()
-    thread.join()
-    if "error" in out:
-        raise out["error"]
-    return out.get("value")
+_run = run_coro
 
 
 def rendered(markdown: str) -> str:

@@ -17,21 +17,9 @@ from lubeviz.app.machine_view import (GUIDE, MODEL_LIMIT_BYTES, TEMPLATE, machin
 from lubeviz.errors import ModelFileError
 from lubeviz.model.files import load_machine
 from lubeviz.model.parts import MODELS_DIR
+from tests.app.threads import on_a_thread, run_coro
 
 FAN = MODELS_DIR / "three_bearing_fan.toml"
-
-
-def _run(coro):
-    """Run `coro` to its end on a thread of its own (a browser test before this file in the same worker leaves
-    Playwright's event loop running in the main thread, where asyncio.run refuses to start)."""
-    import asyncio
-    import threading
-
-    out = {}
-    thread = threading.Thread(target=lambda: out.update(value=asyncio.run(coro)))
-    thread.start()
-    thread.join()
-    return out.get("value")
 SCRIPT = "<script>window.__xss=1</script>"
 
 
@@ -119,28 +107,7 @@ def test_the_template_is_a_valid_model_file_naming_every_table_of_spec_8():
 def test_choosing_a_machine_rebuilds_the_pages_for_it_and_a_refused_upload_keeps_it():
     # on a thread of its own, where no event loop runs: a page is then built as soon as its tab is shown (a browser
     # test before this file in the same worker leaves Playwright's loop running in the main thread)
-    _on_a_thread(_choose_rebuild_refuse)
-
-
-def _on_a_thread(fn):
-    import threading
-
-    out = {}
-
-    def target():
-        import asyncio
-
-        asyncio.set_event_loop(asyncio.new_event_loop())  # not running: the pages' start() is scheduled, not run
-        try:
-            fn()
-        except BaseException as exc:  # noqa: BLE001 - raised again in the test's own thread
-            out["error"] = exc
-
-    thread = threading.Thread(target=target)
-    thread.start()
-    thread.join()
-    if "error" in out:
-        raise out["error"]
+    on_a_thread(_choose_rebuild_refuse)
 
 
 def _choose_rebuild_refuse():
@@ -187,7 +154,7 @@ def test_the_maps_page_of_machine_c_draws_any_pair_with_the_third_flow_held_at_i
 
     fan = resources.machine(FAN)
     page = PairMapsPage(fan, operating_point(fan), SessionState(), grid_points=21)
-    _run(page.start())
+    run_coro(page.start())
     assert not page._error.visible, page._error.object
     r = page._result
     q = r["fit"].flow_values()
@@ -196,6 +163,6 @@ def test_the_maps_page_of_machine_c_draws_any_pair_with_the_third_flow_held_at_i
     assert len(page._features.objects) == 6
     assert "Q3 held at" in page._chi2.object.opts.get().kwargs["title"]
     page.param.update(x_flow=2, y_flow=0)
-    _run(page._recompute())
+    run_coro(page._recompute())
     assert page._result["map"].pair == (2, 0)
     assert "Q2 held at" in page._chi2.object.opts.get().kwargs["title"]
