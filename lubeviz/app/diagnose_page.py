@@ -29,13 +29,12 @@ from ..errors import LubevizError
 from ..identify.forward.chain import simulate
 from ..identify.forward.measured import measure
 from ..model.machine import Machine
-from ..model.operating import operating_point
+from ..model.operating import initial_flows, operating_point
 from ..progress import Cancelled
 from ..signals.records import MAX_RECORD_BYTES, read_record_bytes
 from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
-from .machine_view import initial_flows
 from .session import SessionState
 from .text import TABLE_CSS, file_label, plain, table_html, without_upload_dirs
 from .widgets import (RecordDropper, not_loaded_message, quantity_slider, record_warnings_markdown, refused_message,

@@ -24,7 +24,6 @@ from pathlib import Path
 
 from ..errors import LubevizError, ModelFileError
 from ..model.files import load_machine, machine_from_toml
-from ..model.operating import initial_flows  # noqa: F401 - the pages' first flows, here with the chooser
 from ..model.parts import MODELS_DIR, Machine
 from ..units import MLMIN_PER_M3S
 
@@ -100,7 +99,7 @@ def summary_markdown(m: Machine) -> str:
 
     n = len(m.bearings)
     unknown = [b.name or f"bearing {k + 1}" for k, b in enumerate(m.bearings) if b.supply == "unknown"]
-    lines = [f"**{plain(m.name)}**" + (f": {plain(m.description)}" if getattr(m, "description", "") else ""), "",
+    lines = [f"**{plain(m.name)}**", "",
              f"{m.n_nodes} nodes, {m.rotor_length * 1e3:.0f} mm of shaft; operating speed {m.operating_speed:g} Hz "
              f"({m.operating_speed * 60:.0f} rpm); {n} oil-film bearing{'s' if n != 1 else ''}"
              + (f", {len(m.supports)} other support{'s' if len(m.supports) != 1 else ''}" if m.supports else "")

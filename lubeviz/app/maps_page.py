@@ -63,7 +63,19 @@ THRESHOLD_COLOR = "#e7298a"  # the Q_T lines and the 3 x 3 starts (fractions of 
 ERROR_GREYS = [f"#{v:02x}{v:02x}{v:02x}" for v in np.linspace(0x30, 0xd8, 256).round().astype(int)]
 
 
-class MapsPage(pn.viewable.Viewer):
+class RecordSourceWatch:
+    """What both Maps pages do when their record changes: recompute when it is the source shown."""
+
+    async def _on_flows(self, *events):
+        if self._ready and self.source == "simulated":
+            await self._recompute()
+
+    async def _on_upload(self, event):
+        if self._ready and self.source == "uploaded":
+            await self._recompute()
+
+
+class MapsPage(RecordSourceWatch, pn.viewable.Viewer):
     """The Maps page of one session."""
 
     planes = param.Selector(default="center", objects=PLANES, label="Measurement planes",
@@ -174,16 +186,7 @@ class MapsPage(pn.viewable.Viewer):
     def _on_take_rotor_flows(self, event):
         if not self._slider_range:
             return
-        (lo1, hi1), (lo2, hi2) = self._slider_range
-        self.record_point.param.update(q1=min(max(self.op.q1, lo1), hi1), q2=min(max(self.op.q2, lo2), hi2))
-
-    async def _on_flows(self, *events):
-        if self._ready and self.source == "simulated":
-            await self._recompute()
-
-    async def _on_upload(self, event):
-        if self._ready and self.source == "uploaded":
-            await self._recompute()
+        self.record_point.flows = [min(max(q, lo), hi) for q, (lo, hi) in zip(self.op.flows, self._slider_range)]
 
     def _compute(self, planes_nodes, source, grid_points, snr_db, speed, flows, state, progress):
         m = self.machine

@@ -30,6 +30,7 @@ from ..progress import Cancelled
 from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
+from .maps_page import RecordSourceWatch
 from .session import SessionState
 from .text import plain
 from .widgets import quantity_slider
@@ -53,7 +54,7 @@ SIMULATED_FRACTIONS = (0.8, 1.2, 1.0, 0.9, 1.3, 0.7)  # the simulated record's f
 THRESHOLD_COLOR = "#e7298a"
 
 
-class PairMapsPage(pn.viewable.Viewer):
+class PairMapsPage(RecordSourceWatch, pn.viewable.Viewer):
     """The Maps page of one session, for a machine of any number of fluid-film bearings."""
 
     x_flow = param.Selector(default=0, objects={"Q1": 0}, label="Horizontal axis", doc="The flow along x")
@@ -156,14 +157,6 @@ class PairMapsPage(pn.viewable.Viewer):
             return
         lo, hi = self._chain.bounds()
         self.record_point.flows = [min(max(q, a), b) for q, a, b in zip(self.op.flows, lo, hi)]
-
-    async def _on_flows(self, *events):
-        if self._ready and self.source == "simulated":
-            await self._recompute()
-
-    async def _on_upload(self, event):
-        if self._ready and self.source == "uploaded":
-            await self._recompute()
 
     def _compute(self, source, pair, points, snr_db, speed, flows, state, progress):
         from ..signals.synthesize import synthesize_record

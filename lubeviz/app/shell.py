@@ -23,7 +23,7 @@ from ..model.operating import operating_point
 from . import resources
 from .glossary import GLOSSARY
 from .jobs import JobPanel
-from .machine_view import MachineChooser, initial_flows
+from .machine_view import MachineChooser
 from .session import SessionState
 from .text import plain
 
@@ -237,7 +237,7 @@ def build() -> pn.template.FastListTemplate:
     afresh for it, with its own operating point (one flow per fluid-film bearing) and session state."""
     pn.extension("filedropper", notifications=True)  # JS of lazily built pages, loaded up front
     first = resources.machine()
-    work = {"machine": first, "op": operating_point(first, flows=initial_flows(first)),
+    work = {"machine": first, "op": operating_point(first),
             "state": SessionState(name="session")}
     names = list(PAGES)
     pages: dict[str, object] = {}
@@ -253,7 +253,7 @@ def build() -> pn.template.FastListTemplate:
         cancel_jobs()
         pages.clear()
         building.clear()
-        work.update(machine=machine, op=operating_point(machine, flows=initial_flows(machine)),
+        work.update(machine=machine, op=operating_point(machine),
                     state=SessionState(name="session"))
         for i, name in enumerate(names, start=1):
             tabs[i] = (name, spinner())
