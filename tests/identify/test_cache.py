@@ -358,8 +358,10 @@ def test_table_key_is_stored_on_the_returned_table(tmp_path):
 
 def test_a_changed_view_from_the_slices_in_memory_equals_the_cached_view():
     """An effect fit asks a bearing for thousands of views at changed viscosity or clearance. After the first,
-    each comes from the slices already in memory (`cache.scaled_view`, no bearing copy, no file read): the same
-    numbers as `bearing_view` of the changed bearing, and a view whose slices are not loaded takes the slow path."""
+    each comes from the slices already in memory (`scaled.scaled_view`: no bearing copy, no file read, its splines
+    combined from the slices' instead of fitted): the same table and the same interpolated K, C, position and
+    slopes at any flow (both sides of Q_T, its node, the span's ends) as `bearing_view` of the changed bearing,
+    whose splines are fitted to the combined values; a view whose slices are not loaded takes the slow path."""
     from lubeviz.identify.tables.cache import bearing_view
     from lubeviz.identify.forward.chain import BearingSource
 
@@ -376,6 +378,36 @@ def test_a_changed_view_from_the_slices_in_memory_equals_the_cached_view():
         assert fast.q_threshold == pytest.approx(slow.q_threshold, rel=1e-12)
         for name in ("q", "K", "C", "position"):
             np.testing.assert_allclose(getattr(fast, name), getattr(slow, name), rtol=1e-12, atol=0)
+        q = np.concatenate([np.linspace(slow.q_min, slow.q_max, 397), [slow.q_threshold],
+                            slow.q_threshold * (1 + np.array([-1e-3, 1e-3, 0.0123]))])
+        for method in ("coefficients", "coefficient_derivatives"):
+            for a, b_ in zip(getattr(fast, method)(q), getattr(slow, method)(q)):
+                scale = np.max(np.abs(b_), axis=0)
+                assert np.max(np.abs(a - b_) / scale) < 1e-9, method
+        np.testing.assert_allclose(fast.journal_position(q), slow.journal_position(q), rtol=0,
+                                   atol=1e-9 * float(np.max(np.abs(slow.position))))
+        # a fit asks only for the values at its flows: `evaluate` takes them from the slices, making no view
+        beyond = np.concatenate([q, [0.5 * slow.q_min, 3 * slow.q_max]])  # clipped to the span, as a view clips
+        K, C, pos = src.evaluate(beyond[:, None], np.full((beyond.size, 1), factor), clearance)
+        K0, C0 = slow.coefficients(np.clip(beyond, slow.q_min, slow.q_max))
+        for a, b_ in ((K[:, 0], K0), (C[:, 0], C0)):
+            assert np.max(np.abs(a - b_) / np.max(np.abs(b_), axis=0)) < 1e-9
+    # a Jacobian's batch: each point its own bearing (the declared one among them), none made into a view
+    src.view()  # the declared bearing's own view
+    views = len(src._views)
+    f = np.array([1.0, 0.9031, 0.897, 0.92, 0.9])
+    c = b.clearance * np.array([1.0, 1.0, 1.004, 0.998, 1.0])
+    lf = np.array([1.0, 1.0, 1.0, 1.03, 0.98])
+    qs = first.q_threshold * np.array([0.7, 1.0, 1.3, 0.45, 1.9])
+    K, C, pos = src.evaluate(qs, f, c, lf)
+    assert len(src._views) == views
+    for k in range(f.size):
+        slow = bearing_view(b.copy(viscosity=b.viscosity * f[k], clearance=c[k]), src.load * lf[k], omega)
+        K0, C0 = slow.coefficients(np.clip(qs[k], slow.q_min, slow.q_max))
+        np.testing.assert_allclose(K[k], K0, rtol=1e-9, atol=1e-9 * np.max(np.abs(K0)))
+        np.testing.assert_allclose(C[k], C0, rtol=1e-9, atol=1e-9 * np.max(np.abs(C0)))
+        np.testing.assert_allclose(pos[k], slow.journal_position(np.clip(qs[k], slow.q_min, slow.q_max)),
+                                   rtol=1e-9, atol=1e-12)
     far = src.view(0.55)  # S outside the slices loaded so far: the slow path, which loads them
     assert far.key
 

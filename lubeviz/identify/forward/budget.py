@@ -355,7 +355,7 @@ def _shaft_damping_columns(chain, theta, names, budget) -> tuple[np.ndarray, np.
         tables = [s.nominal for s in chain.sources]
         cache[key] = [ForwardChain(chain.machine, chain.speed_hz, chain.nodes, chain.effects,
                                    probe_angles_deg=chain.probe_angles_deg, tables=tables,
-                                   shaft_damping_beta=beta * f) for f in factors]
+                                   shaft_damping_beta=beta * f, loads=chain.loads) for f in factors]
         for c in cache[key]:
             for s_new, s_old in zip(c.sources, chain.sources):
                 s_new.share_views(s_old._views)

@@ -74,6 +74,7 @@ class BearingSource:
         self.progress = progress
         self._views: dict = {}
         self._table = None  # the geometry's dimensionless table with the slices loaded so far (changed views)
+        self._stack = None  # their spline coefficients, stacked (`_slice_stack`)
         if table is not None:
             self._views[self._key(1.0, self.bearing.clearance)] = table
 
@@ -94,7 +95,7 @@ class BearingSource:
             load = self.load * float(load_factor)
             view = None
             if changed and self._table is not None:  # from the slices in memory: ~0.6 ms, not ~2 ms
-                from ..tables.cache import scaled_view
+                from ..tables.scaled import scaled_view
 
                 view = scaled_view(self._table, self.bearing, load, self.omega, float(factor), clearance,
                                    index=self.index)
@@ -111,7 +112,7 @@ class BearingSource:
         return self._views[key]
 
     def _remember_slices(self, bearing, load) -> None:
-        """Keep the slices the view of `bearing` (this one, changed) was made from, for `cache.scaled_view`."""
+        """Keep the slices the view of `bearing` (this one, changed) was made from, for `scaled.scaled_view`."""
         from ..tables import cache
 
         try:
@@ -136,29 +137,48 @@ class BearingSource:
 
     def evaluate(self, q, factor=1.0, clearance=None, load_factor=1.0):
         """K, C (... 2, 2) and journal position (..., 2) at flows q (m^3/s) with the given bearing changes
-        (`BearingChange`: each a number or an array of the batch's shape)."""
+        (`BearingChange`: each a number or an array of the batch's shape). The declared bearing from its view; a
+        changed one straight from the slices in memory (`scaled.SliceStack`: a fit with the oil or the loads free
+        asks for another bearing at every evaluation and every Jacobian column), or from its own view when they do
+        not hold it yet (which loads or builds them)."""
         q = np.asarray(q, dtype=float)
-        factor = np.asarray(factor, dtype=float)
-        clearance = np.asarray(self.bearing.clearance if clearance is None else clearance, dtype=float)
-        load_factor = np.asarray(load_factor, dtype=float)
-        if factor.ndim == 0 and clearance.ndim == 0 and load_factor.ndim == 0:  # one bearing for the batch
-            t = self.view(float(factor), float(clearance), float(load_factor))
-            v = t._values(np.clip(q, t.q_min, t.q_max))
-            return (v[..., 0:4].reshape(q.shape + (2, 2)), v[..., 4:8].reshape(q.shape + (2, 2)), v[..., 8:10])
-        K = np.empty(q.shape + (2, 2))
-        C = np.empty(q.shape + (2, 2))
-        pos = np.empty(q.shape + (2,))
-        changes = np.stack([np.broadcast_to(a, q.shape).ravel() for a in (factor, clearance, load_factor)], axis=1)
-        uniq, inverse = np.unique(changes, axis=0, return_inverse=True)
+        declared = self.bearing.clearance
+        f, c, lf = (np.broadcast_to(np.asarray(a, dtype=float), q.shape).ravel()
+                    for a in (factor, declared if clearance is None else clearance, load_factor))
         qf = q.ravel()
-        Kf, Cf, Pf = K.reshape(-1, 2, 2), C.reshape(-1, 2, 2), pos.reshape(-1, 2)
-        for j, (f, c, w) in enumerate(uniq):
-            sel = np.flatnonzero(inverse.ravel() == j)
-            t = self.view(f, c, w)
-            qq = np.clip(qf[sel], t.q_min, t.q_max)
-            Kf[sel], Cf[sel] = t.coefficients(qq)
-            Pf[sel] = t.journal_position(qq)
-        return K, C, pos
+        out = np.empty(qf.shape + (10,))
+        same = (np.round(f, 12) == 1.0) & (np.round(c, 15) == round(declared, 15)) & (np.round(lf, 12) == 1.0)
+        if same.any():
+            t = self.view()
+            out[same] = t._values(np.clip(qf[same], t.q_min, t.q_max))
+        rest = np.flatnonzero(~same)
+        stack = self._slice_stack() if rest.size else None
+        if stack is not None:
+            v, served = stack.values(qf[rest], f[rest], c[rest], lf[rest])
+            out[rest[served]] = v[served]
+            rest = rest[~served]
+        if rest.size:
+            changes = np.stack([f[rest], c[rest], lf[rest]], axis=1)
+            uniq, inverse = np.unique(changes, axis=0, return_inverse=True)
+            for j, change in enumerate(uniq):
+                sel = rest[inverse.ravel() == j]
+                t = self.view(*change)
+                out[sel] = t._values(np.clip(qf[sel], t.q_min, t.q_max))
+        out = out.reshape(q.shape + (10,))
+        return out[..., 0:4].reshape(q.shape + (2, 2)), out[..., 4:8].reshape(q.shape + (2, 2)), out[..., 8:10]
+
+    def _slice_stack(self):
+        """The `SliceStack` of the slices this bearing's changed views have loaded (None before the first)."""
+        if self._table is None:
+            return None
+        if self._stack is None or not self._stack.covers(self._table):
+            from ..tables.scaled import SliceStack
+
+            try:
+                self._stack = SliceStack(self._table, self.bearing, self.load, self.omega)
+            except InputError:
+                return None
+        return self._stack
 
 
 class BearingChange(NamedTuple):
@@ -252,7 +272,7 @@ class ForwardChain:
 
     def __init__(self, machine, speed_hz: float, nodes: Sequence[int] | None = None, effects=(), *,
                  probe_angles_deg=None, tables: Sequence[CoefficientTable] | None = None,
-                 rotor=None, shaft_damping_beta: float | None = None, progress: ProgressFn = silent):
+                 rotor=None, shaft_damping_beta: float | None = None, loads=None, progress: ProgressFn = silent):
         self.machine = machine
         self.speed_hz = float(speed_hz)
         if not (math.isfinite(self.speed_hz) and self.speed_hz > 0):
@@ -290,10 +310,15 @@ class ForwardChain:
             from ..tables.cache import machine_tables
 
             tables = machine_tables(machine, self.omega, progress=progress)
-        self.sources = [BearingSource(machine, k, self.omega, t, progress=progress) for k, t in enumerate(tables)]
-        if not self.sources or len(self.sources) != len(machine.bearings):
+        # the static loads on the films (`loads`: the machine's, already known to a chain this one is copied from;
+        # a machine of 3+ supports solves its shaft on its films for them)
+        tables = list(tables)
+        if not tables or len(tables) != len(machine.bearings):
             raise InputError(f"one coefficient table per fluid-film bearing expected ({len(machine.bearings)}), "
-                             f"got {len(self.sources)}")
+                             f"got {len(tables)}")
+        self.loads = bearing_static_loads(machine) if loads is None else np.asarray(loads, dtype=float)
+        self.sources = [BearingSource(machine, k, self.omega, t, load=self.loads[k], progress=progress)
+                        for k, t in enumerate(tables)]
         self.q_threshold = np.array([s.nominal.q_threshold for s in self.sources])
         self.names = flow_names(len(self.sources)) + tuple(f"{self.prefix(e)}.{p}" for e in self.effects for p in e.free)
         self._slots = [(e, p) for e in self.effects for p in e.free]
@@ -316,7 +341,7 @@ class ForwardChain:
     def with_effects(self, effects) -> "ForwardChain":
         """The same machine, speed, planes and tables with other effects (tables and bearing views shared)."""
         new = ForwardChain(self.machine, self.speed_hz, self.nodes, effects, probe_angles_deg=self.probe_angles_deg,
-                           tables=[s.nominal for s in self.sources], rotor=self.rotor,
+                           tables=[s.nominal for s in self.sources], rotor=self.rotor, loads=self.loads,
                            progress=self.sources[0].progress)
         for s_new, s_old in zip(new.sources, self.sources):
             s_new.share_views(s_old._views)

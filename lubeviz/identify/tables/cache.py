@@ -588,29 +588,10 @@ def bearing_view(bearing: Bearing, load, omega: float, *, index: int = 0, span=D
     return _view(table, bearing, load, omega, index, _digest(_view_inputs(bearing, load, omega, span, points)))
 
 
-def scaled_view(table: DimensionlessTable, bearing: Bearing, load, omega: float, factor: float, clearance: float,
-                *, index: int = 0) -> CoefficientTable | None:
-    """The view of `bearing` with its viscosity x `factor` and radial clearance `clearance` (m) from the slices
-    `table` holds in memory (`bearing_view`'s arithmetic, without copying the bearing, reading the slices'
-    files or computing the view's key: an effect fit asks for thousands), or None when a slice it needs is not
-    loaded or S is off the grid (then `bearing_view` loads or builds it, or says why not). Its `key` is empty."""
-    if not (float(clearance) > 0 and float(factor) > 0):
-        return None
-    try:
-        s = sommerfeld_number(bearing, load, omega, viscosity=bearing.viscosity * float(factor), clearance=clearance)
-        lo, hi = table.s_range
-        if not (lo <= s <= hi) or any(int(i) not in table.slices for i in _dimensionless.stencil(table.nodes, s)):
-            return None
-        return _dimensionless.dimensional_table(table.combination(s), bearing, load, omega, index=index,
-                                                clearance=clearance)
-    except InputError:
-        return None
-
-
 def loaded_table(bearing: Bearing, load, omega: float, *, span=DEFAULT_SPAN, points: int = DEFAULT_POINTS,
                  directory=None) -> DimensionlessTable:
     """`bearing`'s geometry table with the slices around its Sommerfeld number loaded from the cache (after a
-    `bearing_view` of it, which built any that were missing); for `scaled_view`."""
+    `bearing_view` of it, which built any that were missing); for `scaled.scaled_view`."""
     s = sommerfeld_number(bearing, _dimensionless._check_load(load), _check_omega(omega))
     return geometry_table(bearing, [s], span=span, points=points, directory=directory)
 
