@@ -48,8 +48,8 @@ def test_a_diagnosis_draws_its_maps_when_its_settings_ask(machine):
     run = api.diagnose([api.read_record(SAMPLE)], machine, api.DiagnosisSettings(map_points=6),
                        candidates=[api.EFFECTS["probe_gain"]])
     assert run.diagnosis.outcome in ("explained", "effect added", "ambiguous")
-    title, (q1, q2, chi2), fit = run.maps[0]
-    assert title == "plain model" and np.shape(chi2) == (6, 6) and fit is run.diagnosis.before
+    title, (q1, q2, chi2), fit, pair = run.maps[0]
+    assert title == "plain model" and np.shape(chi2) == (6, 6) and fit is run.diagnosis.before and pair == (0, 1)
     assert np.nanmin(chi2) >= 0.0
     assert api.diagnose([api.read_record(SAMPLE)], machine, candidates=[api.EFFECTS["probe_gain"]]).maps == ()
 

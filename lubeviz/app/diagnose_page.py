@@ -23,6 +23,7 @@ import param
 from ..api import DiagnosisSettings, diagnose
 from ..diagnose import diagnosis_dict
 from ..diagnose.settings import REPORT_MAP_POINTS
+from ..diagnose.loop import interval_words
 from ..diagnose.report import AFTER_COLOUR as AFTER, BEFORE_COLOUR as BEFORE, report_html, report_maps, scan_svg
 from ..effects import EFFECTS
 from ..errors import LubevizError
@@ -352,8 +353,8 @@ class DiagnosePage(pn.viewable.Viewer):
             pn.Column(pn.pane.HTML(scan_svg(sc), css_classes=["lubeviz-node-scan"]),
                       pn.pane.Markdown(plain(sc.words()[0].upper() + sc.words()[1:]) + ".",
                                        sizing_mode="stretch_width")) for sc in d.scans]) if d.scans else []
-        self._maps.objects = [pn.pane.HoloViews(self._map_plot(title, grid, fit, r["truth"]), linked_axes=False,
-                                                css_classes=["lubeviz-diagnose-map"]) for title, grid, fit in r["maps"]]
+        self._maps.objects = [pn.pane.HoloViews(self._map_plot(*m, r["truth"]), linked_axes=False,
+                                                css_classes=["lubeviz-diagnose-map"]) for m in r["maps"]]
         self._download.disabled = False
 
     def _flows_text(self, d, s, truth, record_name: str) -> str:
@@ -388,10 +389,8 @@ class DiagnosePage(pn.viewable.Viewer):
         elif d.separated_by:
             lines += ["", f"To confirm it: {plain('; or '.join(d.separated_by))}."]
         if d.set_intervals is not None:  # an ambiguity, or an oil the record cannot pin (the verdict says which)
-            words = " and ".join(f"Q{k + 1} in [{lo / M3S_PER_MLMIN:.0f}, "
-                                 f"{'open' if hi is None else format(hi / M3S_PER_MLMIN, '.0f')}] ml/min"
-                                 for k, (lo, hi) in enumerate(d.set_intervals))
-            lines += ["", f"**Flows over every explanation that fits** (until a measurement separates them): {words}."]
+            lines += ["", "**Flows over every explanation that fits** (until a measurement separates them): "
+                      f"{interval_words(d.set_intervals)}."]
         return "\n".join(lines)
 
     @staticmethod
@@ -430,24 +429,25 @@ class DiagnosePage(pn.viewable.Viewer):
                                           multi_level=False, framewise=True, ylim=(-top, top))
         return (bars * band).opts(title=title, **opts)
 
-    def _map_plot(self, title, grid, fit, truth):
+    def _map_plot(self, title, grid, fit, pair, truth):
         q1, q2, chi2 = grid
+        i, j = pair
         a, b = q1 / M3S_PER_MLMIN, q2 / M3S_PER_MLMIN
-        kd = ["Q1 (ml/min)", "Q2 (ml/min)"]
+        kd = [f"Q{i + 1} (ml/min)", f"Q{j + 1} (ml/min)"]
         z = np.log10(chi2 - np.nanmin(chi2) + 1.0).T
         mesh = hv.QuadMesh((a, b, z), kd, "log10(χ² − min + 1)").opts(cmap="viridis_r", colorbar=True, tools=["hover"])
         layers = [mesh]
         for path in fit.paths:
             p = np.asarray(path) / M3S_PER_MLMIN
-            layers.append(hv.Curve((p[:, 0], p[:, 1]), *kd).opts(color="white", line_width=1.5, alpha=0.7))
-        answer = fit.flow_values()[:2] / M3S_PER_MLMIN
+            layers.append(hv.Curve((p[:, i], p[:, j]), *kd).opts(color="white", line_width=1.5, alpha=0.7))
+        answer = fit.flow_values()[[i, j]] / M3S_PER_MLMIN
         layers.append(hv.Points([tuple(answer)], kd, label="fit").opts(color="white", size=10, marker="circle",
                                                                      line_color="black"))
         if truth:
-            layers.append(hv.Points([tuple(truth["q_mlmin"][:2])], kd, label="truth").opts(color="red", size=12,
-                                                                                     marker="x", line_width=3))
-        return hv.Overlay(layers).opts(title=f"χ² over Q1 × Q2, {title}", frame_width=330, frame_height=330,
-                                       legend_position="top_right", framewise=True)
+            layers.append(hv.Points([(truth["q_mlmin"][i], truth["q_mlmin"][j])], kd, label="truth").opts(
+                color="red", size=12, marker="x", line_width=3))
+        return hv.Overlay(layers).opts(title=f"χ² over Q{i + 1} × Q{j + 1}, {title}", frame_width=330,
+                                       frame_height=330, legend_position="top_right", framewise=True)
 
     def _report(self):
         r = self._result

@@ -447,7 +447,7 @@ def _explained_outcome(chains, meas, before, names, budget, level, passing=()) -
                            + f" fit{'s' if len(others) == 1 else ''} it better by the information criterion (AIC "
                            + ", ".join(f"{c.aic:.1f}" for c in others) + f" against the plain model's {before.aic:.1f}),"
                            f" with other flows: until a measurement tells them apart the flows are known only within "
-                           f"{_interval_words(ivs[0])}. To tell them apart: {'; or '.join(separated)}.")
+                           f"{interval_words(ivs[0])}. To tell them apart: {'; or '.join(separated)}.")
     free = _unpinned(chains, meas)
     look_alike = _unpinned_look_alike(chains, meas, before, free, names, budget, level)
     if look_alike is not None:
@@ -457,7 +457,7 @@ def _explained_outcome(chains, meas, before, names, budget, level, passing=()) -
         out.update(ambiguous=out["ambiguous"] + labels, set_intervals=joined, separated_by=separated)
         out["verdict"] += (f" {'And' if ivs else 'But'} this record does not pin {_unpinned_words(free)}: within "
                            f"that range it is explained as well at other flows, so they are known only within "
-                           f"{_interval_words(joined)}. To pin {'them' if len(free) > 1 else 'it'}: {_pinned_by(free)}.")
+                           f"{interval_words(joined)}. To pin {'them' if len(free) > 1 else 'it'}: {_pinned_by(free)}.")
     return out
 
 
@@ -539,7 +539,7 @@ def _unpinned_after_effect(out: dict, chains, meas, best, passing, names, budget
     out["separated_by"] = tuple(dict.fromkeys((*out["separated_by"], *(type(e).separated_by for e in free))))
     who = f"with {best.label}" if not out["ambiguous"] else "with any of these explanations"
     out["verdict"] += (f" But this record does not pin {_unpinned_words(free)}: {who}, within that range it is "
-                       f"explained as well at other flows, so they are known only within {_interval_words(joined)}. "
+                       f"explained as well at other flows, so they are known only within {interval_words(joined)}. "
                        f"To pin {'them' if len(free) > 1 else 'it'}: {_pinned_by(free)}.")
 
 
@@ -580,7 +580,7 @@ def _added_outcome(chains, before, best, after, passing, ambiguity_aic) -> dict:
         set_intervals = _set_intervals(after, close)
         verdict = (f"Ambiguous: {len(close) + 1} effects explain the record equally well ({flows}). "
                    f"Until a measurement tells them apart the flows are known only within "
-                   f"{_interval_words(set_intervals)}. To tell them apart: {'; or '.join(separated)}.")
+                   f"{interval_words(set_intervals)}. To tell them apart: {'; or '.join(separated)}.")
     else:
         verdict = (f"{_story(best, after, chains[0].machine)}{_oil_words(chains, best, after)}: this explains the "
                    f"record (chi2 {before.chi2:.1f} -> {after.chi2:.1f} for {after.dof} dof). Flows re-identified "
@@ -685,10 +685,14 @@ def _fit_orbit(chain, measured, effect, names, budget, level, progress) -> Candi
 
 
 def _set_intervals(after: Fit, others) -> tuple:
-    """Per flow, the union of the winner's 95 % profile interval and the other candidates' +-1.96 sigma."""
+    """Per flow, the union of the winner's 95 % profile interval and the other candidates' +-1.96 sigma (None for
+    a known supply)."""
     out = []
     for k, n in enumerate(_flow_names(after)):
         v, s = fit_flows(after)[k], fit_flows_std(after)[k]
+        if n not in after.intervals and not s > 0:  # a known supply: held, no interval
+            out.append(None)
+            continue
         low, high = after.intervals.get(n) or (v - Z95 * s, v + Z95 * s)
         for c in others:
             v, s = fit_flows(c.fit)[k], fit_flows_std(c.fit)[k]
@@ -698,10 +702,13 @@ def _set_intervals(after: Fit, others) -> tuple:
     return tuple(out)
 
 
-def _interval_words(iv) -> str:
-    return " and ".join(f"Q{k + 1} in [{lo * MLMIN_PER_M3S:.0f}, "
-                        f"{'open' if hi is None else format(hi * MLMIN_PER_M3S, '.0f')}] ml/min"
-                        for k, (lo, hi) in enumerate(iv))
+def interval_words(iv) -> str:
+    """'Q1 in [429, 509] ml/min and Q2 in [...]' for per-bearing intervals (m^3/s; None for a held supply, which
+    is left out)."""
+    return " and ".join(f"Q{k + 1} in [{v[0] * MLMIN_PER_M3S:.0f}, "
+                        f"{'open' if v[1] is None else format(v[1] * MLMIN_PER_M3S, '.0f')}] ml/min"
+                        for k, v in enumerate(iv) if v is not None)
+
 
 
 OIL_RANGE = (0.75, 1.0 / 0.75)

@@ -25,7 +25,7 @@ import numpy as np
 
 from .. import __version__
 from ..identify.forward.budget import ModelBudget
-from .loop import fit_flows, fit_flows_std, fitted_effects
+from .loop import fit_flows, fit_flows_std, fitted_effects, interval_words
 from ..identify.fit.result import VERDICT_BAND as BAND
 from ..model.quantity import Quantity
 from ..units import M3S_PER_MLMIN, MLMIN_PER_M3S
@@ -70,12 +70,6 @@ def _flows_cell(fit) -> str:
 def _and(items) -> str:
     items = list(items)
     return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
-
-
-def _set_words(iv) -> str:
-    return " and ".join(f"Q{k + 1} in [{lo * MLMIN_PER_M3S:.0f}, "
-                        f"{'open' if hi is None else format(hi * MLMIN_PER_M3S, '.0f')}] ml/min"
-                        for k, (lo, hi) in enumerate(iv))
 
 
 def _interval(fit, k: int) -> str:
@@ -133,7 +127,7 @@ def _actions(d, nodes) -> list[str]:
                    "Before acting on them, take one of the measurements that separate them (listed under “Telling "
                    "look-alikes apart”). The flows below are those of the best-ranked, provisionally"
                    + ("." if d.set_intervals is None else
-                      "; over all of them the flows are known only within " + escape(_set_words(d.set_intervals))
+                      "; over all of them the flows are known only within " + escape(interval_words(d.set_intervals))
                       + "."))
     elif d.added is not None:
         told = ([(e, {}) for e in d.added.effects] if d.after is None else fitted_effects(d.added, d.after))
@@ -143,7 +137,7 @@ def _actions(d, nodes) -> list[str]:
                    + (f" by {sep}." if sep else "."))
     if d.set_intervals is not None and outcome != "ambiguous":  # an explanation the record cannot rule out
         out.append("<b>Other explanations fit as well</b> (the verdict says which): over all of them the flows are "
-                   "known only within " + escape(_set_words(d.set_intervals)) + ". Take one of the measurements "
+                   "known only within " + escape(interval_words(d.set_intervals)) + ". Take one of the measurements "
                    "listed under “Telling look-alikes apart” before acting on the flows below.")
     f = d.final
     qt = d.thresholds_for(f)
@@ -328,10 +322,12 @@ def _mlmin_to_ratio(q_mlmin: float, q_threshold: float) -> float:
     return float(q_mlmin) * M3S_PER_MLMIN / q_threshold
 
 
-def map_svg(q1, q2, chi2, *, paths=(), truth_mlmin=None, title: str = "", width: int = 380) -> str:
-    """chi^2 over Q1 x Q2 (ml/min; the darker the better fit) with search paths [(label, (n, >= 2) m^3/s, colour):
-    their first two columns, Q1 and Q2]."""
+def map_svg(q1, q2, chi2, *, paths=(), truth_mlmin=None, title: str = "", width: int = 380,
+            pair: tuple[int, int] = (0, 1)) -> str:
+    """chi^2 over the flows of bearings `pair` (0-based; ml/min; the darker the better fit) with search paths
+    [(label, (n, >= 2) m^3/s, colour): their columns `pair`]; `truth_mlmin`: every bearing's true flow."""
     q1, q2 = np.asarray(q1) / M3S_PER_MLMIN, np.asarray(q2) / M3S_PER_MLMIN
+    qa, qb = pair
     c = np.log10(np.asarray(chi2, dtype=float) - np.nanmin(chi2) + 1.0)
     c = c / max(float(np.nanmax(c)), 1e-12)
     left, up, size = 55, 24, width - 75
@@ -351,13 +347,13 @@ def map_svg(q1, q2, chi2, *, paths=(), truth_mlmin=None, title: str = "", width:
             body.append(f'<rect x="{px(e1[i]):.1f}" y="{py(e2[j + 1]):.1f}" width="{px(e1[i + 1]) - px(e1[i]) + 0.3:.1f}" '
                         f'height="{py(e2[j]) - py(e2[j + 1]) + 0.3:.1f}" fill="rgb({g},{g},{min(255, g + 25)})"/>')
     for label, path, colour in paths:
-        p = np.asarray(path)[:, :2] / M3S_PER_MLMIN  # Q1, Q2 (the search's other parameters are not drawn)
+        p = np.asarray(path)[:, [qa, qb]] / M3S_PER_MLMIN  # the pair's (the search's other parameters are not drawn)
         pts = " ".join(f"{px(a):.1f},{py(b):.1f}" for a, b in p)
         body.append(f'<polyline points="{pts}" fill="none" stroke="{colour}" stroke-width="2"/>')
         body.append(f'<circle cx="{px(p[-1, 0]):.1f}" cy="{py(p[-1, 1]):.1f}" r="4" fill="{colour}">'
                     f"<title>{escape(label)}: {p[-1, 0]:.0f}, {p[-1, 1]:.0f} ml/min</title></circle>")
     if truth_mlmin is not None:
-        a, b = px(truth_mlmin[0]), py(truth_mlmin[1])
+        a, b = px(truth_mlmin[qa]), py(truth_mlmin[qb])
         body.append(f'<path d="M{a - 5:.1f},{b - 5:.1f} L{a + 5:.1f},{b + 5:.1f} M{a - 5:.1f},{b + 5:.1f} '
                     f'L{a + 5:.1f},{b - 5:.1f}" stroke="#c0392b" stroke-width="2.5"><title>true flows</title></path>')
     body.append(f'<rect x="{left}" y="{up}" width="{size}" height="{size}" fill="none" stroke="#555"/>')
@@ -365,9 +361,10 @@ def map_svg(q1, q2, chi2, *, paths=(), truth_mlmin=None, title: str = "", width:
         body.append(_text(px(v), up + size + 14, f"{v:.0f}", size=10))
     for v in np.linspace(q2[0], q2[-1], 5):
         body.append(_text(left - 4, py(v) + 4, f"{v:.0f}", anchor="end", size=10))
-    body.append(_text(left + size / 2, up + size + 30, "Q1 (ml/min)"))
-    body.append(_text(12, up + size / 2, "Q2 (ml/min)", extra=f'transform="rotate(-90 12 {up + size / 2:.1f})"'))
-    return _svg(width, up + size + 40, body, title or "chi-square map over Q1 and Q2")
+    body.append(_text(left + size / 2, up + size + 30, f"Q{qa + 1} (ml/min)"))
+    body.append(_text(12, up + size / 2, f"Q{qb + 1} (ml/min)",
+                      extra=f'transform="rotate(-90 12 {up + size / 2:.1f})"'))
+    return _svg(width, up + size + 40, body, title or f"chi-square map over Q{qa + 1} and Q{qb + 1}")
 
 
 # --- the document ------------------------------------------------------------------------------------
@@ -469,8 +466,8 @@ def report_html(diagnosis, *, record=None, title: str = "Lubrication diagnosis",
     """The diagnosis as one self-contained HTML document (str).
 
     `record`: the measured record (its file, speed, planes and duration are listed); `bearing_nodes`: the
-    machine's bearing nodes, named in the text; `maps`: optional chi^2 maps [(title, (q1, q2, chi2), paths)]
-    with `paths` as in `map_svg`; `generated`: the date printed (default now, local time).
+    machine's bearing nodes, named in the text; `maps`: optional chi^2 maps [(title, (qi, qj, chi2), paths,
+    pair)] with `paths` and `pair` as in `map_svg`; `generated`: the date printed (default now, local time).
     """
     d = diagnosis
     generated = generated or _dt.datetime.now().astimezone()
@@ -500,9 +497,10 @@ def report_html(diagnosis, *, record=None, title: str = "Lubrication diagnosis",
               "they should fall inside it.</p>",
               residual_svg(names, d.before.residual, after)]
     if maps:
-        parts.append("<h2>The search over Q1 × Q2</h2><div style='display:flex;flex-wrap:wrap;gap:12px'>"
-                     + "".join(map_svg(*m[1], paths=m[2] if len(m) > 2 else (), truth_mlmin=truth, title=m[0])
-                               for m in maps) + "</div>"
+        i, j = maps[0][3] if len(maps[0]) > 3 else (0, 1)
+        parts.append(f"<h2>The search over Q{i + 1} × Q{j + 1}</h2><div style='display:flex;flex-wrap:wrap;gap:12px'>"
+                     + "".join(map_svg(*m[1], paths=m[2] if len(m) > 2 else (), truth_mlmin=truth, title=m[0],
+                                       pair=m[3] if len(m) > 3 else (0, 1)) for m in maps) + "</div>"
                      "<p class='small'>χ² over the flows (darker: better fit); lines: the fits' search paths, "
                      "ending at the answer; ✕: the true flows when known.</p>")
     parts += ["<h2>Candidate effects</h2>", _candidates_table(d)]
@@ -532,10 +530,10 @@ def report_html(diagnosis, *, record=None, title: str = "Lubrication diagnosis",
 
 
 def report_maps(maps, diagnosis) -> list:
-    """A run's maps [(title, grid, fit)] (`pipeline.run_diagnosis`) as `report_html` draws them: each with
+    """A run's maps (`pipeline.FlowMap`) as `report_html` draws them, (title, grid, paths, pair): each with
     its fit's search path, the plain model's in BEFORE_COLOUR, the one with the effect in AFTER_COLOUR."""
     return [(title, grid, [(title, fit.paths[-1], BEFORE_COLOUR if fit is diagnosis.before else AFTER_COLOUR)]
-             if fit.paths else []) for title, grid, fit in maps]
+             if fit.paths else [], pair) for title, grid, fit, pair in maps]
 
 
 def write_report(diagnosis, path, **kwargs) -> Path:

@@ -68,3 +68,31 @@ def test_a_pair_the_chain_lacks_or_a_held_vector_of_the_wrong_length_is_refused(
         pair_grid(chain, (0, 3), truth)
     with pytest.raises(InputError, match="held values"):
         pair_grid(chain, (0, 1), truth[:2])
+
+
+def test_a_diagnosis_maps_the_unknown_flows_when_one_supply_is_known(fan, tmp_path):
+    """A machine whose first bearing's supply is known (SPEC §8 `supply_mlmin`): the diagnosis's map is drawn
+    over the two unknown flows, Q2 x Q3 (Q1 is held, not searched), the search path on it ends at the fit's Q2 and
+    Q3, and the report names those axes (it drew Q1 x Q2, the held flow against one unknown, before)."""
+    from lubeviz.diagnose.pipeline import run_diagnosis
+    from lubeviz.diagnose.report import report_html, report_maps
+    from lubeviz.diagnose.settings import DiagnosisSettings
+    from lubeviz.effects import EFFECTS
+    from lubeviz.units import MLMIN_PER_M3S
+
+    chain, truth, at, _ = fan
+    text = (MODELS_DIR / "three_bearing_fan.toml").read_text(encoding="utf-8")
+    known = f'supply = "known"\nsupply_mlmin = {truth[0] * MLMIN_PER_M3S:.6f}\n'
+    path = tmp_path / "fan_known_q1.toml"
+    path.write_text(text.replace("[[bearings]]\n", "[[bearings]]\n" + known, 1), encoding="utf-8")
+    m = load_machine(path)
+    assert m.bearings[0].supply == "known" and m.bearings[1].supply == "unknown"
+    record = simulate(ForwardChain(m, m.operating_speed), truth, snr_db=40.0, rng=np.random.default_rng(6))
+    run = run_diagnosis([record], m, DiagnosisSettings(map_points=7), candidates=[EFFECTS["probe_gain"]])
+    (title, (qi, qj, chi2), fit, pair), *_ = run.maps
+    assert pair == (1, 2) and chi2.shape == (7, 7)
+    assert qi[0] < truth[1] < qi[-1] and qj[0] < truth[2] < qj[-1]
+    assert fit.flow_values()[0] == pytest.approx(truth[0], rel=1e-5)  # held
+    np.testing.assert_allclose(fit.paths[-1][-1][[1, 2]], fit.flow_values()[[1, 2]], rtol=1e-9)
+    html = report_html(run.diagnosis, maps=report_maps(run.maps, run.diagnosis))
+    assert "The search over Q2 × Q3" in html and "Q3 (ml/min)" in html and "Q1 (ml/min)" not in html
