@@ -123,9 +123,6 @@ class Machine(param.Parameterized):
             out.append(f"{len(self.bearings)} [[bearings]] and {len(self.supports)} [[supports]]: a shaft needs two "
                        "supports at least to stand")
         for k, b in enumerate(self.bearings, start=1):
-            if b.offset[0]:
-                out.append(f"[[bearings]] {k} ({b.name}): offset_um dX = {b.offset[0] * 1e6:g} um; a sideways offset "
-                           "loads the film sideways, which its tables do not hold (dY only)")
             if b.pedestal is not None:
                 out.append(f"[[bearings]] {k} ({b.name}): a pedestal; give it as the pedestals effect today")
         for k, s in enumerate(self.supports, start=1):

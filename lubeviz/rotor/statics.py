@@ -126,13 +126,15 @@ def bearing_static_loads(machine) -> np.ndarray:
     """Static load on each bearing's journal, [[Wx, Wy], ...] (N): the rotor's weight share, downwards.
 
     The journal presses on its film with the support reaction of the pinned rotor, so the film must
-    carry -load; this is the load the film model's equilibrium uses.
+    carry -load; this is the load the film model's equilibrium uses. With 3+ supports it is the coupled
+    equilibrium's (`coupled_statics`), sideways part included: offsets out of line lean it (the tables take a
+    leaning load in the bearing's own frame, `identify.tables.cache.film_frame`).
     """
     from .assembly import rotor_from_machine
 
     rotor = rotor_from_machine(machine)
     if not statically_determinate(machine, rotor):  # 3+ supports: the films' compliance shares the weight
-        return coupled_statics(machine).loads
+        return coupled_statics(machine).loads.copy()
     reactions = simple_support_reactions(rotor, machine.gravity, nodes=[b.node for b in machine.bearings])
     return np.array([[0.0, -f] for f in reactions.forces])
 
@@ -146,12 +148,11 @@ def statically_determinate(machine, rotor: Rotor | None = None) -> bool:
 @dataclass(frozen=True)
 class CoupledStatics:
     """The static equilibrium of the shaft on its films and supports (SPEC §8, 3+ supports): each fluid-film
-    bearing's load (N, [Wx, Wy] on the journal; the tables take its vertical part, `loads`), the journals'
-    positions in their bearings (m), the constant supports' reactions (N), the iterations and the largest
-    horizontal load against the vertical one (the tables hold vertical loads only)."""
+    bearing's load (N, [Wx, Wy] on the journal, its sideways part included), the journals' positions in their
+    bearings (m), the constant supports' reactions (N), the iterations and the largest sideways load against the
+    vertical one."""
 
-    loads: np.ndarray  # (N, 2): [0, Wy] as the film tables take it
-    loads_full: np.ndarray  # (N, 2): the load with its horizontal part
+    loads: np.ndarray  # (N, 2): the load on each film, sideways part included
     positions: np.ndarray  # (N, 2) journal positions from the bearing centres
     pinned_loads: np.ndarray  # (N, 2): the stiff-bearing limit (journals held at the bearing centres + offsets)
     support_forces: np.ndarray  # (n_supports, 2): force of each constant support on the shaft
@@ -160,7 +161,6 @@ class CoupledStatics:
 
 
 COUPLED_TOL = 1e-6  # the loads' relative change that ends the iteration
-HORIZONTAL_NOTICE = 0.05  # a static load leaning more than this (sideways over vertical) is told
 _COUPLED: dict = {}
 
 
@@ -246,16 +246,8 @@ def coupled_statics(machine, *, max_iter: int = 30) -> CoupledStatics:
     full = -R
     support_forces = np.array([-(np.asarray(k) @ u[node_dofs(n)[[X, Y]]]) for n, k, _ in rotor.supports]) \
         if rotor.supports else np.zeros((0, 2))
-    out = CoupledStatics(loads=np.stack([np.zeros(len(nodes)), full[:, 1]], axis=1), loads_full=full,
-                         positions=np.array(positions), pinned_loads=pinned, support_forces=support_forces,
-                         iterations=it, horizontal_share=float(np.max(np.abs(full[:, 0]) / np.abs(full[:, 1]))))
-    if out.horizontal_share > HORIZONTAL_NOTICE:
-        import warnings
-
-        k = int(np.argmax(np.abs(full[:, 0]) / np.abs(full[:, 1])))
-        warnings.warn(f"{machine.source or machine.name}: bearing {k + 1}'s static load leans "
-                      f"{np.degrees(np.arctan2(abs(full[k, 0]), abs(full[k, 1]))):.1f} deg from the vertical "
-                      f"({full[k, 0]:.0f} N sideways of {abs(full[k, 1]):.0f} N): its film is taken under the vertical "
-                      "part (the tables hold vertical loads)", stacklevel=2)
+    out = CoupledStatics(loads=full, positions=np.array(positions), pinned_loads=pinned,
+                         support_forces=support_forces, iterations=it,
+                         horizontal_share=float(np.max(np.abs(full[:, 0]) / np.abs(full[:, 1]))))
     _COUPLED[key] = out
     return out

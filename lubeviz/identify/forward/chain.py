@@ -75,6 +75,10 @@ class BearingSource:
         self._views: dict = {}
         self._table = None  # the geometry's dimensionless table with the slices loaded so far (changed views)
         self._stack = None  # their spline coefficients, stacked (`_slice_stack`)
+        from ..tables.cache import film_frame
+
+        # the bearing seen from the frame where its load is vertical, that load, the map back (None: vertical)
+        self._seen, self._seen_load, self._turn = film_frame(self.bearing, self.load)
         if table is not None:
             self._views[self._key(1.0, self.bearing.clearance)] = table
 
@@ -95,10 +99,13 @@ class BearingSource:
             load = self.load * float(load_factor)
             view = None
             if changed and self._table is not None:  # from the slices in memory: ~0.6 ms, not ~2 ms
+                from ..tables.cache import turned_table
                 from ..tables.scaled import scaled_view
 
-                view = scaled_view(self._table, self.bearing, load, self.omega, float(factor), clearance,
-                                   index=self.index)
+                view = scaled_view(self._table, self._seen, self._seen_load * float(load_factor), self.omega,
+                                   float(factor), clearance, index=self.index)
+                if view is not None and self._turn is not None:
+                    view = turned_table(view, self._turn)
             if view is None:
                 from ..tables.cache import bearing_view
 
@@ -116,7 +123,8 @@ class BearingSource:
         from ..tables import cache
 
         try:
-            table = cache.loaded_table(bearing, load, self.omega)
+            seen, seen_load, _ = cache.film_frame(bearing, load)
+            table = cache.loaded_table(seen, seen_load, self.omega)
         except InputError:
             return
         if self._table is None or self._table.geometry != table.geometry:
@@ -155,6 +163,8 @@ class BearingSource:
         stack = self._slice_stack() if rest.size else None
         if stack is not None:
             v, served = stack.values(qf[rest], f[rest], c[rest], lf[rest])
+            if self._turn is not None:
+                v = v @ self._turn.T
             out[rest[served]] = v[served]
             rest = rest[~served]
         if rest.size:
@@ -175,7 +185,7 @@ class BearingSource:
             from ..tables.scaled import SliceStack
 
             try:
-                self._stack = SliceStack(self._table, self.bearing, self.load, self.omega)
+                self._stack = SliceStack(self._table, self._seen, self._seen_load, self.omega)
             except InputError:
                 return None
         return self._stack

@@ -568,30 +568,82 @@ def _build_missing(nodes, missing, geometry, span, points, progress, workers, st
     _build_parallel(geometry, nodes, missing, span, points, progress, workers, total, store)
 
 
-def _view(table: DimensionlessTable, bearing: Bearing, load, omega: float, index: int, key: str) -> CoefficientTable:
+def _view(table: DimensionlessTable, bearing: Bearing, load, omega: float, index: int, key: str,
+          turn: np.ndarray | None = None) -> CoefficientTable:
     s = sommerfeld_number(bearing, load, omega)
-    return _dimensionless.dimensional_table(table.combination(s), bearing, load, omega, index=index, key=key)
+    view = _dimensionless.dimensional_table(table.combination(s), bearing, load, omega, index=index, key=key)
+    return view if turn is None else turned_table(view, turn)
+
+
+# --- a leaning load ------------------------------------------------------------------------------------
+# The dimensionless tables hold loads along -Y (their slices are keyed by the geometry, the load's direction is
+# not in them). A load leaning by beta from -Y (an offset out of line, a shaft on 3+ supports) is the same film
+# seen from a frame turned by beta: in it the load is vertical and every groove sits beta earlier (angles from +Y
+# in the direction of rotation, SPEC §1). That bearing's table, turned back, is the leaning bearing's: K and C
+# as R K' R^T, the position as R p'.
+# A lean below LEAN_DEG is taken as vertical: it moves K and C by 2.3 % of the largest entry per degree (the fan's
+# bearing A, direct solves at 0.5-1.7 Q_T; the position by 0.4 % of c), so 0.23 % at 0.1 deg, below the tables' own
+# error against direct solves (0.5 %); each lean above it is a geometry of its own, with its own slices to build.
+# The fan: bearing A leans -5.1 deg, C +1.1 deg, B -0.045 deg (taken as vertical).
+LEAN_DEG = 0.1
+
+
+def film_frame(bearing: Bearing, load) -> tuple[Bearing, np.ndarray, np.ndarray | None]:
+    """(the bearing as seen from the frame where `load` is vertical, that vertical load, the 10 x 10 map of a
+    table's columns from that frame back: `values @ turn.T`, or None when the load is vertical already)."""
+    load = np.asarray(load, dtype=float)
+    if load.shape != (2,) or not np.all(np.isfinite(load)):
+        raise InputError(f"bearing load {load!r}: expected two finite numbers [Wx, Wy] (N)")
+    w = float(np.hypot(*load))
+    if not w > 0.0:
+        raise InputError(f"bearing load {load.tolist()} N: expected a non-zero load")
+    beta = math.atan2(load[0], -load[1])
+    if abs(math.degrees(beta)) <= LEAN_DEG:
+        return bearing, np.array([0.0, -w]), None
+    from ...model.bearing import Groove
+
+    def turned(angle: float) -> float:
+        return math.remainder(angle - beta, 2.0 * math.pi)
+
+    seen = bearing.copy(groove_angle=turned(bearing.groove_angle),
+                        other_grooves=[Groove(turned(g.angle), g.length, g.width) for g in bearing.other_grooves])
+    c, s_ = math.cos(beta), math.sin(beta)
+    r = np.array([[c, -s_], [s_, c]])
+    rr = np.kron(r, r)  # row-major vec(R K R^T) = (R kron R) vec(K)
+    turn = np.zeros((10, 10))
+    turn[0:4, 0:4], turn[4:8, 4:8], turn[8:10, 8:10] = rr, rr, r
+    return seen, np.array([0.0, -w]), turn
+
+
+def turned_table(table: CoefficientTable, turn: np.ndarray) -> CoefficientTable:
+    """`table` (a bearing's in its load's frame, `film_frame`) in the machine's frame."""
+    v = np.concatenate([table.K.reshape(-1, 4), table.C.reshape(-1, 4), table.position], axis=1) @ turn.T
+    return CoefficientTable(bearing=table.bearing, omega=table.omega, q_threshold=table.q_threshold, q=table.q,
+                            K=v[:, 0:4].reshape(-1, 2, 2), C=v[:, 4:8].reshape(-1, 2, 2), position=v[:, 8:10],
+                            seconds=table.seconds, key=table.key)
 
 
 def bearing_view(bearing: Bearing, load, omega: float, *, index: int = 0, span=DEFAULT_SPAN,
                  points: int = DEFAULT_POINTS, progress: ProgressFn = silent, directory=None,
                  workers: int | None = None) -> CoefficientTable:
-    """The `CoefficientTable` (SI) of `bearing` under static `load` (N, [Wx, Wy], along -Y) at `omega`
-    (rad/s), from its geometry's dimensionless table (slices built only if missing). Use it for a
+    """The `CoefficientTable` (SI) of `bearing` under static `load` (N, [Wx, Wy]; leaning: `film_frame`) at
+    `omega` (rad/s), from its geometry's dimensionless table (slices built only if missing). Use it for a
     bearing with changed viscosity or clearance, e.g. `bearing.copy(viscosity=0.7 * mu)`: no film solve
     when the slices around its Sommerfeld number exist. Raises InputError outside the table's S range."""
     omega = _check_omega(omega)
-    load = _dimensionless._check_load(load)
-    s = sommerfeld_number(bearing, load, omega)
-    table = geometry_table(bearing, [s], span=span, points=points, progress=progress, directory=directory,
+    key = _digest(_view_inputs(bearing, load, omega, span, points))
+    seen, load, turn = film_frame(bearing, load)
+    s = sommerfeld_number(seen, load, omega)
+    table = geometry_table(seen, [s], span=span, points=points, progress=progress, directory=directory,
                            workers=workers)
-    return _view(table, bearing, load, omega, index, _digest(_view_inputs(bearing, load, omega, span, points)))
+    return _view(table, seen, load, omega, index, key, turn)
 
 
 def loaded_table(bearing: Bearing, load, omega: float, *, span=DEFAULT_SPAN, points: int = DEFAULT_POINTS,
                  directory=None) -> DimensionlessTable:
     """`bearing`'s geometry table with the slices around its Sommerfeld number loaded from the cache (after a
-    `bearing_view` of it, which built any that were missing); for `scaled.scaled_view`."""
+    `bearing_view` of it, which built any that were missing); for `scaled.scaled_view`. `load` vertical (a leaning
+    one: its `film_frame`'s bearing and load)."""
     s = sommerfeld_number(bearing, _dimensionless._check_load(load), _check_omega(omega))
     return geometry_table(bearing, [s], span=span, points=points, directory=directory)
 
@@ -614,19 +666,18 @@ def machine_tables(machine, omega: float | None = None, *, span=DEFAULT_SPAN, po
     omega = _omega(machine, omega)
     loads = bearing_static_loads(machine)
     n = len(machine.bearings)
-    for k in range(n):
-        _dimensionless._check_load(loads[k])
+    frames = [film_frame(b, w) for b, w in zip(machine.bearings, loads)]  # a leaning load: its own frame
     groups: dict[str, list[int]] = {}
-    for k, b in enumerate(machine.bearings):
-        groups.setdefault(_digest(geometry_values(b)), []).append(k)
+    for k, (seen, _, _) in enumerate(frames):
+        groups.setdefault(_digest(geometry_values(seen)), []).append(k)
     out: list[CoefficientTable | None] = [None] * n
     for members in groups.values():
-        s = [sommerfeld_number(machine.bearings[k], loads[k], omega) for k in members]
-        table = geometry_table(machine.bearings[members[0]], s, span=span, points=points, progress=progress,
+        s = [sommerfeld_number(frames[k][0], frames[k][1], omega) for k in members]
+        table = geometry_table(frames[members[0]][0], s, span=span, points=points, progress=progress,
                                directory=directory, workers=workers)
         for k in members:
             key = _digest(_view_inputs(machine.bearings[k], loads[k], omega, span, points))
-            out[k] = _view(table, machine.bearings[k], loads[k], omega, k, key)
+            out[k] = _view(table, *frames[k][:2], omega, k, key, frames[k][2])
     return tuple(out)
 
 
