@@ -1,7 +1,8 @@
 """The machine on its film bearings: each bearing's equilibrium and coefficients at its supply flow.
 
 This is where the film model (Sec. 2.1) meets the rotor (Sec. 2.2): the static load on each journal
-is its support reaction from the rotor's weight (`statics.bearing_static_loads`), the film finds the
+is its support reaction from the rotor's weight (`statics.bearing_static_loads`; on 3+ supports moved by where the
+journals sit at their flows, `load_shift.LoadShift`), the film finds the
 journal's equilibrium for the bearing's own supply flow, and its K, C enter Eq. 8: by default the
 sub-cell tangent (`find_equilibrium`'s default, smooth in the supply); `coefficients="fixed-pattern"`
 gives the exact small-amplitude derivative of this mesh's discrete film instead (what a time
@@ -62,16 +63,39 @@ def film_bearings(machine, flows: Sequence[float], omega: float | None = None, *
         raise InputError(f"shaft speed {omega!r} rad/s; expected a positive number")
     flows = _flows(machine, flows)
     loads = bearing_static_loads(machine)
+    eqs = _equilibria(machine, omega, flows, loads, previous.equilibria if previous is not None else None,
+                      coefficients)
+    shift = _load_shift(machine, omega)
+    if shift is not None:  # 3+ supports: the loads follow the journals (a starved film's journal sinks)
+        loads = shift.shifted(np.array([e.position for e in eqs]), np.array([e.coefficients.K for e in eqs]))
+        eqs = _equilibria(machine, omega, flows, loads, eqs, coefficients)
+    return FilmBearings(omega=omega, flows=flows, equilibria=tuple(eqs))
+
+
+def _equilibria(machine, omega, flows, loads, previous, coefficients) -> list:
     eqs = []
     for k, (b, q, load) in enumerate(zip(machine.bearings, flows, loads)):
-        prev = previous.equilibria[k] if previous is not None else None
+        prev = previous[k] if previous is not None else None
         eq = find_equilibrium(b, omega, load, Feed.flow(q), start=None if prev is None else prev.position,
                               warm=None if prev is None else prev.film, coefficients=coefficients)
         if not eq.converged:
             raise ConvergenceError(f"bearing {k + 1} at {q * MLMIN_PER_M3S:.1f} ml/min, {omega / 2 / math.pi:g} Hz: "
                                    f"{eq.message}")
         eqs.append(eq)
-    return FilmBearings(omega=omega, flows=flows, equilibria=tuple(eqs))
+    return eqs
+
+
+def _load_shift(machine, omega: float):
+    """The `LoadShift` of a machine on 3+ supports at `omega` (its films flooded there), None on two bearings."""
+    from .load_shift import LoadShift
+    from .statics import statically_determinate
+
+    rotor = rotor_from_machine(machine)
+    if statically_determinate(machine, rotor):
+        return None
+    loads = bearing_static_loads(machine)
+    flooded = [find_equilibrium(b, omega, w, Feed.flooded()) for b, w in zip(machine.bearings, loads)]
+    return LoadShift(rotor, [b.node for b in machine.bearings], loads, [e.position for e in flooded])
 
 
 def equilibrium_flow_slopes(machine, fb: FilmBearings, thresholds=None, *, rel: float = 1e-3,

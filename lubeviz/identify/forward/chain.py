@@ -329,6 +329,13 @@ class ForwardChain:
         self.loads = bearing_static_loads(machine) if loads is None else np.asarray(loads, dtype=float)
         self.sources = [BearingSource(machine, k, self.omega, t, load=self.loads[k], progress=progress)
                         for k, t in enumerate(tables)]
+        from ...rotor.load_shift import LoadShift
+        from ...rotor.statics import statically_determinate
+
+        self._shift = None
+        if not statically_determinate(machine, self.rotor):  # 3+ supports: the loads follow the journals (flows)
+            self._shift = LoadShift(self.rotor, [s.bearing.node for s in self.sources], self.loads,
+                                    [s.nominal.journal_position(s.nominal.q_threshold) for s in self.sources])
         self.q_threshold = np.array([s.nominal.q_threshold for s in self.sources])
         self.names = flow_names(len(self.sources)) + tuple(f"{self.prefix(e)}.{p}" for e in self.effects for p in e.free)
         self._slots = [(e, p) for e in self.effects for p in e.free]
@@ -454,6 +461,29 @@ class ForwardChain:
         return bearing_changes(self.effects, k, self.sources[k].bearing.clearance,
                                lambda e: self._values(theta, e), shape)
 
+    def bearing_states(self, theta, shape=()) -> list:
+        """[(BearingChange, (K, C, position))] of each bearing at parameters theta (batch `shape`). On 3+ supports
+        the static loads follow the journals' positions (`rotor.load_shift.LoadShift`): each bearing is evaluated
+        again at its shifted load."""
+        changes = [self.bearing_changes(k, theta, shape) for k in range(self.n_flows)]
+        states = [src.evaluate(theta[..., k], *changes[k]) for k, src in enumerate(self.sources)]
+        if self._shift is None:
+            return list(zip(changes, states))
+        factors = self._shift.factors(np.stack([st[2] for st in states], axis=-2),
+                                      np.stack([st[0] for st in states], axis=-3))
+        changes = [c._replace(load_factor=c.load_factor * factors[..., k]) for k, c in enumerate(changes)]
+        return [(c, src.evaluate(theta[..., k], *c)) for k, (c, src) in enumerate(zip(changes, self.sources))]
+
+    def static_loads(self, theta) -> np.ndarray:
+        """Each bearing's static load (..., N, 2), N, at parameters theta: the flooded statics' moved by the
+        journals' positions at the flows (3+ supports; `LoadShift`), the declared ones otherwise."""
+        theta = np.asarray(theta, dtype=float)
+        if self._shift is None:
+            return np.broadcast_to(self.loads, theta.shape[:-1] + self.loads.shape).copy()
+        states = [src.evaluate(theta[..., k], *self.bearing_changes(k, theta, theta.shape[:-1]))
+                  for k, src in enumerate(self.sources)]
+        return self._shift.shifted(np.stack([st[2] for st in states], axis=-2), np.stack([st[0] for st in states], axis=-3))
+
     # --- reference solve --------------------------------------------------------------------------
     def _build_reference(self):
         rotor, omega = self.rotor, self.omega
@@ -510,10 +540,8 @@ class ForwardChain:
         dB = np.zeros(shape + (2 * nb, 2 * nb), dtype=complex)
         housing = [None] * nb
         journal = np.zeros(shape + (nb, 2))
-        for k, src in enumerate(self.sources):
-            change = self.bearing_changes(k, theta, shape)
+        for k, (change, (K, C, pos)) in enumerate(self.bearing_states(theta, shape)):
             clearance = change.clearance
-            K, C, pos = src.evaluate(theta[..., k], *change)
             B = K + 1j * omega * C
             for e in self.effects:
                 if e.applies(k):
@@ -595,10 +623,8 @@ class ForwardChain:
         journal = np.zeros((nb, 2))
         for j, k in enumerate(extra):
             hdofs[k] = n0 + 2 * j + np.arange(2)
-        for k, src in enumerate(self.sources):
-            change = self.bearing_changes(k, theta, ()).as_floats()
-            clearance = change.clearance
-            K, C, pos = src.evaluate(theta[k], *change)
+        for k, (change, (K, C, pos)) in enumerate(self.bearing_states(theta, ())):
+            clearance = float(change.clearance)
             B = K + 1j * omega * C
             jd = node_dofs(rotor.bearing_nodes[k])[[X, Y]]
             other = hdofs.get(k)

@@ -1,0 +1,56 @@
+"""How the static loads of a statically indeterminate machine follow its supply flows.
+
+On three or more supports each film's share of the weight depends on where its journal sits, and a starved film
+lets its journal sink: the load moves to the other supports. `rotor.statics.coupled_statics` solves the loads with
+every film flooded; the machine runs at its own flows. Measured on the fan's independent record at 0.9, 1.1, 0.9 of
+Q_T: bearing A carries 1935 N against the flooded 2016 N (-4 %). With the loads held at the flooded ones the fit
+explained that record (chi2 1.4 for 3 dof) with Q1 3.7 % high and Q2 1.9 % low, each outside its interval: the
+flows took up the load's change (session 44).
+
+Linearized about the flooded statics (`LoadShift`): the shaft, condensed to the journals (its constant supports
+included), pushes back on a journal displacement du with df = K_s du; each film yields to a change of its load dW
+by K_k^-1 dW, K_k its stiffness at its flow, and moves by dp_k(q) = p_k(q) - p_k(flooded) with its flow (the
+identification's chain takes both from its tables, `film_bearings` from its film solves). With
+df = -dW: (I + K_s K_f^-1) df = K_s dp, so dW = -(I + K_s K_f^-1)^-1 K_s dp. Each bearing's load then scales by
+|W + dW| / |W| (its lean held). A statically determinate machine (two bearings, no other support): K_s dp = 0, no
+shift.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .elements import X, Y, node_dofs
+
+
+class LoadShift:
+    """Each bearing's static load as a function of where its journal sits and how stiff its film is there, about
+    the flooded statics: `loads` (N, 2) and the journals' positions `reference` (N, 2) with every film flooded, the
+    bearings at `nodes` of `rotor` (whose K holds its constant supports)."""
+
+    def __init__(self, rotor, nodes, loads, reference):
+        self.loads = np.asarray(loads, dtype=float)
+        self.reference = np.asarray(reference, dtype=float)
+        journals = np.concatenate([node_dofs(int(n))[[X, Y]] for n in nodes])
+        others = np.setdiff1d(np.arange(rotor.n_dof), journals)
+        K = rotor.K
+        self.k_s = K[np.ix_(journals, journals)] - K[np.ix_(journals, others)] @ np.linalg.solve(
+            K[np.ix_(others, others)], K[np.ix_(others, journals)])
+
+    def shifted(self, positions, stiffness) -> np.ndarray:
+        """The loads (..., N, 2) with the journals at `positions` (..., N, 2) in their bearings (m), each film of
+        static stiffness `stiffness` (..., N, 2, 2) there (its K at its flow)."""
+        dp = np.asarray(positions, dtype=float) - self.reference
+        n = dp.shape[-2]
+        compliance = np.zeros(dp.shape[:-2] + (2 * n, 2 * n))
+        inv = np.linalg.inv(np.asarray(stiffness, dtype=float))
+        for k in range(n):
+            compliance[..., 2 * k:2 * k + 2, 2 * k:2 * k + 2] = inv[..., k, :, :]
+        a = np.eye(2 * n) + self.k_s @ compliance
+        rhs = np.einsum("ij,...j->...i", self.k_s, dp.reshape(dp.shape[:-2] + (2 * n,)))
+        dw = -np.linalg.solve(a, rhs[..., None])[..., 0]
+        return self.loads + dw.reshape(dp.shape)
+
+    def factors(self, positions, stiffness) -> np.ndarray:
+        """Each bearing's load over its flooded one, |W + dW| / |W| (..., N)."""
+        return np.linalg.norm(self.shifted(positions, stiffness), axis=-1) / np.linalg.norm(self.loads, axis=-1)
