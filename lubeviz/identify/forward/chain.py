@@ -151,6 +151,12 @@ class BearingSource:
         not hold it yet (which loads or builds them)."""
         q = np.asarray(q, dtype=float)
         declared = self.bearing.clearance
+        if np.ndim(factor) == 0 and np.ndim(clearance) == 0 and np.ndim(load_factor) == 0:  # one bearing for all
+            c0 = declared if clearance is None else float(clearance)
+            if self._key(factor, c0, load_factor) == self._key(1.0, declared):
+                t = self.view()
+                v = t._values(np.clip(q, t.q_min, t.q_max))
+                return v[..., 0:4].reshape(q.shape + (2, 2)), v[..., 4:8].reshape(q.shape + (2, 2)), v[..., 8:10]
         f, c, lf = (np.broadcast_to(np.asarray(a, dtype=float), q.shape).ravel()
                     for a in (factor, declared if clearance is None else clearance, load_factor))
         qf = q.ravel()
@@ -178,7 +184,9 @@ class BearingSource:
         return out[..., 0:4].reshape(q.shape + (2, 2)), out[..., 4:8].reshape(q.shape + (2, 2)), out[..., 8:10]
 
     def _slice_stack(self):
-        """The `SliceStack` of the slices this bearing's changed views have loaded (None before the first)."""
+        """The `SliceStack` of the slices this bearing's views have loaded (the declared bearing's, first)."""
+        if self._table is None:
+            self._remember_slices(self.bearing, self.load)
         if self._table is None:
             return None
         if self._stack is None or not self._stack.covers(self._table):

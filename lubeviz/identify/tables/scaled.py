@@ -21,6 +21,7 @@ import threading
 from collections import OrderedDict
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from scipy.interpolate import CubicSpline, PPoly
 
@@ -129,52 +130,97 @@ class SliceStack:
     def covers(self, table: DimensionlessTable) -> bool:
         return self.loaded == frozenset(int(i) for i in table.slices)
 
-    def _stencils(self, s: np.ndarray):
-        """Node indices (n, 4) and Lagrange weights in ln S (n, 4) per point (`dimensionless.stencil`'s choice,
-        the node alone with weight 1 when S is on it), and whether each point's slices are loaded."""
-        n_nodes, ls = self.nodes.size, np.log(s)
-        inside = (s >= self.nodes[0] * (1 - 1e-12)) & (s <= self.nodes[-1] * (1 + 1e-12))
-        k = np.searchsorted(self.nodes, s, side="right") - 1
-        first = np.clip(k - 1, 0, n_nodes - 4)
-        idx = first[:, None] + np.arange(4)
-        x = self.log_nodes[idx]
-        w = np.ones(idx.shape)
-        for i in range(4):
-            for j in range(4):
-                if i != j:
-                    w[:, i] *= (ls - x[:, j]) / (x[:, i] - x[:, j])
-        near = np.argmin(np.abs(self.log_nodes[None, :] - ls[:, None]), axis=1)
-        snap = np.abs(self.log_nodes[near] - ls) <= _dimensionless.SNAP_LN
-        idx[snap] = near[snap, None]
-        w[snap] = (1.0, 0.0, 0.0, 0.0)
-        return idx, w, inside & np.all(self.mask[idx], axis=1)
-
     def values(self, q, factor, clearance, load_factor) -> tuple[np.ndarray, np.ndarray]:
         """K (4), C (4) and journal position (2) per point (SI; flows clipped to each point's span, as a view
         clips), for 1-D arrays of one length; and which points the loaded slices serve (the others' rows are
-        undefined: their owner makes their views, which load the slices)."""
-        q, f, c, lf = (np.asarray(a, dtype=float) for a in (q, factor, clearance, load_factor))
-        with np.errstate(all="ignore"):
-            s = self.s0 * f / lf * (self.c0 / c) ** 2
-            ok = np.isfinite(s) & (s > 0) & (f > 0) & (c > 0) & (lf > 0)
-            s = np.where(ok, s, self.nodes[0])
-        idx, w, served = self._stencils(s)
-        served &= ok
-        q_t = np.exp(np.sum(w * self.log_qbar[idx], axis=1)) * self.scale0 * (c / self.c0)
-        r = np.clip(q / q_t, self.ratio[0], self.ratio[-1])
+        undefined: their owner makes their views, which load the slices). A compiled loop (`_values_kernel`):
+        numpy's per-call overhead was most of a fit on three bearings whose loads follow the flows."""
+        q, f, c, lf = (np.ascontiguousarray(a, dtype=float) for a in (q, factor, clearance, load_factor))
         out = np.empty(q.shape + (10,))
-        for j, rows in enumerate(self.pieces):
-            xs = self.ratio[rows]
-            rr = r if len(self.pieces) == 1 else np.minimum(r, 1.0) if j == 0 else np.maximum(r, 1.0)
-            i = np.clip(np.searchsorted(xs, rr, side="right") - 1, 0, xs.size - 2)
-            coef = np.einsum("na,nakv->nkv", w, self.coef[j][idx, :, i[:, None], :])
-            d = (rr - xs[i])[:, None]
-            v = ((coef[:, 0] * d + coef[:, 1]) * d + coef[:, 2]) * d + coef[:, 3]
-            take = np.ones(q.shape, dtype=bool) if len(self.pieces) == 1 else (r <= 1.0) if j == 0 else (r > 1.0)
-            out[take] = v[take]
-        w_load = self.w0 * lf
-        column = np.stack([w_load / c] * 4 + [w_load / (c * self.omega)] * 4 + [c] * 2, axis=1)
-        return out * column, served
+        served = np.zeros(q.shape, dtype=np.bool_)
+        below = self.coef[0]
+        above = self.coef[1] if len(self.coef) > 1 else self.coef[0][:, :, :0, :]
+        _values_kernel(q, f, c, lf, self.s0, self.c0, self.scale0, self.w0, self.omega, self.nodes, self.log_nodes,
+                       self.mask, self.log_qbar, self.ratio, self.pieces[0].stop - 1 if len(self.pieces) > 1 else -1,
+                       below, above, _dimensionless.SNAP_LN, out, served)
+        return out, served
+
+
+@numba.njit(cache=True, nogil=True)
+def _values_kernel(q, f, c, lf, s0, c0, scale0, w0, omega, nodes, log_nodes, mask, log_qbar, ratio, split,
+                   below, above, snap_ln, out, served):
+    """`SliceStack.values` point by point: S from the changes, `dimensionless.stencil`'s four nodes (or the node
+    alone within `snap_ln`), their Lagrange weights in ln S, Q_T, the ratio clipped to the grid, the spline piece
+    below or above r = 1 (`split`: the row of r = 1, -1 for one piece), the combined cubic, the SI scales."""
+    n_nodes = nodes.size
+    idx = np.empty(4, np.int64)
+    wt = np.empty(4)
+    for p in range(q.size):
+        if not (f[p] > 0.0 and c[p] > 0.0 and lf[p] > 0.0):
+            continue
+        s = s0 * f[p] / lf[p] * (c0 / c[p]) ** 2
+        if not (np.isfinite(s) and nodes[0] * (1 - 1e-12) <= s <= nodes[n_nodes - 1] * (1 + 1e-12)):
+            continue
+        ls = np.log(s)
+        k = np.searchsorted(nodes, s, side="right") - 1
+        near = min(max(k, 0), n_nodes - 1)
+        if near + 1 < n_nodes and abs(log_nodes[near + 1] - ls) < abs(log_nodes[near] - ls):
+            near += 1
+        if abs(log_nodes[near] - ls) <= snap_ln:
+            for a in range(4):
+                idx[a] = near
+                wt[a] = 1.0 if a == 0 else 0.0
+        else:
+            first = min(max(k - 1, 0), n_nodes - 4)
+            for a in range(4):
+                idx[a] = first + a
+            for a in range(4):
+                wt[a] = 1.0
+                for b in range(4):
+                    if a != b:
+                        wt[a] *= (ls - log_nodes[idx[b]]) / (log_nodes[idx[a]] - log_nodes[idx[b]])
+        ok = True
+        for a in range(4):
+            if not mask[idx[a]]:
+                ok = False
+        if not ok:
+            continue
+        lq = 0.0
+        for a in range(4):
+            lq += wt[a] * log_qbar[idx[a]]
+        q_t = np.exp(lq) * scale0 * (c[p] / c0)
+        r = min(max(q[p] / q_t, ratio[0]), ratio[ratio.size - 1])
+        if split < 0 or r > 1.0:
+            coef = below if split < 0 else above
+            x0 = 0 if split < 0 else split
+            rr = r
+        else:
+            coef = below
+            x0 = 0
+            rr = min(r, 1.0)
+        m = coef.shape[2]
+        i = min(max(np.searchsorted(ratio[x0:x0 + m + 1], rr, side="right") - 1, 0), m - 1)
+        d = rr - ratio[x0 + i]
+        wl = w0 * lf[p]
+        for v in range(10):
+            c3 = 0.0
+            c2 = 0.0
+            c1 = 0.0
+            c0v = 0.0
+            for a in range(4):
+                c3 += wt[a] * coef[idx[a], 0, i, v]
+                c2 += wt[a] * coef[idx[a], 1, i, v]
+                c1 += wt[a] * coef[idx[a], 2, i, v]
+                c0v += wt[a] * coef[idx[a], 3, i, v]
+            val = ((c3 * d + c2) * d + c1) * d + c0v
+            if v < 4:
+                val *= wl / c[p]
+            elif v < 8:
+                val *= wl / (c[p] * omega)
+            else:
+                val *= c[p]
+            out[p, v] = val
+        served[p] = True
 
 
 def scaled_view(table: DimensionlessTable, bearing: Bearing, load, omega: float, factor: float, clearance: float,
