@@ -86,16 +86,18 @@ def _equilibria(machine, omega, flows, loads, previous, coefficients) -> list:
 
 
 def _load_shift(machine, omega: float):
-    """The `LoadShift` of a machine on 3+ supports at `omega` (its films flooded there), None on two bearings."""
+    """The `LoadShift` of a machine on 3+ supports about its statics (flooded films at the operating speed: a record
+    at another speed moves its journals, and the loads, as its flows do), None on two bearings."""
     from .load_shift import LoadShift
     from .statics import statically_determinate
 
     rotor = rotor_from_machine(machine)
     if statically_determinate(machine, rotor):
         return None
-    loads = bearing_static_loads(machine)
-    flooded = [find_equilibrium(b, omega, w, Feed.flooded()) for b, w in zip(machine.bearings, loads)]
-    return LoadShift(rotor, [b.node for b in machine.bearings], loads, [e.position for e in flooded])
+    from .statics import coupled_statics
+
+    statics = coupled_statics(machine)
+    return LoadShift(rotor, [b.node for b in machine.bearings], statics.loads, statics.positions)
 
 
 def equilibrium_flow_slopes(machine, fb: FilmBearings, thresholds=None, *, rel: float = 1e-3,

@@ -25,8 +25,9 @@ from .elements import X, Y, node_dofs
 
 class LoadShift:
     """Each bearing's static load as a function of where its journal sits and how stiff its film is there, about
-    the flooded statics: `loads` (N, 2) and the journals' positions `reference` (N, 2) with every film flooded, the
-    bearings at `nodes` of `rotor` (whose K holds its constant supports)."""
+    the flooded statics: `loads` (N, 2) and the journals' positions `reference` (N, 2) with every film flooded at the
+    operating speed (`coupled_statics`; a record at another speed moves the journals too), the bearings at `nodes`
+    of `rotor` (whose K holds its constant supports)."""
 
     def __init__(self, rotor, nodes, loads, reference):
         self.loads = np.asarray(loads, dtype=float)

@@ -216,7 +216,10 @@ def test_the_fan_s_loads_follow_its_flows_as_the_independent_statics_does():
     source solves its own statics (fine films, its own rotor mesh) at the record's flows. Measured: at 0.9, 1.1, 0.9
     Q_T bearing A carries 1934.8 N against the source's 1934.9 (flooded 2016.1); with bearing B at 0.5 Q_T, B 3921.7
     against 3922.1 (flooded 4048.5); bearing A at 0.5 Q_T (a 21 % change) is 1.5 % short (1567.5 against 1592.1 N:
-    the linearization). A machine on two bearings has no shift: its loads are the lever rule's at any flows. The
+    the linearization). At 16.5 Hz (two thirds of the rated speed) the journals sit lower and bearing A carries
+    1883.6 N against the source's 1884.0 at 0.9, 1.1, 0.9 Q_T: the shift is taken from the statics at the rated
+    speed, so a record at another speed moves the loads as its flows do. A machine on two bearings has no shift:
+    its loads are the lever rule's at any flows. The
     direct film solves (`film_bearings`: the Rotor page, `simulate --method steady`) shift the loads the same way:
     their K and C agree with the chain's tables."""
     from lubeviz.identify.forward.chain import ForwardChain
@@ -246,6 +249,13 @@ def test_the_fan_s_loads_follow_its_flows_as_the_independent_statics_does():
         assert np.abs(K - eq.coefficients.K).max() < 5e-3 * np.abs(eq.coefficients.K).max()
         assert np.abs(C - eq.coefficients.C).max() < 5e-3 * np.abs(eq.coefficients.C).max()
     assert abs(states[0][0].load_factor - 1) > 0.05  # bearing A's load moved (-8.5 %)
+    slow = ForwardChain(m, 16.5, (7, 15))
+    q = tuple(float(v) for v in np.round(_qt_at(16.5) * np.array((0.9, 1.1, 0.9)), 1))
+    truth = make_record(IndependentSpec(speed_hz=16.5, q_mlmin=q, nodes=(7, 15), machine=FAN, seed=1, total_s=4.0,
+                                        duration_s=3.0)).truth["bearing_load_vectors_n"]
+    theta = slow.start()
+    theta[:3] = np.array(q) * M3S_PER_MLMIN
+    assert np.abs(slow.static_loads(theta) - truth).max() < 0.005 * np.abs(truth).max()
     paper = load_machine()
     two = ForwardChain(paper, 75.0)
     theta = two.start()

@@ -342,8 +342,10 @@ class ForwardChain:
 
         self._shift = None
         if not statically_determinate(machine, self.rotor):  # 3+ supports: the loads follow the journals (flows)
+            from ...rotor.statics import coupled_statics
+
             self._shift = LoadShift(self.rotor, [s.bearing.node for s in self.sources], self.loads,
-                                    [s.nominal.journal_position(s.nominal.q_threshold) for s in self.sources])
+                                    coupled_statics(machine).positions)
         self.q_threshold = np.array([s.nominal.q_threshold for s in self.sources])
         self.names = flow_names(len(self.sources)) + tuple(f"{self.prefix(e)}.{p}" for e in self.effects for p in e.free)
         self._slots = [(e, p) for e in self.effects for p in e.free]
