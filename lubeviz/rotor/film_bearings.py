@@ -22,6 +22,7 @@ from ..film.equilibrium import DEFAULT_COEFFICIENTS, Equilibrium, find_equilibri
 from ..film.feed import Feed
 from .assembly import Rotor, rotor_from_machine
 from .response import UnbalanceResponse, machine_unbalance, unbalance_response
+from .load_shift import STEPS
 from .statics import bearing_static_loads
 from ..units import MLMIN_PER_M3S
 
@@ -67,8 +68,11 @@ def film_bearings(machine, flows: Sequence[float], omega: float | None = None, *
                       coefficients)
     shift = _load_shift(machine, omega)
     if shift is not None:  # 3+ supports: the loads follow the journals (a starved film's journal sinks)
-        loads = shift.shifted(np.array([e.position for e in eqs]), np.array([e.coefficients.K for e in eqs]))
-        eqs = _equilibria(machine, omega, flows, loads, eqs, coefficients)
+        loads = None
+        for _ in range(STEPS):
+            loads = shift.shifted(np.array([e.position for e in eqs]), np.array([e.coefficients.K for e in eqs]),
+                                  loads)
+            eqs = _equilibria(machine, omega, flows, loads, eqs, coefficients)
     return FilmBearings(omega=omega, flows=flows, equilibria=tuple(eqs))
 
 

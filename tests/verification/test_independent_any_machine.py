@@ -215,8 +215,9 @@ def test_the_fan_s_loads_follow_its_flows_as_the_independent_statics_does():
     supports. The model linearizes that about the flooded statics (`rotor.load_shift`); the independent
     source solves its own statics (fine films, its own rotor mesh) at the record's flows. Measured: at 0.9, 1.1, 0.9
     Q_T bearing A carries 1934.8 N against the source's 1934.9 (flooded 2016.1); with bearing B at 0.5 Q_T, B 3921.7
-    against 3922.1 (flooded 4048.5); bearing A at 0.5 Q_T (a 21 % change) is 1.5 % short (1567.5 against 1592.1 N:
-    the linearization). At 16.5 Hz (two thirds of the rated speed) the journals sit lower and bearing A carries
+    against 3922.1 (flooded 4048.5); bearing A at 0.5 Q_T (a 21 % change) was 1.5 % short with the linearized
+    statics alone (1567.5 against 1592.1 N); with a second Newton step (`rotor.load_shift.STEPS`) every load vector of
+    the three cases is within 0.011 % of the largest (session 45). At 16.5 Hz (two thirds of the rated speed) the journals sit lower and bearing A carries
     1883.6 N against the source's 1884.0 at 0.9, 1.1, 0.9 Q_T: the shift is taken from the statics at the rated
     speed, so a record at another speed moves the loads as its flows do. A machine on two bearings has no shift:
     its loads are the lever rule's at any flows. The
@@ -228,7 +229,7 @@ def test_the_fan_s_loads_follow_its_flows_as_the_independent_statics_does():
     m = load_machine(FAN)
     qt = _qt(FAN)
     chain = ForwardChain(m, m.operating_speed, (7, 15))
-    for fractions, tol in (((0.9, 1.1, 0.9), 0.005), ((1.0, 0.5, 1.0), 0.005), ((0.5, 1.0, 1.0), 0.03)):
+    for fractions, tol in (((0.9, 1.1, 0.9), 0.001), ((1.0, 0.5, 1.0), 0.001), ((0.5, 1.0, 1.0), 0.001)):
         q = tuple(float(v) for v in np.round(qt * np.array(fractions), 1))
         spec = IndependentSpec(speed_hz=m.operating_speed, q_mlmin=q, nodes=(7, 15), machine=FAN, seed=1,
                                total_s=4.0, duration_s=3.0)
@@ -261,6 +262,40 @@ def test_the_fan_s_loads_follow_its_flows_as_the_independent_statics_does():
     theta = two.start()
     theta[:2] *= (0.4, 1.7)
     np.testing.assert_array_equal(two.static_loads(theta), two.loads)
+
+
+def test_a_starved_bearing_turns_its_neighbour_s_load_and_the_chain_turns_that_film():
+    """The shifted loads lean as the journals move: at 16.5 Hz with bearing B at half its Q_T, bearing A's load leans
+    3 deg further than at the flooded statics (8.1 deg against 5.1; the independent source's own statics: 8.08). The
+    chain turns that film's table by the difference (rigidly: its groove stays where the table has it); the direct
+    film solves (`film_bearings`) solve the film under the leaning load itself. Measured: K 0.02 %, C 0.54 %,
+    position 0.02 % apart, against 1.7, 4.5 and 5.1 % with the table's lean held. Before the turn, four of the six
+    independent fan records at 16.5 Hz were flagged (chi2 29-44 for 3 dof); the measured orbit at bearing A was
+    turned 2.7 deg from the model's (session 45)."""
+    from lubeviz.identify.forward.chain import ForwardChain
+    from lubeviz.rotor.film_bearings import film_bearings
+    from lubeviz.units import M3S_PER_MLMIN
+
+    m = load_machine(FAN)
+    chain = ForwardChain(m, 16.5, (7, 15))
+    theta = chain.start()
+    theta[:3] = np.array([126.0, 118.0, 84.0]) * M3S_PER_MLMIN  # 0.90, 0.47, 0.86 of Q_T at 16.5 Hz
+    loads = chain.static_loads(theta)
+    lean = np.degrees(np.arctan2(loads[:, 0], -loads[:, 1]))
+    flooded = np.degrees(np.arctan2(chain.loads[:, 0], -chain.loads[:, 1]))
+    assert lean[0] - flooded[0] < -2.5
+    direct = film_bearings(m, theta[:3], chain.omega)
+    (_, (K, C, pos)), eq = chain.bearing_states(theta)[0], direct.equilibria[0]
+
+    def off(a, b):
+        return np.abs(a - b).max() / np.abs(b).max()
+
+    assert off(K, eq.coefficients.K) < 0.005 and off(C, eq.coefficients.C) < 0.01
+    assert off(pos, np.asarray(eq.position)) < 0.005
+    c, s = np.cos(np.radians(flooded[0] - lean[0])), np.sin(np.radians(flooded[0] - lean[0]))
+    r = np.array([[c, -s], [s, c]])  # the same bearing with its table's lean held
+    assert off(r @ K @ r.T, eq.coefficients.K) > 3 * off(K, eq.coefficients.K)
+    assert off(r @ pos, np.asarray(eq.position)) > 0.03
 
 
 def test_a_corpus_of_the_fan_draws_every_bearing_s_flow_and_two_of_its_planes():

@@ -40,6 +40,7 @@ from ...progress import ProgressFn, silent
 from ...rotor.assembly import bearing_matrices, rotor_from_machine
 from ...rotor.elements import X, Y, node_dofs
 from ...rotor.response import dynamic_stiffness, machine_unbalance, unbalance_force
+from ...rotor import load_shift
 from ...rotor.statics import bearing_static_loads
 from .model import feature_plane, feature_vector, is_static, static_features
 from ..tables.supply import CoefficientTable
@@ -197,6 +198,28 @@ class BearingSource:
             except InputError:
                 return None
         return self._stack
+
+
+def _lean(loads) -> np.ndarray:
+    """Each load's lean from the vertical (rad, `film_frame`'s beta) of loads (..., 2)."""
+    loads = np.asarray(loads, dtype=float)
+    return np.arctan2(loads[..., 0], -loads[..., 1])
+
+
+def _turned(state, angle):
+    """A bearing's (K, C, position) turned by `angle` (rad, a number or the batch's shape) about its centre: the
+    film whose load leans `angle` further than its table's (the shifted loads lean as the journals move; on the fan
+    a starved bearing B at two thirds of the rated speed turns bearing A's load 3 deg, which turns its orbit 2.7 deg).
+    Rigid: the grooves stay where the table has them, a change far smaller than the turn's own for leans of a few
+    degrees (session 45)."""
+    K, C, pos = state
+    angle = np.asarray(angle, dtype=float)
+    if not np.any(np.abs(angle) > 1e-9):
+        return state
+    c, s = np.cos(angle), np.sin(angle)
+    r = np.stack([np.stack([c, -s], axis=-1), np.stack([s, c], axis=-1)], axis=-2)
+    rt = np.swapaxes(r, -1, -2)
+    return r @ K @ rt, r @ C @ rt, np.einsum("...ij,...j->...i", r, pos)
 
 
 class BearingChange(NamedTuple):
@@ -474,15 +497,8 @@ class ForwardChain:
     def bearing_states(self, theta, shape=()) -> list:
         """[(BearingChange, (K, C, position))] of each bearing at parameters theta (batch `shape`). On 3+ supports
         the static loads follow the journals' positions (`rotor.load_shift.LoadShift`): each bearing is evaluated
-        again at its shifted load."""
-        changes = [self.bearing_changes(k, theta, shape) for k in range(self.n_flows)]
-        states = [src.evaluate(theta[..., k], *changes[k]) for k, src in enumerate(self.sources)]
-        if self._shift is None:
-            return list(zip(changes, states))
-        factors = self._shift.factors(np.stack([st[2] for st in states], axis=-2),
-                                      np.stack([st[0] for st in states], axis=-3))
-        changes = [c._replace(load_factor=c.load_factor * factors[..., k]) for k, c in enumerate(changes)]
-        return [(c, src.evaluate(theta[..., k], *c)) for k, (c, src) in enumerate(zip(changes, self.sources))]
+        again at its shifted load, turned by that load's change of lean."""
+        return self._states(theta, shape)[0]
 
     def static_loads(self, theta) -> np.ndarray:
         """Each bearing's static load (..., N, 2), N, at parameters theta: the flooded statics' moved by the
@@ -490,9 +506,25 @@ class ForwardChain:
         theta = np.asarray(theta, dtype=float)
         if self._shift is None:
             return np.broadcast_to(self.loads, theta.shape[:-1] + self.loads.shape).copy()
-        states = [src.evaluate(theta[..., k], *self.bearing_changes(k, theta, theta.shape[:-1]))
-                  for k, src in enumerate(self.sources)]
-        return self._shift.shifted(np.stack([st[2] for st in states], axis=-2), np.stack([st[0] for st in states], axis=-3))
+        return self._states(theta, theta.shape[:-1])[1]
+
+    def _states(self, theta, shape):
+        """(`bearing_states`, the loads they were evaluated under or None on a statically determinate machine):
+        `rotor.load_shift.STEPS` Newton steps of the shaft's equilibrium on its films from the flooded loads."""
+        changes = [self.bearing_changes(k, theta, shape) for k in range(self.n_flows)]
+        states = [src.evaluate(theta[..., k], *changes[k]) for k, src in enumerate(self.sources)]
+        if self._shift is None:
+            return list(zip(changes, states)), None
+        loads = None
+        for _ in range(load_shift.STEPS):
+            loads = self._shift.shifted(np.stack([st[2] for st in states], axis=-2),
+                                        np.stack([st[0] for st in states], axis=-3), loads)
+            factors = np.linalg.norm(loads, axis=-1) / np.linalg.norm(self.loads, axis=-1)
+            turns = _lean(loads) - _lean(self.loads)
+            moved = [c._replace(load_factor=c.load_factor * factors[..., k]) for k, c in enumerate(changes)]
+            states = [_turned(src.evaluate(theta[..., k], *c), turns[..., k])
+                      for k, (c, src) in enumerate(zip(moved, self.sources))]
+        return list(zip(moved, states)), loads
 
     # --- reference solve --------------------------------------------------------------------------
     def _build_reference(self):
