@@ -29,6 +29,7 @@ when there is one). Tests check every path against a direct solve of the assembl
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple, Sequence
@@ -57,6 +58,19 @@ def flow_names(n_bearings: int) -> tuple[str, ...]:
 
 # --- bearings stage ------------------------------------------------------------------------------
 
+_HELD_KEY = ("slices",)  # a views store's entry for the slices its sources loaded (`BearingSource.share_views`)
+
+
+class _HeldSlices:
+    """A bearing's dimensionless table with the slices loaded so far and their `SliceStack`, shared by the sources
+    of one bearing, load and speed (a session's pages, a budget's chains), under a lock."""
+
+    def __init__(self):
+        self.table = None
+        self.stack = None
+        self.lock = threading.Lock()
+
+
 class BearingSource:
     """One bearing's K, C and journal position at one speed, for any supply flow, viscosity and clearance.
 
@@ -73,9 +87,8 @@ class BearingSource:
         self.omega = float(omega)
         self.load = bearing_static_loads(machine)[index] if load is None else np.asarray(load, dtype=float)
         self.progress = progress
-        self._views: dict = {}
-        self._table = None  # the geometry's dimensionless table with the slices loaded so far (changed views)
-        self._stack = None  # their spline coefficients, stacked (`_slice_stack`)
+        self._held = _HeldSlices()  # the slices loaded so far and their stack (shared by `share_views`)
+        self._views: dict = {_HELD_KEY: self._held}
         from ..tables.cache import film_frame
 
         # the bearing seen from the frame where its load is vertical, that load, the map back (None: vertical)
@@ -108,37 +121,51 @@ class BearingSource:
                 if view is not None and self._turn is not None:
                     view = turned_table(view, self._turn)
             if view is None:
-                from ..tables.cache import bearing_view
+                from ..tables.cache import bearing_view, turned_table
 
-                if changed:
-                    bearing = self.bearing.copy(viscosity=self.bearing.viscosity * float(factor), clearance=clearance)
-                view = bearing_view(bearing, load, self.omega,
-                                    progress=self.progress if progress is None else progress)
-                if changed:
-                    self._remember_slices(bearing, load)
+                if not changed:
+                    view = bearing_view(bearing, load, self.omega,
+                                        progress=self.progress if progress is None else progress)
+                else:  # in the declared load's frame: a scaled load's lean differs in its last bits, not its frame
+                    seen = self._seen.copy(viscosity=self._seen.viscosity * float(factor), clearance=clearance)
+                    seen_load = self._seen_load * float(load_factor)
+                    view = bearing_view(seen, seen_load, self.omega,
+                                        progress=self.progress if progress is None else progress)
+                    if self._turn is not None:
+                        view = turned_table(view, self._turn)
+                    self._remember_slices(seen, seen_load)
             self._views.setdefault(key, view)
         return self._views[key]
 
-    def _remember_slices(self, bearing, load) -> None:
-        """Keep the slices the view of `bearing` (this one, changed) was made from, for `scaled.scaled_view`."""
+    def _remember_slices(self, seen, seen_load) -> None:
+        """Keep the slices the view of `seen` (this bearing in its load's frame, changed, under the vertical load
+        `seen_load`) was made from, for `scaled.scaled_view` and the `SliceStack`."""
         from ..tables import cache
 
         try:
-            seen, seen_load, _ = cache.film_frame(bearing, load)
             table = cache.loaded_table(seen, seen_load, self.omega)
         except InputError:
             return
-        if self._table is None or self._table.geometry != table.geometry:
-            self._table = table
-        else:
-            self._table.slices.update(table.slices)
+        with self._held.lock:
+            if self._held.table is None or self._held.table.geometry != table.geometry:
+                self._held.table = table
+            else:
+                self._held.table.slices.update(table.slices)
+
+    @property
+    def _table(self):
+        """The geometry's dimensionless table with the slices loaded so far (for changed views), or None."""
+        return self._held.table
 
     def share_views(self, store: dict) -> None:
         """Keep this bearing's views in `store` (a dict shared with other sources of the same bearing, load
-        and speed), adding the ones it already has."""
+        and speed), adding the ones it already has; and the slices they loaded (a budget's or a diagnosis's
+        chains then find them loaded, and stacked, by the first)."""
         for k, v in self._views.items():
-            store.setdefault(k, v)
+            if k != _HELD_KEY:
+                store.setdefault(k, v)
         self._views = store
+        self._held = store.setdefault(_HELD_KEY, self._held)
 
     @property
     def nominal(self) -> CoefficientTable:
@@ -186,18 +213,20 @@ class BearingSource:
 
     def _slice_stack(self):
         """The `SliceStack` of the slices this bearing's views have loaded (the declared bearing's, first)."""
-        if self._table is None:
-            self._remember_slices(self.bearing, self.load)
-        if self._table is None:
-            return None
-        if self._stack is None or not self._stack.covers(self._table):
-            from ..tables.scaled import SliceStack
-
-            try:
-                self._stack = SliceStack(self._table, self._seen, self._seen_load, self.omega)
-            except InputError:
+        if self._held.table is None:
+            self._remember_slices(self._seen, self._seen_load)
+        held = self._held
+        with held.lock:
+            if held.table is None:
                 return None
-        return self._stack
+            if held.stack is None or not held.stack.covers(held.table):
+                from ..tables.scaled import SliceStack
+
+                try:
+                    held.stack = SliceStack(held.table, self._seen, self._seen_load, self.omega)
+                except InputError:
+                    return None
+            return held.stack
 
 
 def _lean(loads) -> np.ndarray:
@@ -364,6 +393,7 @@ class ForwardChain:
         from ...rotor.statics import statically_determinate
 
         self._shift = None
+        self._packed = None  # the bearings' stacked slices for `forward.shifted` (`_compiled_states`)
         if not statically_determinate(machine, self.rotor):  # 3+ supports: the loads follow the journals (flows)
             from ...rotor.statics import coupled_statics
 
@@ -512,9 +542,17 @@ class ForwardChain:
         """(`bearing_states`, the loads they were evaluated under or None on a statically determinate machine):
         `rotor.load_shift.STEPS` Newton steps of the shaft's equilibrium on its films from the flooded loads."""
         changes = [self.bearing_changes(k, theta, shape) for k in range(self.n_flows)]
-        states = [src.evaluate(theta[..., k], *changes[k]) for k, src in enumerate(self.sources)]
         if self._shift is None:
+            states = [src.evaluate(theta[..., k], *changes[k]) for k, src in enumerate(self.sources)]
             return list(zip(changes, states)), None
+        compiled = self._compiled_states(theta, changes, shape)
+        if compiled is not None:
+            return compiled
+        return self._numpy_states(theta, changes)
+
+    def _numpy_states(self, theta, changes):
+        """`_states` on 3+ supports in numpy: every bearing's table evaluated (which loads the slices it needs)."""
+        states = [src.evaluate(theta[..., k], *changes[k]) for k, src in enumerate(self.sources)]
         loads = None
         for _ in range(load_shift.STEPS):
             loads = self._shift.shifted(np.stack([st[2] for st in states], axis=-2),
@@ -525,6 +563,49 @@ class ForwardChain:
             states = [_turned(src.evaluate(theta[..., k], *c), turns[..., k])
                       for k, (c, src) in enumerate(zip(moved, self.sources))]
         return list(zip(moved, states)), loads
+
+    def _compiled_states(self, theta, changes, shape):
+        """`_states` through `forward.shifted` (one compiled loop over the points), the points a bearing's loaded
+        slices do not serve through `_numpy_states` (which loads them: a load shifted to a Sommerfeld number beyond
+        the four slices about the flooded one); None when a bearing has no slices in memory."""
+        from .shifted import PackedStacks, shifted_states
+
+        stacks = [src._slice_stack() for src in self.sources]
+        if any(st is None for st in stacks):
+            return None
+        packed = self._packed
+        if packed is None or any(a is not b for a, b in zip(packed.stacks, stacks)):
+            angles = [0.0 if src._turn is None else float(_lean(src.load)) for src in self.sources]
+            packed = self._packed = PackedStacks(stacks, angles)
+        n = self.n_flows
+        declared = [src.bearing.clearance for src in self.sources]
+
+        def columns(field, default=None):
+            cols = [np.broadcast_to(np.asarray(default[k] if default is not None and getattr(ch, field) is None
+                                               else getattr(ch, field), dtype=float), shape)
+                    for k, ch in enumerate(changes)]
+            return np.stack(cols, axis=-1).reshape(-1, n)
+
+        q = np.broadcast_to(theta[..., :n], shape + (n,)).reshape(-1, n)
+        f, c, lf = columns("viscosity_factor"), columns("clearance", declared), columns("load_factor")
+        out, factors, loads, served = shifted_states(packed, q, f, c, lf, self._shift.k_s, self._shift.reference,
+                                                     self._shift.loads, load_shift.STEPS)
+        if not served.all():  # those points in numpy, which loads their slices (the next call is compiled)
+            bad = np.flatnonzero(~served)
+            flat = np.broadcast_to(theta, shape + theta.shape[-1:]).reshape(-1, theta.shape[-1])[bad]
+            sub = [ch._replace(**{name: np.broadcast_to(np.asarray(getattr(ch, name), dtype=float), shape).ravel()[bad]
+                                  for name in ch._fields if getattr(ch, name) is not None}) for ch in changes]
+            sub_states, sub_loads = self._numpy_states(flat, sub)
+            for k, (ch, (K, C, pos)) in enumerate(sub_states):
+                out[bad, k, 0:4], out[bad, k, 4:8], out[bad, k, 8:10] = K.reshape(-1, 4), C.reshape(-1, 4), pos
+                factors[bad, k] = np.asarray(ch.load_factor, dtype=float) / sub[k].load_factor
+            loads[bad] = sub_loads
+        out = out.reshape(shape + (n, 10))
+        factors = factors.reshape(shape + (n,))
+        states = [(ch._replace(load_factor=ch.load_factor * factors[..., k]),
+                   (out[..., k, 0:4].reshape(shape + (2, 2)), out[..., k, 4:8].reshape(shape + (2, 2)),
+                    out[..., k, 8:10])) for k, ch in enumerate(changes)]
+        return states, loads.reshape(shape + (n, 2))
 
     # --- reference solve --------------------------------------------------------------------------
     def _build_reference(self):

@@ -149,78 +149,87 @@ class SliceStack:
 @numba.njit(cache=True, nogil=True)
 def _values_kernel(q, f, c, lf, s0, c0, scale0, w0, omega, nodes, log_nodes, mask, log_qbar, ratio, split,
                    below, above, snap_ln, out, served):
-    """`SliceStack.values` point by point: S from the changes, `dimensionless.stencil`'s four nodes (or the node
-    alone within `snap_ln`), their Lagrange weights in ln S, Q_T, the ratio clipped to the grid, the spline piece
-    below or above r = 1 (`split`: the row of r = 1, -1 for one piece), the combined cubic, the SI scales."""
+    """`SliceStack.values` point by point (`value_at`)."""
+    for p in range(q.size):
+        served[p] = value_at(q[p], f[p], c[p], lf[p], s0, c0, scale0, w0, omega, nodes, log_nodes, mask, log_qbar,
+                             ratio, split, below, below.shape[2], above, above.shape[2], snap_ln, out[p])
+
+
+@numba.njit(cache=True, nogil=True)
+def value_at(q, f, c, lf, s0, c0, scale0, w0, omega, nodes, log_nodes, mask, log_qbar, ratio, split, below, m_below,
+             above, m_above, snap_ln, out) -> bool:
+    """One bearing's K (4), C (4) and journal position (2) into `out` at one point (flow, viscosity factor, clearance,
+    load factor), False when the loaded slices do not serve it: S from the changes, `dimensionless.stencil`'s four
+    nodes (or the node alone within `snap_ln`), their Lagrange weights in ln S, Q_T, the ratio clipped to the grid,
+    the spline piece below or above r = 1 (`split`: the row of r = 1, -1 for one piece; `m_below`, `m_above`: their
+    pieces' counts), the combined cubic, the SI scales. The arrays may be padded past `nodes`' and `ratio`'s own
+    lengths' needs (a machine's bearings packed together: `forward.shifted`)."""
     n_nodes = nodes.size
     idx = np.empty(4, np.int64)
     wt = np.empty(4)
-    for p in range(q.size):
-        if not (f[p] > 0.0 and c[p] > 0.0 and lf[p] > 0.0):
-            continue
-        s = s0 * f[p] / lf[p] * (c0 / c[p]) ** 2
-        if not (np.isfinite(s) and nodes[0] * (1 - 1e-12) <= s <= nodes[n_nodes - 1] * (1 + 1e-12)):
-            continue
-        ls = np.log(s)
-        k = np.searchsorted(nodes, s, side="right") - 1
-        near = min(max(k, 0), n_nodes - 1)
-        if near + 1 < n_nodes and abs(log_nodes[near + 1] - ls) < abs(log_nodes[near] - ls):
-            near += 1
-        if abs(log_nodes[near] - ls) <= snap_ln:
-            for a in range(4):
-                idx[a] = near
-                wt[a] = 1.0 if a == 0 else 0.0
-        else:
-            first = min(max(k - 1, 0), n_nodes - 4)
-            for a in range(4):
-                idx[a] = first + a
-            for a in range(4):
-                wt[a] = 1.0
-                for b in range(4):
-                    if a != b:
-                        wt[a] *= (ls - log_nodes[idx[b]]) / (log_nodes[idx[a]] - log_nodes[idx[b]])
-        ok = True
+    if not (f > 0.0 and c > 0.0 and lf > 0.0):
+        return False
+    s = s0 * f / lf * (c0 / c) ** 2
+    if not (np.isfinite(s) and nodes[0] * (1 - 1e-12) <= s <= nodes[n_nodes - 1] * (1 + 1e-12)):
+        return False
+    ls = np.log(s)
+    k = np.searchsorted(nodes, s, side="right") - 1
+    near = min(max(k, 0), n_nodes - 1)
+    if near + 1 < n_nodes and abs(log_nodes[near + 1] - ls) < abs(log_nodes[near] - ls):
+        near += 1
+    if abs(log_nodes[near] - ls) <= snap_ln:
         for a in range(4):
-            if not mask[idx[a]]:
-                ok = False
-        if not ok:
-            continue
-        lq = 0.0
+            idx[a] = near
+            wt[a] = 1.0 if a == 0 else 0.0
+    else:
+        first = min(max(k - 1, 0), n_nodes - 4)
         for a in range(4):
-            lq += wt[a] * log_qbar[idx[a]]
-        q_t = np.exp(lq) * scale0 * (c[p] / c0)
-        r = min(max(q[p] / q_t, ratio[0]), ratio[ratio.size - 1])
-        if split < 0 or r > 1.0:
-            coef = below if split < 0 else above
-            x0 = 0 if split < 0 else split
-            rr = r
+            idx[a] = first + a
+        for a in range(4):
+            wt[a] = 1.0
+            for b in range(4):
+                if a != b:
+                    wt[a] *= (ls - log_nodes[idx[b]]) / (log_nodes[idx[a]] - log_nodes[idx[b]])
+    for a in range(4):
+        if not mask[idx[a]]:
+            return False
+    lq = 0.0
+    for a in range(4):
+        lq += wt[a] * log_qbar[idx[a]]
+    q_t = np.exp(lq) * scale0 * (c / c0)
+    r = min(max(q / q_t, ratio[0]), ratio[ratio.size - 1])
+    if split < 0 or r > 1.0:
+        coef = below if split < 0 else above
+        m = m_below if split < 0 else m_above
+        x0 = 0 if split < 0 else split
+        rr = r
+    else:
+        coef = below
+        m = m_below
+        x0 = 0
+        rr = min(r, 1.0)
+    i = min(max(np.searchsorted(ratio[x0:x0 + m + 1], rr, side="right") - 1, 0), m - 1)
+    d = rr - ratio[x0 + i]
+    wl = w0 * lf
+    for v in range(10):
+        c3 = 0.0
+        c2 = 0.0
+        c1 = 0.0
+        c0v = 0.0
+        for a in range(4):
+            c3 += wt[a] * coef[idx[a], 0, i, v]
+            c2 += wt[a] * coef[idx[a], 1, i, v]
+            c1 += wt[a] * coef[idx[a], 2, i, v]
+            c0v += wt[a] * coef[idx[a], 3, i, v]
+        val = ((c3 * d + c2) * d + c1) * d + c0v
+        if v < 4:
+            val *= wl / c
+        elif v < 8:
+            val *= wl / (c * omega)
         else:
-            coef = below
-            x0 = 0
-            rr = min(r, 1.0)
-        m = coef.shape[2]
-        i = min(max(np.searchsorted(ratio[x0:x0 + m + 1], rr, side="right") - 1, 0), m - 1)
-        d = rr - ratio[x0 + i]
-        wl = w0 * lf[p]
-        for v in range(10):
-            c3 = 0.0
-            c2 = 0.0
-            c1 = 0.0
-            c0v = 0.0
-            for a in range(4):
-                c3 += wt[a] * coef[idx[a], 0, i, v]
-                c2 += wt[a] * coef[idx[a], 1, i, v]
-                c1 += wt[a] * coef[idx[a], 2, i, v]
-                c0v += wt[a] * coef[idx[a], 3, i, v]
-            val = ((c3 * d + c2) * d + c1) * d + c0v
-            if v < 4:
-                val *= wl / c[p]
-            elif v < 8:
-                val *= wl / (c[p] * omega)
-            else:
-                val *= c[p]
-            out[p, v] = val
-        served[p] = True
+            val *= c
+        out[v] = val
+    return True
 
 
 def scaled_view(table: DimensionlessTable, bearing: Bearing, load, omega: float, factor: float, clearance: float,

@@ -1,0 +1,174 @@
+"""The films of a machine on three or more supports with the loads that follow the flows, compiled.
+
+`ForwardChain.bearing_states` evaluates every bearing, shifts the static loads by the journals' positions
+(`rotor.load_shift.LoadShift`), and evaluates again, `STEPS` times, each film turned by its load's change of lean.
+In numpy that is ~9 small table evaluations, rotations and solves per call: ~3.7 ms, most of a fit on the fan
+(session 45). Here the same steps run point by point in one compiled loop over the bearings' stacked slices
+(`tables.scaled.SliceStack`, `value_at`); a point the loaded slices do not serve is left to the numpy path, which
+loads them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from ..tables import dimensionless as _dimensionless
+from ..tables.scaled import value_at
+
+
+class PackedStacks:
+    """The `SliceStack`s of a machine's bearings, padded into common arrays for `states_kernel`, with each
+    bearing's table angle (its film frame's lean, 0 when vertical) and the stacks they were packed from."""
+
+    def __init__(self, stacks, angles):
+        self.stacks = tuple(stacks)
+        n = len(self.stacks)
+        n_nodes = max(st.nodes.size for st in self.stacks)
+        n_ratio = max(st.ratio.size for st in self.stacks)
+        m_max = max(max(c.shape[2] for c in st.coef) for st in self.stacks)
+        self.nodes = np.ones((n, n_nodes))
+        self.log_nodes = np.zeros((n, n_nodes))
+        self.n_nodes = np.zeros(n, np.int64)
+        self.mask = np.zeros((n, n_nodes), np.bool_)
+        self.log_qbar = np.zeros((n, n_nodes))
+        self.ratio = np.zeros((n, n_ratio))
+        self.n_ratio = np.zeros(n, np.int64)
+        self.split = np.full(n, -1, np.int64)
+        self.below = np.zeros((n, n_nodes, 4, m_max, 10))
+        self.above = np.zeros((n, n_nodes, 4, m_max, 10))
+        self.m_below = np.zeros(n, np.int64)
+        self.m_above = np.zeros(n, np.int64)
+        self.scalars = np.zeros((n, 5))  # s0, c0, scale0, w0, omega
+        for k, st in enumerate(self.stacks):
+            a, r = st.nodes.size, st.ratio.size
+            self.nodes[k, :a], self.log_nodes[k, :a], self.n_nodes[k] = st.nodes, st.log_nodes, a
+            self.mask[k, :a], self.log_qbar[k, :a] = st.mask, st.log_qbar
+            self.ratio[k, :r], self.n_ratio[k] = st.ratio, r
+            below = st.coef[0]
+            self.below[k, :a, :, :below.shape[2]] = below
+            self.m_below[k] = below.shape[2]
+            if len(st.coef) > 1:
+                above = st.coef[1]
+                self.above[k, :a, :, :above.shape[2]] = above
+                self.m_above[k] = above.shape[2]
+                self.split[k] = st.pieces[0].stop - 1
+            self.scalars[k] = (st.s0, st.c0, st.scale0, st.w0, st.omega)
+        self.angles = np.asarray(angles, dtype=float)
+
+
+def shifted_states(packed: PackedStacks, q, f, c, lf, k_s, reference, loads, steps: int):
+    """K (M, N, 4), C (M, N, 4), positions (M, N, 2) in the machine's frame, each bearing's load factor over the
+    flooded load (M, N), the loads (M, N, 2) and which points were served (M,), for M points of N flows (m^3/s),
+    viscosity factors, clearances and load factors (each (M, N)): `LoadShift.shifted` `steps` times from the
+    flooded `loads` (N, 2), the journals' flooded positions `reference` (N, 2) and the shaft's condensed stiffness
+    `k_s` (2N, 2N)."""
+    q, f, c, lf = (np.ascontiguousarray(a, dtype=float) for a in (q, f, c, lf))
+    m, n = q.shape
+    out = np.empty((m, n, 10))
+    factors = np.empty((m, n))
+    loads_out = np.empty((m, n, 2))
+    served = np.zeros(m, np.bool_)
+    loads = np.ascontiguousarray(loads, dtype=float)
+    lean0 = np.arctan2(loads[:, 0], -loads[:, 1])
+    states_kernel(q, f, c, lf, packed.nodes, packed.log_nodes, packed.n_nodes, packed.mask, packed.log_qbar,
+                  packed.ratio, packed.n_ratio, packed.split, packed.below, packed.m_below, packed.above,
+                  packed.m_above, packed.scalars, packed.angles, _dimensionless.SNAP_LN,
+                  np.ascontiguousarray(k_s, dtype=float), np.ascontiguousarray(reference, dtype=float), loads, lean0,
+                  int(steps), out, factors, loads_out, served)
+    return out, factors, loads_out, served
+
+
+@numba.njit(cache=True, nogil=True)
+def _turn(v, angle, out):
+    """K, C (row-major 2 x 2) and position of `v` turned by `angle` about the bearing's centre, into `out`."""
+    co, si = math.cos(angle), math.sin(angle)
+    for b in (0, 4):
+        k00, k01, k10, k11 = v[b], v[b + 1], v[b + 2], v[b + 3]
+        # R K R^T, R = [[co, -si], [si, co]]
+        a00, a01 = co * k00 - si * k10, co * k01 - si * k11
+        a10, a11 = si * k00 + co * k10, si * k01 + co * k11
+        out[b] = a00 * co - a01 * si
+        out[b + 1] = a00 * si + a01 * co
+        out[b + 2] = a10 * co - a11 * si
+        out[b + 3] = a10 * si + a11 * co
+    x, y = v[8], v[9]
+    out[8] = co * x - si * y
+    out[9] = si * x + co * y
+
+
+@numba.njit(cache=True, nogil=True)
+def _bearing(k, q, f, c, lf, nodes, log_nodes, n_nodes, mask, log_qbar, ratio, n_ratio, split, below, m_below, above,
+             m_above, scalars, snap_ln, v) -> bool:
+    a, r = n_nodes[k], n_ratio[k]
+    return value_at(q, f, c, lf, scalars[k, 0], scalars[k, 1], scalars[k, 2], scalars[k, 3], scalars[k, 4],
+                    nodes[k, :a], log_nodes[k, :a], mask[k, :a], log_qbar[k, :a], ratio[k, :r], split[k], below[k],
+                    m_below[k], above[k], m_above[k], snap_ln, v)
+
+
+@numba.njit(cache=True, nogil=True)
+def states_kernel(q, f, c, lf, nodes, log_nodes, n_nodes, mask, log_qbar, ratio, n_ratio, split, below, m_below,
+                  above, m_above, scalars, angles, snap_ln, k_s, reference, loads, lean0, steps, out, factors,
+                  loads_out, served):
+    """`shifted_states` point by point."""
+    m, n = q.shape
+    v = np.empty(10)
+    a = np.empty((2 * n, 2 * n))
+    rhs = np.empty(2 * n)
+    w = np.empty((n, 2))
+    for p in range(m):
+        ok = True
+        for k in range(n):
+            if not _bearing(k, q[p, k], f[p, k], c[p, k], lf[p, k], nodes, log_nodes, n_nodes, mask, log_qbar, ratio,
+                            n_ratio, split, below, m_below, above, m_above, scalars, snap_ln, v):
+                ok = False
+                break
+            _turn(v, angles[k], out[p, k])
+        if not ok:
+            continue
+        for k in range(n):
+            w[k, 0] = loads[k, 0]
+            w[k, 1] = loads[k, 1]
+            factors[p, k] = 1.0
+        for step in range(steps):
+            # (I + K_s K_f^-1) dW = -(K_s dp + W - W0)
+            for i in range(2 * n):
+                for j in range(2 * n):
+                    a[i, j] = 1.0 if i == j else 0.0
+            for k in range(n):
+                k00, k01, k10, k11 = out[p, k, 0], out[p, k, 1], out[p, k, 2], out[p, k, 3]
+                det = k00 * k11 - k01 * k10
+                i00, i01, i10, i11 = k11 / det, -k01 / det, -k10 / det, k00 / det
+                for i in range(2 * n):
+                    s0, s1 = k_s[i, 2 * k], k_s[i, 2 * k + 1]
+                    a[i, 2 * k] += s0 * i00 + s1 * i10
+                    a[i, 2 * k + 1] += s0 * i01 + s1 * i11
+            for i in range(2 * n):
+                acc = w[i // 2, i % 2] - loads[i // 2, i % 2]
+                for k in range(n):
+                    acc += k_s[i, 2 * k] * (out[p, k, 8] - reference[k, 0])
+                    acc += k_s[i, 2 * k + 1] * (out[p, k, 9] - reference[k, 1])
+                rhs[i] = -acc
+            dw = np.linalg.solve(a, rhs)
+            for k in range(n):
+                w[k, 0] += dw[2 * k]
+                w[k, 1] += dw[2 * k + 1]
+            for k in range(n):
+                w0 = math.hypot(loads[k, 0], loads[k, 1])
+                factors[p, k] = math.hypot(w[k, 0], w[k, 1]) / w0
+                turn = angles[k] + math.atan2(w[k, 0], -w[k, 1]) - lean0[k]
+                if not _bearing(k, q[p, k], f[p, k], c[p, k], lf[p, k] * factors[p, k], nodes, log_nodes, n_nodes,
+                                mask, log_qbar, ratio, n_ratio, split, below, m_below, above, m_above, scalars,
+                                snap_ln, v):
+                    ok = False
+                    break
+                _turn(v, turn, out[p, k])
+            if not ok:
+                break
+        if ok:
+            for k in range(n):
+                loads_out[p, k, 0] = w[k, 0]
+                loads_out[p, k, 1] = w[k, 1]
+            served[p] = True
