@@ -1,0 +1,61 @@
+"""The compiled films of a machine on 3+ supports (`identify.forward.shifted`) against the numpy path they replace:
+the same loads' Newton steps and turns, point by point, to rounding; points the loaded slices do not serve go to
+numpy (which loads them); a chain's copies with effects and its budget's chains share the slices loaded."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lubeviz.effects import parse_effect
+from lubeviz.identify.forward.chain import ForwardChain
+from lubeviz.model.machine import MODELS_DIR, load_machine
+
+FAN = MODELS_DIR / "three_bearing_fan.toml"
+
+
+def _numpy(chain, theta):
+    changes = [chain.bearing_changes(k, theta, theta.shape[:-1]) for k in range(chain.n_flows)]
+    return chain._numpy_states(theta, changes)
+
+
+@pytest.mark.parametrize("speed_hz", [24.75, 16.5])
+def test_the_compiled_loop_gives_the_numpy_path_s_states_and_loads(speed_hz):
+    m = load_machine(FAN)
+    chain = ForwardChain(m, speed_hz, (7, 15))
+    rng = np.random.default_rng(3)
+    theta = np.tile(chain.start(), (40, 1))
+    theta[:, :3] = chain.q_threshold * rng.uniform(0.3, 1.8, (40, 3))  # loads shifted beyond the flooded slices
+    compiled, loads = chain._states(theta, (40,))  # a fresh chain: part of the points through numpy first
+    numpy_path = chain._numpy_states
+    chain._numpy_states = lambda *a: pytest.fail("every slice is loaded: no point goes through numpy")
+    again, loads_again = chain._states(theta, (40,))
+    chain._numpy_states = numpy_path
+    reference, loads_ref = _numpy(chain, theta)
+    for got in ((compiled, loads), (again, loads_again)):
+        np.testing.assert_allclose(got[1], loads_ref, rtol=1e-11, atol=1e-9)
+        for (ch, state), (ch_ref, state_ref) in zip(got[0], reference):
+            np.testing.assert_allclose(ch.load_factor, ch_ref.load_factor, rtol=1e-12)
+            for a, b in zip(state, state_ref):
+                np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12 * np.abs(b).max())
+    assert np.ptp(np.linalg.norm(loads_ref[:, 0], axis=-1)) > 100.0  # the loads did move (N)
+
+
+def test_an_effect_s_changes_per_point_go_through_the_compiled_loop_and_its_copies_share_the_slices():
+    m = load_machine(FAN)
+    chain = ForwardChain(m, 24.75, (7, 15))
+    oil = chain.adding(parse_effect("viscosity"))
+    assert oil.sources[0]._held is chain.sources[0]._held  # one bearing, one set of loaded slices
+    theta = np.tile(oil.start(), (12, 1))
+    theta[:, :3] = oil.q_threshold * np.linspace(0.4, 1.6, 12)[:, None]
+    theta[:, 3] = np.linspace(0.8, 1.25, 12)  # the oil's viscosity factor, one per point
+    assert oil.names[3] == "viscosity.factor"
+    oil._states(theta, (12,))  # loads the slices the changed oil needs
+    oil._numpy_states = lambda *a: pytest.fail("every slice is loaded: no point goes through numpy")
+    got, loads = oil._states(theta, (12,))
+    del oil._numpy_states
+    reference, loads_ref = _numpy(oil, theta)
+    np.testing.assert_allclose(loads, loads_ref, rtol=1e-11, atol=1e-9)
+    for (_, state), (_, state_ref) in zip(got, reference):
+        for a, b in zip(state, state_ref):
+            np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12 * np.abs(b).max())
