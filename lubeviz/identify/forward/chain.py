@@ -152,6 +152,24 @@ class BearingSource:
             else:
                 self._held.table.slices.update(table.slices)
 
+    def load_slices(self, sommerfeld) -> bool:
+        """Load (or build, with progress) the slices queries of this bearing's film frame at Sommerfeld numbers
+        `sommerfeld` need, into the slices held; whether any was added (False: none needed, or S off the grid)."""
+        from ..tables import cache
+
+        try:
+            table = cache.geometry_table(self._seen, np.asarray(sommerfeld, dtype=float), progress=self.progress)
+        except InputError:
+            return False
+        with self._held.lock:
+            held = self._held.table
+            if held is None or held.geometry != table.geometry:
+                self._held.table = table
+                return bool(table.slices)
+            added = set(table.slices) - set(held.slices)
+            held.slices.update(table.slices)
+            return bool(added)
+
     @property
     def _table(self):
         """The geometry's dimensionless table with the slices loaded so far (for changed views), or None."""
@@ -249,6 +267,24 @@ def _turned(state, angle):
     r = np.stack([np.stack([c, -s], axis=-1), np.stack([s, c], axis=-1)], axis=-2)
     rt = np.swapaxes(r, -1, -2)
     return r @ K @ rt, r @ C @ rt, np.einsum("...ij,...j->...i", r, pos)
+
+
+def _reference_solve(rotor, omega: float, B0, rhs) -> np.ndarray:
+    """D0^-1 rhs, D0 the rotor's dynamic stiffness at omega on the films' reference coefficients B0: its LU factors
+    kept with the rotor (a diagnosis makes ~200 chains of one rotor, speed and films; each solved the whole rotor,
+    3.5 s of the fan's diagnosis, session 45). getrf and getrs, as `np.linalg.solve`."""
+    from scipy.linalg import lu_factor, lu_solve
+
+    key = (float(omega), np.concatenate([np.asarray(b, dtype=complex).ravel() for b in B0]).tobytes())
+    kept = rotor.__dict__.setdefault("_reference_factors", {})
+    lu = kept.get(key)
+    if lu is None:
+        Kt, Ct = bearing_matrices(rotor, [(b.real, b.imag / omega) for b in B0])
+        lu = lu_factor(dynamic_stiffness(rotor, omega, Kt, Ct), check_finite=False)
+        if len(kept) >= 8:
+            kept.pop(next(iter(kept)))
+        kept[key] = lu
+    return lu_solve(lu, rhs, check_finite=False)
 
 
 class BearingChange(NamedTuple):
@@ -568,15 +604,8 @@ class ForwardChain:
         """`_states` through `forward.shifted` (one compiled loop over the points), the points a bearing's loaded
         slices do not serve through `_numpy_states` (which loads them: a load shifted to a Sommerfeld number beyond
         the four slices about the flooded one); None when a bearing has no slices in memory."""
-        from .shifted import PackedStacks, shifted_states
+        from .shifted import packed_stacks, shifted_states
 
-        stacks = [src._slice_stack() for src in self.sources]
-        if any(st is None for st in stacks):
-            return None
-        packed = self._packed
-        if packed is None or any(a is not b for a, b in zip(packed.stacks, stacks)):
-            angles = [0.0 if src._turn is None else float(_lean(src.load)) for src in self.sources]
-            packed = self._packed = PackedStacks(stacks, angles)
         n = self.n_flows
         declared = [src.bearing.clearance for src in self.sources]
 
@@ -588,9 +617,27 @@ class ForwardChain:
 
         q = np.broadcast_to(theta[..., :n], shape + (n,)).reshape(-1, n)
         f, c, lf = columns("viscosity_factor"), columns("clearance", declared), columns("load_factor")
-        out, factors, loads, served = shifted_states(packed, q, f, c, lf, self._shift.k_s, self._shift.reference,
-                                                     self._shift.loads, load_shift.STEPS)
-        if not served.all():  # those points in numpy, which loads their slices (the next call is compiled)
+        for attempt in range(3):
+            stacks = [src._slice_stack() for src in self.sources]
+            if any(st is None for st in stacks):
+                return None
+            packed = self._packed
+            if packed is None or any(a is not b for a, b in zip(packed.stacks, stacks)):
+                angles = [0.0 if src._turn is None else float(_lean(src.load)) for src in self.sources]
+                packed = self._packed = packed_stacks(stacks, angles)
+            out, factors, loads, served, missed = shifted_states(packed, q, f, c, lf, self._shift.k_s,
+                                                                 self._shift.reference, self._shift.loads,
+                                                                 load_shift.STEPS)
+            if served.all() or attempt == 2:
+                break
+            # the slices a point missed: loaded (or built) for each bearing at once, and the loop run again
+            wanted = {}
+            for k, s_missed in missed[~served]:
+                if np.isfinite(s_missed):
+                    wanted.setdefault(int(k), []).append(float(s_missed))
+            if not any(src.load_slices(wanted[k]) for k, src in enumerate(self.sources) if k in wanted):
+                break
+        if not served.all():  # those points in numpy (a Sommerfeld number off the slices' grid: its views say why)
             bad = np.flatnonzero(~served)
             flat = np.broadcast_to(theta, shape + theta.shape[-1:]).reshape(-1, theta.shape[-1])[bad]
             sub = [ch._replace(**{name: np.broadcast_to(np.asarray(getattr(ch, name), dtype=float), shape).ravel()[bad]
@@ -615,8 +662,6 @@ class ForwardChain:
             K, C = s.nominal.coefficients(qt)
             B0.append(K + 1j * omega * C)
         self._B0 = B0
-        Kt, Ct = bearing_matrices(rotor, [(b.real, b.imag / omega) for b in B0])
-        D0 = dynamic_stiffness(rotor, omega, Kt, Ct)
         shapes = [unbalance_force(rotor, omega, machine_unbalance(self.machine))]
         self._forcing = []  # (effect, first column, n columns)
         for e in self.effects:
@@ -631,7 +676,7 @@ class ForwardChain:
         rhs = np.zeros((rotor.n_dof, nf + nu), dtype=complex)
         rhs[:, :nf] = np.stack(shapes, axis=1)
         rhs[self._U, nf + np.arange(nu)] = 1.0
-        sol = np.linalg.solve(D0, rhs)
+        sol = _reference_solve(rotor, omega, B0, rhs)
         self._x0_out, self._x0_U = sol[out, :nf], sol[self._U, :nf]  # (2P, nf), (2N, nf)
         self._Z_out, self._W = sol[out, nf:], sol[self._U, nf:]
         self._n_forcing = nf

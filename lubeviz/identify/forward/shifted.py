@@ -11,12 +11,36 @@ loads them.
 from __future__ import annotations
 
 import math
+import threading
+from collections import OrderedDict
 
 import numba
 import numpy as np
 
 from ..tables import dimensionless as _dimensionless
 from ..tables.scaled import value_at
+
+
+_packed: OrderedDict = OrderedDict()
+_lock = threading.Lock()
+_KEPT = 32
+
+
+def packed_stacks(stacks, angles) -> "PackedStacks":
+    """The `PackedStacks` of these stacks and table angles, kept (a diagnosis's ~200 chains of one machine share
+    their bearings' stacks: packing each chain's anew was 1.7 s of the fan's diagnosis, session 45)."""
+    key = (tuple(id(st) for st in stacks), tuple(float(a) for a in angles))
+    with _lock:
+        hit = _packed.get(key)
+        if hit is not None and all(a is b for a, b in zip(hit.stacks, stacks)):
+            _packed.move_to_end(key)
+            return hit
+    packed = PackedStacks(stacks, angles)  # it holds the stacks: their ids cannot be reused meanwhile
+    with _lock:
+        _packed[key] = packed
+        while len(_packed) > _KEPT:
+            _packed.popitem(last=False)
+    return packed
 
 
 class PackedStacks:
@@ -61,7 +85,8 @@ class PackedStacks:
 
 def shifted_states(packed: PackedStacks, q, f, c, lf, k_s, reference, loads, steps: int):
     """K (M, N, 4), C (M, N, 4), positions (M, N, 2) in the machine's frame, each bearing's load factor over the
-    flooded load (M, N), the loads (M, N, 2) and which points were served (M,), for M points of N flows (m^3/s),
+    flooded load (M, N), the loads (M, N, 2), which points were served (M,) and, for the others, the bearing and
+    the Sommerfeld number whose slices were missing (M, 2; NaN when served), for M points of N flows (m^3/s),
     viscosity factors, clearances and load factors (each (M, N)): `LoadShift.shifted` `steps` times from the
     flooded `loads` (N, 2), the journals' flooded positions `reference` (N, 2) and the shaft's condensed stiffness
     `k_s` (2N, 2N)."""
@@ -71,14 +96,15 @@ def shifted_states(packed: PackedStacks, q, f, c, lf, k_s, reference, loads, ste
     factors = np.empty((m, n))
     loads_out = np.empty((m, n, 2))
     served = np.zeros(m, np.bool_)
+    missed = np.full((m, 2), np.nan)  # (bearing, S) of the evaluation a point was not served at
     loads = np.ascontiguousarray(loads, dtype=float)
     lean0 = np.arctan2(loads[:, 0], -loads[:, 1])
     states_kernel(q, f, c, lf, packed.nodes, packed.log_nodes, packed.n_nodes, packed.mask, packed.log_qbar,
                   packed.ratio, packed.n_ratio, packed.split, packed.below, packed.m_below, packed.above,
                   packed.m_above, packed.scalars, packed.angles, _dimensionless.SNAP_LN,
                   np.ascontiguousarray(k_s, dtype=float), np.ascontiguousarray(reference, dtype=float), loads, lean0,
-                  int(steps), out, factors, loads_out, served)
-    return out, factors, loads_out, served
+                  int(steps), out, factors, loads_out, served, missed)
+    return out, factors, loads_out, served, missed
 
 
 @numba.njit(cache=True, nogil=True)
@@ -109,9 +135,17 @@ def _bearing(k, q, f, c, lf, nodes, log_nodes, n_nodes, mask, log_qbar, ratio, n
 
 
 @numba.njit(cache=True, nogil=True)
+def _sommerfeld(k, f, c, lf, scalars):
+    """S of bearing k at a viscosity factor, clearance and load factor (`value_at`'s)."""
+    if not (f > 0.0 and c > 0.0 and lf > 0.0):
+        return np.nan
+    return scalars[k, 0] * f / lf * (scalars[k, 1] / c) ** 2
+
+
+@numba.njit(cache=True, nogil=True)
 def states_kernel(q, f, c, lf, nodes, log_nodes, n_nodes, mask, log_qbar, ratio, n_ratio, split, below, m_below,
                   above, m_above, scalars, angles, snap_ln, k_s, reference, loads, lean0, steps, out, factors,
-                  loads_out, served):
+                  loads_out, served, missed):
     """`shifted_states` point by point."""
     m, n = q.shape
     v = np.empty(10)
@@ -124,6 +158,8 @@ def states_kernel(q, f, c, lf, nodes, log_nodes, n_nodes, mask, log_qbar, ratio,
             if not _bearing(k, q[p, k], f[p, k], c[p, k], lf[p, k], nodes, log_nodes, n_nodes, mask, log_qbar, ratio,
                             n_ratio, split, below, m_below, above, m_above, scalars, snap_ln, v):
                 ok = False
+                missed[p, 0] = k
+                missed[p, 1] = _sommerfeld(k, f[p, k], c[p, k], lf[p, k], scalars)
                 break
             _turn(v, angles[k], out[p, k])
         if not ok:
@@ -163,6 +199,8 @@ def states_kernel(q, f, c, lf, nodes, log_nodes, n_nodes, mask, log_qbar, ratio,
                                 mask, log_qbar, ratio, n_ratio, split, below, m_below, above, m_above, scalars,
                                 snap_ln, v):
                     ok = False
+                    missed[p, 0] = k
+                    missed[p, 1] = _sommerfeld(k, f[p, k], c[p, k], lf[p, k] * factors[p, k], scalars)
                     break
                 _turn(v, turn, out[p, k])
             if not ok:
