@@ -474,6 +474,9 @@ def std_within(names, values, std, cov, intervals: dict) -> tuple[np.ndarray, np
     return std, cov
 
 
+SURE_INSIDE = 0.5  # a profile point whose first start's refit is below this share of the interval's threshold
+# tries no other start: a stalled refit lies above the valley's floor, never below it, so the others could only
+# lower a point already inside (every point where the crossing is decided still tries each start)
 SAME_SEED = 1e-9  # profile starts closer than this (in each parameter's scale) are one start
 PROFILE_COST_TOL = 1e-4  # a profile point's refit stops once a step lowers chi2 by less than this: 25 steps at
 # most leave it < 2.5e-3 above its minimum, against the interval's threshold of 3.84
@@ -500,9 +503,11 @@ def _profile(problem: _Problem, theta, chi2_min, k, lo, hi, scale, sigma, thresh
         seeds = [th, np.where(np.arange(th.size) == k, v, theta)]
         if len(history) >= 2 and history[-1][0] != history[-2][0]:
             (v0, t0), (v1, t1) = history[-2], history[-1]
-            seeds.append(np.clip(t1 + (t1 - t0) * (v - v1) / (v1 - v0), lo, hi))
+            seeds.insert(1, np.clip(t1 + (t1 - t0) * (v - v1) / (v1 - v0), lo, hi))
         trials, tried = [], []
         for seed in seeds:
+            if trials and min(t[0] for t in trials) - chi2_min < SURE_INSIDE * threshold:
+                break  # inside by a margin: another start could only lower it, which decides nothing here
             seed = seed.copy()
             seed[k] = v
             if any(np.all(np.abs(seed - t) <= SAME_SEED * scale) for t in tried):

@@ -430,6 +430,7 @@ class ForwardChain:
 
         self._shift = None
         self._packed = None  # the bearings' stacked slices for `forward.shifted` (`_compiled_states`)
+        self._packed_held = None  # what the sources held when they were packed
         if not statically_determinate(machine, self.rotor):  # 3+ supports: the loads follow the journals (flows)
             from ...rotor.statics import coupled_statics
 
@@ -609,22 +610,33 @@ class ForwardChain:
         n = self.n_flows
         declared = [src.bearing.clearance for src in self.sources]
 
+        size = int(np.prod(shape)) if shape else 1
+
         def columns(field, default=None):
-            cols = [np.broadcast_to(np.asarray(default[k] if default is not None and getattr(ch, field) is None
-                                               else getattr(ch, field), dtype=float), shape)
+            vals = [default[k] if default is not None and getattr(ch, field) is None else getattr(ch, field)
                     for k, ch in enumerate(changes)]
+            if all(np.ndim(v) == 0 for v in vals):  # one bearing for all points (no effect changes it per point)
+                return np.broadcast_to(np.array(vals, dtype=float), (size, n))
+            cols = [np.broadcast_to(np.asarray(v, dtype=float), shape) for v in vals]
             return np.stack(cols, axis=-1).reshape(-1, n)
 
         q = np.broadcast_to(theta[..., :n], shape + (n,)).reshape(-1, n)
         f, c, lf = columns("viscosity_factor"), columns("clearance", declared), columns("load_factor")
         for attempt in range(3):
-            stacks = [src._slice_stack() for src in self.sources]
+            packed = self._packed
+            held = tuple((src._held, src._held.table, len(src._held.table.slices) if src._held.table else -1)
+                         for src in self.sources)
+            if packed is not None and self._packed_held == held:  # nothing loaded since: the same stacks
+                stacks = packed.stacks
+            else:
+                stacks = [src._slice_stack() for src in self.sources]
             if any(st is None for st in stacks):
                 return None
-            packed = self._packed
             if packed is None or any(a is not b for a, b in zip(packed.stacks, stacks)):
                 angles = [0.0 if src._turn is None else float(_lean(src.load)) for src in self.sources]
                 packed = self._packed = packed_stacks(stacks, angles)
+            self._packed_held = tuple((src._held, src._held.table, len(src._held.table.slices))
+                                      for src in self.sources)
             out, factors, loads, served, missed = shifted_states(packed, q, f, c, lf, self._shift.k_s,
                                                                  self._shift.reference, self._shift.loads,
                                                                  load_shift.STEPS)
