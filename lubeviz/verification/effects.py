@@ -4,17 +4,18 @@ Deliberately NOT `lubeviz.effects`: a test record whose effect were built by the
 uses would only test that code against itself. Each effect is a name and a parameter table; the
 physics lives where the record is built (`independent.py`), each hook a few lines long:
 
-- `viscosity` (factor = true/declared viscosity, bearing both|1|2): the film is solved at mu * factor.
-- `clearance` (clearance_um, bearing both|1|2): the film is solved with that radial clearance; the
+- `viscosity` (factor = true/declared viscosity, bearing both|1|2|..., both: every fluid-film bearing): the film
+  is solved at mu * factor.
+- `clearance` (clearance_um, bearing both|1|2|...): the film is solved with that radial clearance; the
   rest reading of the static position is then (0, -c_true).
 - `unbalance2` (node, ratio, phase_deg): a second unbalance at `node`, moment ratio * m_u, phase =
   main phase + phase_deg.
-- `pedestals` (mass_kg, stiffness_n_m, damping_ns_m, bearing both|1|2): each chosen housing is a point
+- `pedestals` (mass_kg, stiffness_n_m, damping_ns_m, bearing both|1|2|...): each chosen housing is a point
   mass on an isotropic spring and damper to ground (x, y DOFs); the film K, C act between journal and
   housing, and the probes of plane k read the shaft relative to housing k.
-- `probe_rotation` (plane 1|2, angle_deg, + from +X to +Y): that probe pair is turned by the angle but
+- `probe_rotation` (plane 1|2|..., angle_deg, + from +X to +Y): that probe pair is turned by the angle but
   declared at its nominal angles, so the resolved reading is R(-angle) d.
-- `probe_gain` (channel x1|y1|x2|y2, gain): that probe's raw reading (gap included) times gain.
+- `probe_gain` (channel x1|y1|x2|y2|..., gain): that probe's raw reading (gap included) times gain.
 - `bow` (node, amplitude_um, phase_deg): a residual bow sin(pi (z - z_b1)/(z_b2 - z_b1)) between the
   bearing centres, |bow(node)| = amplitude, turning with the shaft at phase_deg from the unbalance;
   it loads the rotor with the rotating force K_shaft q_bow(t).
@@ -37,6 +38,7 @@ unbalances and bows add; a bearing's pedestal can be given once).
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 from types import MappingProxyType
 
@@ -56,7 +58,12 @@ EFFECTS: dict[str, dict[str, object]] = {
     "seal": {"node": REQUIRED, "kxy_n_m": REQUIRED, "kxx_n_m": 0.0},
     "side_load": {"node": REQUIRED, "force_n": REQUIRED, "moment_nm": 0.0, "angle_deg": 0.0},
 }
-CHANNELS = ("x1", "y1", "x2", "y2")
+
+
+def channel_index(channel: str) -> int | None:
+    """xK -> 2 (K - 1), yK -> 2 (K - 1) + 1 (K from 1: plane K's probes), None for anything else."""
+    m = re.fullmatch(r"([xy])([1-9][0-9]*)", str(channel).strip().lower())
+    return None if m is None else 2 * (int(m.group(2)) - 1) + (m.group(1) == "y")
 
 
 def _number(name, key, value, *, positive=False, non_negative=False) -> float:
@@ -84,11 +91,13 @@ def _integer(name, key, value) -> int:
 
 
 def _bearing(name, value):
+    """`both` (every fluid-film bearing) or a bearing's number from 1 (the machine's count is checked where the
+    record is made)."""
     if isinstance(value, str) and value.strip().lower() == "both":
         return "both"
     v = _integer(name, "bearing", value)
-    if v not in (1, 2):
-        raise InputError(f"effect {name}: bearing = {value!r}; expected both, 1 or 2")
+    if v < 1:
+        raise InputError(f"effect {name}: bearing = {value!r}; expected both or a bearing's number (1, 2, ...)")
     return v
 
 
@@ -122,13 +131,14 @@ def _check(name: str, p: dict) -> dict:
         p["bearing"] = _bearing(name, p["bearing"])
     elif name == "probe_rotation":
         p["plane"] = _integer(name, "plane", p["plane"])
-        if p["plane"] not in (1, 2):
-            raise InputError(f"effect {name}: plane = {p['plane']!r}; expected 1 or 2")
+        if p["plane"] < 1:
+            raise InputError(f"effect {name}: plane = {p['plane']!r}; expected a plane's number (1, 2, ...)")
         p["angle_deg"] = _number(name, "angle_deg", p["angle_deg"])
     elif name == "probe_gain":
         ch = str(p["channel"]).strip().lower()
-        if ch not in CHANNELS:
-            raise InputError(f"effect {name}: channel = {p['channel']!r}; expected one of {', '.join(CHANNELS)}")
+        if channel_index(ch) is None:
+            raise InputError(f"effect {name}: channel = {p['channel']!r}; expected x1, y1, x2, y2, ... (a probe "
+                             "of a plane, numbered from 1)")
         p["channel"] = ch
         p["gain"] = _number(name, "gain", p["gain"], positive=True)
     return p
@@ -178,8 +188,3 @@ def normalize_effects(effects) -> tuple[tuple[str, Mapping], ...]:
                 raise InputError(f"effect {e!r}; expected (name, {{params}}) or 'NAME:key=value,...'") from None
             out.append(effect(name, params))
     return tuple(out)
-
-
-def bearings_of(params: Mapping) -> tuple[int, ...]:
-    """0-based bearing indices an effect with a `bearing` parameter applies to."""
-    return (0, 1) if params["bearing"] == "both" else (params["bearing"] - 1,)

@@ -72,7 +72,7 @@ from ..rotor.statics import gravity_load, simple_support_reactions
 from ..signals.noise import add_noise
 from ..signals.records import Record, record_from_arrays, write_record
 from . import equilibria
-from .effects import normalize_effects
+from .effects import channel_index, normalize_effects
 from .newmark import amplification, integrate_harmonic
 from ..units import MLMIN_PER_M3S
 
@@ -591,15 +591,20 @@ def _films(spec: IndependentSpec, machine, rotor: Rotor, omega: float, use_cache
 
 def _probes(spec: IndependentSpec):
     """Actual probe angles (rad, declared + rotation) and gains, (plane, probe)."""
-    rot = [0.0, 0.0]
-    gain = np.ones((2, 2))
+    n = len(spec.probe_angles_deg)
+    rot = [0.0] * n
+    gain = np.ones((n, 2))
     for name, p in spec.effects:
         if name == "probe_rotation":
+            if p["plane"] > n:
+                raise InputError(f"effect probe_rotation: plane {p['plane']}; the record has {n} plane(s)")
             rot[p["plane"] - 1] += p["angle_deg"]
         elif name == "probe_gain":
-            i = ("x1", "y1", "x2", "y2").index(p["channel"])
+            i = channel_index(p["channel"])
+            if i // 2 >= n:
+                raise InputError(f"effect probe_gain: channel {p['channel']}; the record has {n} plane(s)")
             gain[i // 2, i % 2] *= p["gain"]
-    angles = np.radians([[a + rot[k] for a in spec.probe_angles_deg[k]] for k in range(2)])
+    angles = np.radians([[a + rot[k] for a in spec.probe_angles_deg[k]] for k in range(n)])
     return angles, gain
 
 

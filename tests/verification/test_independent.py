@@ -169,6 +169,17 @@ def test_effects_are_validated():
         spec("wobble:amount=1")
     with pytest.raises(InputError, match="bearing centres"):
         make_record(spec("bow:node=3,amplitude_um=5"))
+    # a machine's parts by number, whatever its count; the count is the machine's, checked where the record is made
+    assert parse_effect("viscosity:factor=0.9,bearing=3")[1]["bearing"] == 3
+    assert parse_effect("probe_gain:channel=Y3,gain=1.1")[1]["channel"] == "y3"
+    for bad in ("viscosity:factor=0.9,bearing=0", "probe_rotation:plane=0,angle_deg=3",
+                "probe_gain:channel=z1,gain=1.1", "probe_gain:channel=x0,gain=1.1"):
+        with pytest.raises(InputError, match="bearing|plane|channel"):
+            parse_effect(bad)
+    with pytest.raises(InputError, match="2 fluid-film bearing"):
+        make_record(spec("viscosity:factor=0.9,bearing=3"))
+    with pytest.raises(InputError, match="2 plane"):
+        make_record(spec("probe_gain:channel=x3,gain=1.1"))
 
 
 # --- (c) determinism --------------------------------------------------------------------------------
