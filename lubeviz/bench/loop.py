@@ -5,6 +5,8 @@ linearization, another rotor mesh and damping, time integration, its own effects
 would, one record or one `set:` per call (`diagnose.pipeline.run_diagnosis`, what `lubeviz diagnose` runs).
 The cases (`draw_cases`, all from one seed):
 
+On the paper's machine (any other: its own speeds, parts and sizes, `_Scales`; each record two of its planes):
+
 - clean: speed 50-100 Hz, flows 30-180 % of each bearing's Q_T at that speed, a third with the static shaft
   position (the probes' DC gap);
 - each library effect the source can make (viscosity, clearance, unbalance2, pedestals, probe_rotation,
@@ -46,13 +48,24 @@ KINDS = ("clean", "effect", "set", "pair", "out")
 LIBRARY = ("viscosity", "clearance", "unbalance2", "pedestals", "probe_rotation", "probe_gain", "bow", "side_load")
 STRENGTHS = ("weak", "strong")
 FLOWS_OVER_QT = (0.3, 1.8)  # each flow over its bearing's Q_T at the record's speed, uniform
-SPEEDS_HZ = (50.0, 100.0)  # uniform
+SPEEDS_HZ = (50.0, 100.0)  # uniform on the paper's machine; on any machine 2/3 to 4/3 of its speed (`_Scales`)
 # a set: (group, the source's effect, its speeds (Hz), its flows over each bearing's Q_T at 75 Hz (the same flows at
 # every speed; Q_T grows with the speed, so at 60 Hz they are ~x1.25 of that over Q_T, at 90 Hz ~x0.8)). A bearing
 # worn to 165 um whirls at 85-90 Hz whatever the flow, and at 75-80 Hz below ~1.1 Q_T (the source's modes): its sets
 # are at 60, 70, 80 Hz with the flows above that.
 SET_CONDITIONS = (("hot oil", "viscosity:factor=0.8", (60.0, 75.0, 90.0), (0.5, 1.4)),
                   ("worn bearing", "clearance:bearing=1,clearance_um=165", (60.0, 70.0, 80.0), (1.1, 1.6)))
+
+
+def set_conditions(sc) -> tuple:
+    """SET_CONDITIONS on a machine: the speeds over its operating speed as the paper's over 75 Hz, the worn
+    clearance over bearing 1's as the paper's 165 over 120 um (the paper's machine: SET_CONDITIONS themselves)."""
+    out = []
+    for group, text, speeds, flows in SET_CONDITIONS:
+        if text.startswith("clearance:"):
+            text = f"clearance:bearing=1,clearance_um={sc.worn_um:.4g}"
+        out.append((group, text, tuple(sc.op * v / 75.0 for v in speeds), flows))
+    return tuple(out)
 PAIRS = (("viscosity", "probe_rotation"), ("clearance", "probe_gain"), ("side_load", "viscosity"),
          ("unbalance2", "probe_gain"), ("pedestals", "viscosity"), ("clearance", "unbalance2"),
          ("bow", "probe_rotation"), ("side_load", "clearance"), ("viscosity", "pedestals"),
@@ -73,6 +86,47 @@ ROW_KEYS = ("id", "kind", "group", "strength", "truth", "speeds_hz", "q_mlmin", 
 
 # --- the cases ------------------------------------------------------------------------------------------------
 
+class _Scales:
+    """What the draws take from the machine (the paper's values on the paper's machine, so its cases are the same
+    draws as before any other machine was drawn for): the speed range (2/3 to 4/3 of the operating speed, the
+    corpus's: 50-100 Hz there), the bearings, the nodes between the outermost bearings, and the sizes of the forces,
+    couples and pedestal stiffnesses over the paper's (its weight, its span, its films' W/c). Within the speed range
+    the model file declares, as `clean_corpus`'s."""
+
+    def __init__(self, machine):
+        from ..model.machine import load_machine
+        from ..rotor.assembly import rotor_from_machine
+        from ..rotor.statics import weight
+
+        def sizes(m):
+            rotor = rotor_from_machine(m)
+            w = weight(rotor, m.gravity)
+            z = [rotor.node_z[b.node - 1] for b in m.bearings]
+            per_film = w / len(m.bearings) / float(np.mean([b.clearance for b in m.bearings]))
+            return w, max(z) - min(z), per_film
+
+        op = machine.operating_speed
+        self.speeds = (max(machine.speed_min, 2.0 * op / 3.0), min(machine.speed_max, 4.0 * op / 3.0))
+        self.op = op
+        self.n_bearings = len(machine.bearings)
+        nodes = sorted(b.node for b in machine.bearings)
+        self.inner = (nodes[0] + 2, nodes[-1] - 2)  # a bow's nodes, ends included (the paper's 8-18)
+        self.seal = (nodes[0] + 2, (nodes[0] + nodes[-1]) // 2 + 1)  # a seal's (the paper's 8-14)
+        planes = [p.node for p in machine.measurement_planes]
+        self.planes = tuple(planes)
+        (w, span, film), (w0, span0, film0) = sizes(machine), sizes(load_machine())
+        self.force, self.couple, self.stiffness = w / w0, w * span / (w0 * span0), film / film0
+        self.worn_um = 1e6 * machine.bearings[0].clearance * 165.0 / 120.0  # the paper's 120 um worn to 165
+        self.n_nodes = len(machine.elements) + 1
+
+
+@lru_cache(maxsize=16)
+def _scales(machine_path: str | None) -> _Scales:
+    from ..model.machine import load_machine
+
+    return _Scales(load_machine(machine_path))
+
+
 @lru_cache(maxsize=64)
 def _qt_grid(speed_hz: float, machine: str | None) -> tuple:
     from ..verification.independent import thresholds_mlmin
@@ -82,8 +136,10 @@ def _qt_grid(speed_hz: float, machine: str | None) -> tuple:
 
 def _qt(speed_hz: float, machine: str | None) -> np.ndarray:
     """Each bearing's Q_T (ml/min) at `speed_hz`, linear between the 2.5 Hz grid of `clean_corpus` (solved once a
-    grid speed and cached on disk): only the range the flows are drawn over rests on it, never a truth."""
-    lo = 50.0 + 2.5 * math.floor((speed_hz - 50.0) / 2.5 + 1e-9)
+    grid speed and cached on disk; from the corpus's lowest speed, the paper's 50 Hz): only the range the flows are
+    drawn over rests on it, never a truth."""
+    base = _scales(machine).speeds[0]
+    lo = base + 2.5 * math.floor((speed_hz - base) / 2.5 + 1e-9)
     hi = lo + 2.5
     a, b = np.array(_qt_grid(lo, machine)), np.array(_qt_grid(hi, machine))
     return a + (b - a) * (speed_hz - lo) / 2.5
@@ -103,56 +159,68 @@ def _sign(rng) -> float:
     return 1.0 if rng.random() < 0.5 else -1.0
 
 
-def _effect_text(name: str, strength: str, rng, machine) -> str:
-    """One library effect of the source at `strength`, its placement drawn (SPEC §7 text)."""
-    n_nodes = len(machine.elements) + 1
-    if name == "viscosity":  # thinner or thicker oil in both bearings; weak: nearer the declared
+def _effect_text(name: str, strength: str, rng, machine, sc: _Scales) -> str:
+    """One library effect of the source at `strength`, its placement drawn over the machine (SPEC §7 text)."""
+    n_nodes, nb = sc.n_nodes, sc.n_bearings
+    if name == "viscosity":  # thinner or thicker oil in every bearing; weak: nearer the declared
         thin = rng.random() < 0.5
         f = (1.0 - _split(rng, 0.15, 0.30, strength)) if thin else (1.0 + _split(rng, 0.20, 0.35, strength))
         return f"viscosity:factor={f:.4g},bearing=both"
     if name == "clearance":
-        b = int(rng.integers(1, 3))
+        b = int(rng.integers(1, nb + 1))
         c = 1e6 * machine.bearings[b - 1].clearance * _split(rng, 1.15, 1.45, strength)
         return f"clearance:bearing={b},clearance_um={c:.4g}"
     if name == "unbalance2":
         return (f"unbalance2:node={int(rng.integers(1, n_nodes + 1))},ratio={_split(rng, 0.3, 0.8, strength):.4g},"
                 f"phase_deg={rng.uniform(0, 360):.4g}")
     if name == "bow":
-        return (f"bow:node={int(rng.integers(8, 19))},amplitude_um={_split(rng, 30, 100, strength):.4g},"
-                f"phase_deg={rng.uniform(0, 360):.4g}")
+        return (f"bow:node={int(rng.integers(sc.inner[0], sc.inner[1] + 1))},"
+                f"amplitude_um={_split(rng, 30, 100, strength):.4g},phase_deg={rng.uniform(0, 360):.4g}")
     if name == "pedestals":  # weak: the stiffer pedestal
-        k = 2e8 + 8e7 - _split(rng, 8e7, 2e8, strength)
-        return f"pedestals:bearing={int(rng.integers(1, 3))},mass_kg=50,stiffness_n_m={k:.4g},damping_ns_m=1e4"
-    if name == "probe_rotation":
+        k = (2e8 + 8e7 - _split(rng, 8e7, 2e8, strength)) * sc.stiffness
+        return f"pedestals:bearing={int(rng.integers(1, nb + 1))},mass_kg=50,stiffness_n_m={k:.4g},damping_ns_m=1e4"
+    if name == "probe_rotation":  # a record holds two planes
         return (f"probe_rotation:plane={int(rng.integers(1, 3))},"
                 f"angle_deg={_sign(rng) * _split(rng, 3, 8, strength):.4g}")
     if name == "probe_gain":
         return f"probe_gain:channel={_pick(rng, ('x1', 'y1', 'x2', 'y2'))},gain={_split(rng, 1.08, 1.2, strength):.4g}"
-    if name == "side_load":  # a vertical force, a couple (a load moved from one bearing to the other), or both
+    if name == "side_load":  # a vertical force, a couple (a load moved from one bearing to another), or both
         what = _pick(rng, ("force", "couple", "both"))
-        force = _sign(rng) * _split(rng, 150, 350, strength) if what != "couple" else 0.0
-        couple = _sign(rng) * _split(rng, 300, 700, strength) if what != "force" else 0.0
+        force = _sign(rng) * _split(rng, 150, 350, strength) * sc.force if what != "couple" else 0.0
+        couple = _sign(rng) * _split(rng, 300, 700, strength) * sc.couple if what != "force" else 0.0
         return (f"side_load:node={int(rng.integers(1, n_nodes + 1))},force_n={force:.4g},moment_nm={couple:.4g},"
                 "angle_deg=0")
     raise ValueError(f"no drawer for effect {name!r}")
 
 
-def _out_text(group: str, rng, machine) -> str:
+def _out_text(group: str, rng, machine, sc: _Scales) -> str:
     if group == "seal":
-        return f"seal:node={int(rng.integers(8, 15))},kxy_n_m=2e6,kxx_n_m={rng.uniform(1e7, 2e7):.4g}"
-    n_nodes = len(machine.elements) + 1
-    return (f"side_load:node={int(rng.integers(1, n_nodes + 1))},force_n={_sign(rng) * rng.uniform(150, 350):.4g},"
-            f"moment_nm=0,angle_deg={rng.uniform(60, 90):.4g}")
+        kxy = 2e6 * sc.stiffness
+        return (f"seal:node={int(rng.integers(sc.seal[0], sc.seal[1] + 1))},"
+                f"kxy_n_m={'2e6' if kxy == 2e6 else f'{kxy:.4g}'},"  # the paper's text (its records' cache keys)
+                f"kxx_n_m={rng.uniform(1e7, 2e7) * sc.stiffness:.4g}")
+    return (f"side_load:node={int(rng.integers(1, sc.n_nodes + 1))},"
+            f"force_n={_sign(rng) * rng.uniform(150, 350) * sc.force:.4g},moment_nm=0,"
+            f"angle_deg={rng.uniform(60, 90):.4g}")
+
+
+def _planes(rng, sc: _Scales) -> list[int]:
+    """A record's two planes: the machine's two, or two of its planes drawn (in order along the shaft)."""
+    if len(sc.planes) <= 2:
+        return list(sc.planes)
+    pick = rng.choice(len(sc.planes), size=2, replace=False)
+    return sorted(sc.planes[int(i)] for i in pick)
 
 
 def _single(kind, group, strength, effects, truth, rng, machine_path, static=None) -> dict:
-    speed = float(rng.uniform(*SPEEDS_HZ))
+    sc = _scales(machine_path)
+    speed = float(rng.uniform(*sc.speeds))
     qt = _qt(speed, machine_path)
-    q = qt * rng.uniform(*FLOWS_OVER_QT, 2)
+    q = qt * rng.uniform(*FLOWS_OVER_QT, sc.n_bearings)
     return {"kind": kind, "group": group, "strength": strength, "effects": list(effects), "truth": list(truth),
             "speeds_hz": [speed], "q_mlmin": q.tolist(), "qt_mlmin": qt.tolist(), "flow_range": list(FLOWS_OVER_QT),
             "static": bool(rng.random() < 1.0 / 3.0) if static is None else bool(static),
-            "seed": int(rng.integers(0, 2**31 - 1))}
+            "seed": int(rng.integers(0, 2**31 - 1)), "nodes": _planes(rng, sc)}
 
 
 def _interleave(groups: list[list]) -> list:
@@ -181,6 +249,7 @@ def draw_cases(machine_path=None, *, n_clean: int = 40, per_strength: int = 5, n
         raise ValueError(f"limit = {limit!r}: expected a positive integer or None")
     mp = None if machine_path is None else str(machine_path)
     machine = load_machine(machine_path)
+    sc = _scales(mp)
     rng = np.random.default_rng(seed)
 
     clean = [_single("clean", "clean", None, (), (), rng, mp, static=(i % 3 == 0)) for i in range(n_clean)]
@@ -189,27 +258,27 @@ def draw_cases(machine_path=None, *, n_clean: int = 40, per_strength: int = 5, n
         group = []
         for strength in STRENGTHS:
             for _ in range(per_strength):
-                text = _effect_text(name, strength, rng, machine)
+                text = _effect_text(name, strength, rng, machine, sc)
                 group.append(_single("effect", name, strength, (text,), (name,), rng, mp))
         effects.append(group)
     sets = [[] for _ in SET_CONDITIONS]
-    qt75 = _qt(75.0, mp)
+    qt_op = _qt(sc.op, mp)
     for i in range(n_sets):
-        group, text, speeds, flows = SET_CONDITIONS[i % len(SET_CONDITIONS)]
-        q = qt75 * rng.uniform(*flows, 2)
+        group, text, speeds, flows = set_conditions(sc)[i % len(SET_CONDITIONS)]
+        q = qt_op * rng.uniform(*flows, sc.n_bearings)
         sets[i % len(SET_CONDITIONS)].append(
             {"kind": "set", "group": group, "strength": None, "effects": [text], "truth": [text.split(":")[0]],
-             "speeds_hz": list(speeds), "q_mlmin": q.tolist(), "qt_mlmin": qt75.tolist(), "flow_range": list(flows),
-             "static": False, "seed": int(rng.integers(0, 2**31 - 1))})
+             "speeds_hz": list(speeds), "q_mlmin": q.tolist(), "qt_mlmin": qt_op.tolist(), "flow_range": list(flows),
+             "static": False, "seed": int(rng.integers(0, 2**31 - 1)), "nodes": _planes(rng, sc)})
     pairs = []
     for i in range(n_pairs):
         a, b = PAIRS[i % len(PAIRS)]
-        texts = [_effect_text(name, _pick(rng, STRENGTHS), rng, machine) for name in (a, b)]
+        texts = [_effect_text(name, _pick(rng, STRENGTHS), rng, machine, sc) for name in (a, b)]
         pairs.append(_single("pair", f"{a}+{b}", None, texts, (a, b), rng, mp))
     outs = [[] for _ in OUT_OF_LIBRARY]
     for i in range(n_out):
         group = OUT_OF_LIBRARY[i % len(OUT_OF_LIBRARY)]
-        text = _out_text(group, rng, machine)
+        text = _out_text(group, rng, machine, sc)
         outs[i % len(OUT_OF_LIBRARY)].append(_single("out", group, None, (text,), (), rng, mp))
 
     by_kind = [clean, _interleave(effects), _interleave(sets), pairs, _interleave(outs)]
@@ -224,8 +293,9 @@ def draw_cases(machine_path=None, *, n_clean: int = 40, per_strength: int = 5, n
 def _specs(case, q, machine_path):
     from ..verification.independent import IndependentSpec
 
-    return [IndependentSpec(speed_hz=s, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]), effects=tuple(case["effects"]),
-                            static=case["static"], seed=case["seed"] + 7919 * j, machine=machine_path)
+    nodes = {"nodes": tuple(case["nodes"])} if case.get("nodes") else {}
+    return [IndependentSpec(speed_hz=s, q_mlmin=tuple(float(v) for v in q), effects=tuple(case["effects"]),
+                            static=case["static"], seed=case["seed"] + 7919 * j, machine=machine_path, **nodes)
             for j, s in enumerate(case["speeds_hz"])]
 
 
@@ -332,13 +402,13 @@ def _diagnose_case(case, mp) -> dict:
             raise RuntimeError(f"no decaying operating point in {REDRAWS} draws of the flows"
                                + (" and the speed" if len(case["speeds_hz"]) == 1 else "")
                                + f" (last: {', '.join(f'{s.speed_hz:.4g}' for s in specs)} Hz, "
-                               f"{q[0]:.0f}, {q[1]:.0f} ml/min)")
+                               f"{', '.join(f'{v:.0f}' for v in q)} ml/min)")
         redraws += 1
         if redraws > REDRAWS // 2 and len(case["speeds_hz"]) == 1:
-            speed = float(rng.uniform(*SPEEDS_HZ))
+            speed = float(rng.uniform(*_scales(mp).speeds))
             qt = _qt(speed, mp)
             case = {**case, "speeds_hz": [speed]}
-        q = qt * rng.uniform(*case["flow_range"], 2)
+        q = qt * rng.uniform(*case["flow_range"], len(qt))
         specs = _specs(case, q, mp)
     if len(specs) > 1:
         records = [r.record for r in make_set(specs, f"bench-loop-{case['id']}")]

@@ -92,6 +92,35 @@ def test_sets_are_three_speeds_of_hot_oil_or_a_worn_bearing(cases):
     assert {c["effects"][0] for c in sets if c["group"] == "hot oil"} == {"viscosity:factor=0.8"}
 
 
+def test_another_machine_draws_over_its_own_parts_speeds_and_sizes():
+    """The fan (three bearings, three planes, 24.75 Hz, declared up to 30 Hz): every bearing's flow, two of its three
+    planes per record, its speeds (16.5-30 Hz; sets at 0.8, 1, 1.2 of its speed), its bearings by number, a worn
+    bearing 1 at 165/120 of its clearance, forces scaled by its weight over the paper's."""
+    from lubeviz.bench.loop import _scales
+    from lubeviz.model.machine import MODELS_DIR, load_machine
+
+    fan = str(MODELS_DIR / "three_bearing_fan.toml")
+    m = load_machine(fan)
+    cs = draw_cases(fan, n_clean=6, per_strength=2, n_sets=2, n_pairs=2, n_out=2, seed=3)
+    planes = {p.node for p in m.measurement_planes}
+    for c in cs:
+        assert len(c["q_mlmin"]) == 3 == len(c["qt_mlmin"])
+        assert len(c["nodes"]) == 2 and set(c["nodes"]) <= planes and c["nodes"][0] < c["nodes"][1]
+        assert all(16.5 - 1e-9 <= v <= 30.0 + 1e-9 for v in c["speeds_hz"])
+    assert len({tuple(c["nodes"]) for c in cs}) > 1
+    sets = [c for c in cs if c["kind"] == "set"]
+    hot = next(c for c in sets if c["group"] == "hot oil")
+    np.testing.assert_allclose(hot["speeds_hz"], [0.8 * 24.75, 24.75, 1.2 * 24.75])
+    worn = next(c for c in sets if c["group"] == "worn bearing")
+    assert worn["effects"] == [f"clearance:bearing=1,clearance_um={1e6 * m.bearings[0].clearance * 165 / 120:.4g}"]
+    sc = _scales(fan)
+    assert 1.0 < sc.force < 1.5  # 7.8 kN against the paper's 6.5 kN
+    bearings = {int(_params(c["effects"][0])["bearing"]) for c in draw_cases(fan, n_clean=0, per_strength=8,
+                                                                                n_sets=0, n_pairs=0, n_out=0)
+                if c["group"] in ("clearance", "pedestals")}
+    assert bearings == {1, 2, 3}
+
+
 # --- the judging (fast, on stand-in diagnoses) ------------------------------------------------------------------
 
 def _fit(q_mlmin, half_width_pct):
