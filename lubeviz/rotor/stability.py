@@ -4,8 +4,9 @@ speed and the instability threshold).
 
 Two steps, usable apart:
 1. `film_coefficients_over_speed`: at every speed, each bearing's static equilibrium under its share
-   of the weight (`bearing_static_loads`) and its fixed-pattern K, C (Lund's sign, SPEC §1), swept from
-   the highest speed down, each equilibrium warm-started from the previous speed's.
+   of the weight (`bearing_static_loads`; on 3+ supports the share moves with the speed and the flows, as the
+   journals do: `rotor.load_shift`, its Newton steps at every speed) and its fixed-pattern K, C (Lund's sign,
+   SPEC §1), swept from the highest speed down, each equilibrium warm-started from the previous speed's.
 2. `stability_map`: the damped modes of Eq. 8 at every speed on those coefficients (or on any
    coefficients: a callable speed -> one (K, C) per bearing), modes tracked from speed to speed, and the
    1X crossings and zero-damping crossings found by linear interpolation between sweep points.
@@ -41,6 +42,7 @@ from ..film.feed import Feed
 from ..progress import ProgressFn, silent
 from .assembly import Rotor, rotor_from_machine
 from .modal import modal_analysis
+from .load_shift import STEPS
 from .statics import bearing_static_loads
 from ..units import MLMIN_PER_M3S
 
@@ -107,6 +109,7 @@ class SpeedCoefficients:
     K: np.ndarray
     C: np.ndarray
     seconds: float
+    loads: np.ndarray | None = None  # (n_speeds, n_bearings, 2) N: the static loads each speed's films carry
 
     def bearings_at(self, omega: float) -> list[tuple[np.ndarray, np.ndarray]]:
         """One (K, C) per bearing at a sweep speed (exactly one of `speeds`); for `stability_map`."""
@@ -146,6 +149,7 @@ def film_coefficients_over_speed(machine, speeds, supply: Supply | None = None, 
         raise InputError(f"unknown supply kind {supply.kind!r}; use Supply.threshold_fraction or Supply.flow")
     bearings = list(machine.bearings)
     nb = len(bearings)
+    default_loads = loads is None
     loads = bearing_static_loads(machine) if loads is None else np.asarray(loads, dtype=float)
     if loads.shape != (nb, 2):
         raise InputError(f"loads must be one [Wx, Wy] per bearing, shape ({nb}, 2); got {loads.shape}")
@@ -153,42 +157,68 @@ def film_coefficients_over_speed(machine, speeds, supply: Supply | None = None, 
     n = speeds.size
     out = {k: np.empty((n, nb)) for k in ("q_supply", "q_threshold", "eccentricity_ratio")}
     position, K, C = np.empty((n, nb, 2)), np.empty((n, nb, 2, 2)), np.empty((n, nb, 2, 2))
+    loads_out = np.empty((n, nb, 2))
     flooded_hist: list[list[tuple[float, Equilibrium]]] = [[] for _ in range(nb)]
     flow_hist: list[list[tuple[float, Equilibrium]]] = [[] for _ in range(nb)]
     twin = _identical_predecessor(bearings, loads)
-    for step, i in enumerate(range(n - 1, -1, -1)):
-        w = float(speeds[i])
+    shift = _load_shift(machine) if default_loads else None
+    current = loads.copy()  # the loads at the previous speed: the next speed's first guess
+
+    def solve(w, at) -> list[tuple[Equilibrium, Equilibrium, float]]:
+        """(flooded, supplied, q) of every bearing at speed w under loads `at`."""
+        got = []
         for j, b in enumerate(bearings):
             where = f"{b.name} at {w / TWO_PI:.4g} Hz"
-            t = twin[j]
+            t = twin[j] if shift is None else None  # twins carry the same load only where the loads are fixed
             # Q_T(Omega): side leakage of the flooded film at its equilibrium (film.equilibrium.flooded_threshold),
             # started from the equilibrium extrapolated from the two previous speeds, or from an identical bearing.
-            start = (flooded_hist[t][-1][1] if t is not None
-                     else _predict(flooded_hist[j], w))
-            flooded = _equilibrium(b, w, loads[j], Feed.flooded(), start, where, max_eccentricity)
+            start = (got[t][0] if t is not None else _predict(flooded_hist[j], w))
+            flooded = _equilibrium(b, w, at[j], Feed.flooded(), start, where, max_eccentricity)
             q_t = flooded.film.side_leakage
             q = values[j] * q_t if supply.kind == "threshold_fraction" else values[j]
             # The supplied film moves with speed like the flooded one: shift the previous speed's position by
             # the flooded film's move (at q = Q_T this is nearly exact, one Newton step).
             if t is not None and values[t] == values[j]:
-                start = flow_hist[t][-1][1]
+                start = got[t][1]
             elif flow_hist[j]:
                 prev = flow_hist[j][-1][1]
                 start = (prev.position + flooded.position - flooded_hist[j][-1][1].position, prev.film)
             else:
                 start = flooded
-            eq = _equilibrium(b, w, loads[j], Feed.flow(q), start, where, max_eccentricity)
+            eq = _equilibrium(b, w, at[j], Feed.flow(q), start, where, max_eccentricity)
+            got.append((flooded, eq, q))
+        return got
+
+    for step, i in enumerate(range(n - 1, -1, -1)):
+        w = float(speeds[i])
+        got = solve(w, current)
+        if shift is not None:  # 3+ supports: the loads at this speed's journals (`rotor.load_shift`, Newton steps)
+            for _ in range(STEPS):
+                current = shift.shifted(np.array([g[1].position for g in got]),
+                                        np.array([g[1].coefficients.K for g in got]), current)
+                got = solve(w, current)
+        for j, b in enumerate(bearings):
+            flooded, eq, q = got[j]
             flooded_hist[j].append((w, flooded))
             flow_hist[j].append((w, eq))
             del flooded_hist[j][:-2], flow_hist[j][:-2]
             if not (np.all(np.isfinite(eq.coefficients.K)) and np.all(np.isfinite(eq.coefficients.C))):
-                raise ConvergenceError(f"{where}: film coefficients are not finite ({eq.coefficients.method})")
-            out["q_supply"][i, j], out["q_threshold"][i, j] = q, q_t
+                raise ConvergenceError(f"{b.name} at {w / TWO_PI:.4g} Hz: film coefficients are not finite "
+                                       f"({eq.coefficients.method})")
+            out["q_supply"][i, j], out["q_threshold"][i, j] = q, flooded.film.side_leakage
             out["eccentricity_ratio"][i, j] = eq.eccentricity_ratio
             position[i, j], K[i, j], C[i, j] = eq.position, eq.coefficients.K, eq.coefficients.C
+        loads_out[i] = current
         progress(step + 1, n, f"film {w / TWO_PI:.4g} Hz")
-    return SpeedCoefficients(speeds=speeds, supply=supply, position=position, K=K, C=C,
+    return SpeedCoefficients(speeds=speeds, supply=supply, position=position, K=K, C=C, loads=loads_out,
                              seconds=time.perf_counter() - t0, **out)
+
+
+def _load_shift(machine):
+    """The `LoadShift` of a machine on 3+ supports (the loads at each speed's journals), None on two bearings."""
+    from .film_bearings import _load_shift as shift_of
+
+    return shift_of(machine, 2.0 * math.pi * machine.operating_speed)
 
 
 def _identical_predecessor(bearings, loads) -> list[int | None]:

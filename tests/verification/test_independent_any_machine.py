@@ -298,6 +298,25 @@ def test_a_starved_bearing_turns_its_neighbour_s_load_and_the_chain_turns_that_f
     assert off(r @ pos, np.asarray(eq.position)) > 0.03
 
 
+def test_the_campbell_sweep_on_three_supports_carries_each_speed_s_loads():
+    """A Campbell sweep's films carry the loads of the statics at each speed and flow (3+ supports), not the flooded
+    statics' at the rated speed: at 16.5 Hz and Q_T each film's load against the independent source's own statics
+    (its fine films at those flows), and at the rated speed the flooded statics themselves. Measured: bearing A
+    1969.0 N against the source's 1967.3 at 16.5 Hz; the flooded statics at the rated speed, 2024.1 N, are many times
+    further off (session 45)."""
+    from lubeviz.rotor.stability import Supply, film_coefficients_over_speed
+
+    m = load_machine(FAN)
+    omega = 2 * np.pi * np.array([16.5, m.operating_speed])
+    sweep = film_coefficients_over_speed(m, omega, Supply.threshold_fraction(1.0))
+    q = sweep.q_supply[0] * 6e7  # ml/min at 16.5 Hz: each bearing's Q_T there
+    truth = static_equilibrium(FAN, 16.5, tuple(float(v) for v in q)).loads
+    flooded = coupled_statics(m).loads
+    err = np.abs(sweep.loads[0] - truth).max()
+    assert err < 0.002 * np.abs(truth).max() and err < 0.25 * np.abs(flooded - truth).max()
+    np.testing.assert_allclose(sweep.loads[1], flooded, rtol=0, atol=0.002 * np.abs(flooded).max())
+
+
 def test_a_corpus_of_the_fan_draws_every_bearing_s_flow_and_two_of_its_planes():
     from lubeviz.verification.independent import clean_corpus
 
