@@ -686,7 +686,11 @@ def _fit_orbit(chain, measured, effect, names, budget, level, progress) -> Candi
 
 def _set_intervals(after: Fit, others) -> tuple:
     """Per flow, the union of the winner's 95 % profile interval and the other candidates' +-1.96 sigma (None for
-    a known supply)."""
+    a known supply), within the search's box: a member's linearized interval past the box's lower edge ends there
+    (as a profile interval does), past its upper edge it is open (a flow the record hardly constrains, such as an
+    unmeasured bearing's, had "Q3 in [-46081, open] ml/min" on the fan, session 45)."""
+    box = {p.key: tuple(None if b is None else b / MLMIN_PER_M3S for b in p.bounds)  # the parameters' ml/min
+           for p in getattr(after, "params", ()) if getattr(p, "bounds", None) and p.key in _flow_names(after)}
     out = []
     for k, n in enumerate(_flow_names(after)):
         v, s = fit_flows(after)[k], fit_flows_std(after)[k]
@@ -698,6 +702,11 @@ def _set_intervals(after: Fit, others) -> tuple:
             v, s = fit_flows(c.fit)[k], fit_flows_std(c.fit)[k]
             low = min(low, v - Z95 * s)
             high = None if high is None else max(high, v + Z95 * s)
+        edge_lo, edge_hi = box.get(n, (None, None))
+        if edge_lo is not None:
+            low = max(low, float(edge_lo))
+        if high is not None and edge_hi is not None and high > float(edge_hi):
+            high = None
         out.append((float(low), None if high is None else float(high)))
     return tuple(out)
 

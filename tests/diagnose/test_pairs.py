@@ -100,3 +100,30 @@ def test_the_best_singles_are_paired_with_every_placement_of_the_other_effects(m
     assert len(tried_pairs) == len({frozenset(p) for p in tried_pairs})  # no pair fitted twice
     assert {"pedestals", "probe_gain:x1"} in tried_pairs and {"bow", "pedestals"} not in tried_pairs
     assert len(got) == 1 and {e.effect_name for e in got[0].effects} == {"clearance", "probe_gain"}
+
+
+def test_an_ambiguity_s_flow_interval_stays_within_the_search_box():
+    """A member's linearized interval of a flow the record hardly constrains (an unmeasured bearing's) ran past the
+    box: "Q3 in [-46081, open] ml/min" on the fan (session 45). The union ends at the box's lower edge and is open
+    past its upper edge, as a profile interval is."""
+    from types import SimpleNamespace
+
+    from lubeviz.diagnose.loop import _set_intervals, interval_words
+    from lubeviz.identify.fit.result import flow_parameter
+    from lubeviz.units import MLMIN_PER_M3S
+
+    q = np.array([300.0, 400.0]) / MLMIN_PER_M3S
+    lo, hi = 0.25 * q, 2.0 * q
+
+    def fit(values, std, intervals):
+        return SimpleNamespace(flow_values=lambda: np.asarray(values), flow_stds=lambda: np.asarray(std),
+                               intervals=intervals,
+                               params=tuple(flow_parameter(k, values[k], std[k], bounds=(lo[k], hi[k]))
+                                            for k in range(2)))
+
+    after = fit(q, 0.01 * q, {"q1": (0.98 * q[0], 1.02 * q[0]), "q2": (0.97 * q[1], 1.03 * q[1])})
+    wide = SimpleNamespace(fit=fit(q * [1.01, 1.5], q * [0.02, 5.0], {}))  # q2 hardly constrained by this member
+    (l1, h1), (l2, h2) = _set_intervals(after, [wide])
+    assert l1 == pytest.approx(q[0] * (1.01 - 1.96 * 0.02)) and h1 == pytest.approx(q[0] * (1.01 + 1.96 * 0.02))
+    assert l2 == pytest.approx(lo[1]) and h2 is None
+    assert "-" not in interval_words(((l1, h1), (l2, h2)))
