@@ -305,11 +305,12 @@ def test_the_campbell_sweep_on_three_supports_carries_each_speed_s_loads():
     1969.0 N against the source's 1967.3 at 16.5 Hz; the flooded statics at the rated speed, 2024.1 N, are many times
     further off (session 45)."""
     from lubeviz.rotor.stability import Supply, film_coefficients_over_speed
+    from lubeviz.units import MLMIN_PER_M3S
 
     m = load_machine(FAN)
     omega = 2 * np.pi * np.array([16.5, m.operating_speed])
     sweep = film_coefficients_over_speed(m, omega, Supply.threshold_fraction(1.0))
-    q = sweep.q_supply[0] * 6e7  # ml/min at 16.5 Hz: each bearing's Q_T there
+    q = sweep.q_supply[0] * MLMIN_PER_M3S  # ml/min at 16.5 Hz: each bearing's Q_T there
     truth = static_equilibrium(FAN, 16.5, tuple(float(v) for v in q)).loads
     flooded = coupled_statics(m).loads
     err = np.abs(sweep.loads[0] - truth).max()
