@@ -59,3 +59,30 @@ def test_an_effect_s_changes_per_point_go_through_the_compiled_loop_and_its_copi
     for (_, state), (_, state_ref) in zip(got, reference):
         for a, b in zip(state, state_ref):
             np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12 * np.abs(b).max())
+
+
+def test_a_load_shifted_off_the_tables_grid_holds_its_film_at_the_grid_s_edge():
+    """The fan with a fourth sleeve bearing in place of its roller support (`bench flows --extra-bearing`): with
+    bearings A and B over-fed and the fourth starved, the shaft lifts off the fourth (its load 416 N flooded, 22 N
+    shifted: S ~160, past the grid's 13.4). Its film is held at the grid's top, where the journal sits near the
+    centre and K, C hardly depend on the load; before, the identification stopped with "Sommerfeld number 106.1
+    outside the dimensionless table's range" (session 45). The numpy path and the compiled loop hold it alike."""
+    from lubeviz.bench.flows import with_extra_bearing
+    from lubeviz.identify.tables.dimensionless import sommerfeld_nodes, sommerfeld_number
+
+    m = load_machine(with_extra_bearing(FAN))
+    chain = ForwardChain(m, m.operating_speed)
+    theta = np.tile(chain.start(), (2, 1))
+    theta[:, :4] = chain.q_threshold * np.array([[2.0, 2.0, 0.6, 0.25], [1.0, 1.0, 1.0, 1.0]])
+    chain._states(theta, (2,))  # loads the slices
+    got, loads = chain._states(theta, (2,))
+    reference, loads_ref = _numpy(chain, theta)
+    np.testing.assert_allclose(loads, loads_ref, rtol=1e-9, atol=1e-6)
+    assert np.linalg.norm(loads[0, 3]) < 0.1 * np.linalg.norm(chain.loads[3])  # the shaft lifts off it
+    src = chain.sources[3]
+    factor = np.asarray(got[3][0].load_factor)
+    s = sommerfeld_number(src._seen, src._seen_load, chain.omega) / factor
+    assert s[0] == pytest.approx(sommerfeld_nodes()[-1], rel=1e-6) and s[1] < sommerfeld_nodes()[-1]
+    for (_, state), (_, state_ref) in zip(got, reference):
+        for a, b in zip(state, state_ref):
+            np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * np.abs(b).max())

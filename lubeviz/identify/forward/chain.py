@@ -594,12 +594,30 @@ class ForwardChain:
         for _ in range(load_shift.STEPS):
             loads = self._shift.shifted(np.stack([st[2] for st in states], axis=-2),
                                         np.stack([st[0] for st in states], axis=-3), loads)
-            factors = np.linalg.norm(loads, axis=-1) / np.linalg.norm(self.loads, axis=-1)
+            factors = self._within_grid(np.linalg.norm(loads, axis=-1) / np.linalg.norm(self.loads, axis=-1),
+                                        changes)
             turns = _lean(loads) - _lean(self.loads)
             moved = [c._replace(load_factor=c.load_factor * factors[..., k]) for k, c in enumerate(changes)]
             states = [_turned(src.evaluate(theta[..., k], *c), turns[..., k])
                       for k, (c, src) in enumerate(zip(moved, self.sources))]
         return list(zip(moved, states)), loads
+
+    def _within_grid(self, factors, changes) -> np.ndarray:
+        """The shifted loads' factors (..., N) with each film's Sommerfeld number held on the tables' grid
+        (`forward.shifted`'s `_within_grid`, which the compiled loop applies the same way)."""
+        from ..tables.dimensionless import sommerfeld_nodes, sommerfeld_number
+
+        grid = sommerfeld_nodes()
+        top, bottom = grid[-1] * (1.0 - 1e-9), grid[0] * (1.0 + 1e-9)
+        out = np.array(factors, dtype=float, copy=True)
+        for k, (src, ch) in enumerate(zip(self.sources, changes)):
+            c = src.bearing.clearance if ch.clearance is None else ch.clearance
+            s0 = sommerfeld_number(src._seen, src._seen_load, self.omega)
+            s = s0 * np.asarray(ch.viscosity_factor) / (np.asarray(ch.load_factor) * out[..., k]) * (
+                src.bearing.clearance / np.asarray(c)) ** 2
+            out[..., k] = np.where(s > top, out[..., k] * s / top, np.where(s < bottom, out[..., k] * s / bottom,
+                                                                          out[..., k]))
+        return out
 
     def _compiled_states(self, theta, changes, shape):
         """`_states` through `forward.shifted` (one compiled loop over the points), the points a bearing's loaded

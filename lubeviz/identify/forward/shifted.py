@@ -6,6 +6,12 @@ In numpy that is ~9 small table evaluations, rotations and solves per call: ~3.7
 (session 45). Here the same steps run point by point in one compiled loop over the bearings' stacked slices
 (`tables.scaled.SliceStack`, `value_at`); a point the loaded slices do not serve is left to the numpy path, which
 loads them.
+
+A shifted load that would take a film off the tables' Sommerfeld grid is held at the grid's edge: at its top
+(S 13.4) the journal sits within a few percent of the clearance from the centre and the film's K and C hardly depend
+on the load any more. The fan with a fourth sleeve bearing in place of its roller support (`bench flows
+--extra-bearing`, 416 N on that bearing flooded, S 8.3) sheds that load when a bearing beside it starves: at the
+search box's edge the shift asked for S 106, and the identification stopped (session 45).
 """
 
 from __future__ import annotations
@@ -143,6 +149,20 @@ def _sommerfeld(k, f, c, lf, scalars):
 
 
 @numba.njit(cache=True, nogil=True)
+def _within_grid(k, f, c, lf, factor, scalars, nodes, n_nodes):
+    """The shifted load's factor with the film's Sommerfeld number kept on the tables' grid (`within_grid`)."""
+    if not (f > 0.0 and c > 0.0 and lf > 0.0 and factor > 0.0):
+        return factor
+    s = scalars[k, 0] * f / (lf * factor) * (scalars[k, 1] / c) ** 2
+    top, bottom = nodes[k, n_nodes[k] - 1] * (1.0 - 1e-9), nodes[k, 0] * (1.0 + 1e-9)
+    if s > top:
+        return factor * s / top
+    if s < bottom:
+        return factor * s / bottom
+    return factor
+
+
+@numba.njit(cache=True, nogil=True)
 def states_kernel(q, f, c, lf, nodes, log_nodes, n_nodes, mask, log_qbar, ratio, n_ratio, split, below, m_below,
                   above, m_above, scalars, angles, snap_ln, k_s, reference, loads, lean0, steps, out, factors,
                   loads_out, served, missed):
@@ -193,7 +213,8 @@ def states_kernel(q, f, c, lf, nodes, log_nodes, n_nodes, mask, log_qbar, ratio,
                 w[k, 1] += dw[2 * k + 1]
             for k in range(n):
                 w0 = math.hypot(loads[k, 0], loads[k, 1])
-                factors[p, k] = math.hypot(w[k, 0], w[k, 1]) / w0
+                factors[p, k] = _within_grid(k, f[p, k], c[p, k], lf[p, k], math.hypot(w[k, 0], w[k, 1]) / w0,
+                                             scalars, nodes, n_nodes)
                 turn = angles[k] + math.atan2(w[k, 0], -w[k, 1]) - lean0[k]
                 if not _bearing(k, q[p, k], f[p, k], c[p, k], lf[p, k] * factors[p, k], nodes, log_nodes, n_nodes,
                                 mask, log_qbar, ratio, n_ratio, split, below, m_below, above, m_above, scalars,
