@@ -63,7 +63,3 @@ class LoadShift:
             residual = residual + np.broadcast_to(base - self.loads, dp.shape).reshape(residual.shape)
         dw = -np.linalg.solve(a, residual[..., None])[..., 0]
         return base + dw.reshape(dp.shape)  # (base broadcasts)
-
-    def factors(self, positions, stiffness) -> np.ndarray:
-        """Each bearing's load over its flooded one, |W + dW| / |W| (..., N)."""
-        return np.linalg.norm(self.shifted(positions, stiffness), axis=-1) / np.linalg.norm(self.loads, axis=-1)

@@ -146,11 +146,19 @@ class BearingSource:
             table = cache.loaded_table(seen, seen_load, self.omega)
         except InputError:
             return
+        self._hold(table)
+
+    def _hold(self, table) -> bool:
+        """Add `table`'s slices to the ones held (its geometry's; another geometry's replace them); whether any was
+        new."""
         with self._held.lock:
-            if self._held.table is None or self._held.table.geometry != table.geometry:
+            held = self._held.table
+            if held is None or held.geometry != table.geometry:
                 self._held.table = table
-            else:
-                self._held.table.slices.update(table.slices)
+                return bool(table.slices)
+            added = set(table.slices) - set(held.slices)
+            held.slices.update(table.slices)
+            return bool(added)
 
     def load_slices(self, sommerfeld) -> bool:
         """Load (or build, with progress) the slices queries of this bearing's film frame at Sommerfeld numbers
@@ -161,14 +169,7 @@ class BearingSource:
             table = cache.geometry_table(self._seen, np.asarray(sommerfeld, dtype=float), progress=self.progress)
         except InputError:
             return False
-        with self._held.lock:
-            held = self._held.table
-            if held is None or held.geometry != table.geometry:
-                self._held.table = table
-                return bool(table.slices)
-            added = set(table.slices) - set(held.slices)
-            held.slices.update(table.slices)
-            return bool(added)
+        return self._hold(table)
 
     @property
     def _table(self):
