@@ -621,9 +621,11 @@ class ForwardChain:
         return out
 
     def _compiled_states(self, theta, changes, shape):
-        """`_states` through `forward.shifted` (one compiled loop over the points), the points a bearing's loaded
-        slices do not serve through `_numpy_states` (which loads them: a load shifted to a Sommerfeld number beyond
-        the four slices about the flooded one); None when a bearing has no slices in memory."""
+        """`_states` through `forward.shifted` (one compiled loop over the points). The slices a point misses (a
+        load shifted beyond the four slices about the flooded one) are loaded, or built, for each bearing at once
+        (`BearingSource.load_slices`) and the loop run again; a point still not served (a Sommerfeld number off the
+        grid at the declared load, from an effect) goes through `_numpy_states`, whose views say why. None when a
+        bearing has no slices in memory."""
         from .shifted import packed_stacks, shifted_states
 
         n = self.n_flows

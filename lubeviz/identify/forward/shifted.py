@@ -4,8 +4,9 @@
 (`rotor.load_shift.LoadShift`), and evaluates again, `STEPS` times, each film turned by its load's change of lean.
 In numpy that is ~9 small table evaluations, rotations and solves per call: ~3.7 ms, most of a fit on the fan
 (session 45). Here the same steps run point by point in one compiled loop over the bearings' stacked slices
-(`tables.scaled.SliceStack`, `value_at`); a point the loaded slices do not serve is left to the numpy path, which
-loads them.
+(`tables.scaled.SliceStack`, `value_at`); a point the loaded slices do not serve is reported with the bearing and
+Sommerfeld number it missed, so that its owner loads those slices and runs the loop again
+(`ForwardChain._compiled_states`).
 
 A shifted load that would take a film off the tables' Sommerfeld grid is held at the grid's edge: at its top
 (S 13.4) the journal sits within a few percent of the clearance from the centre and the film's K and C hardly depend
