@@ -18,11 +18,13 @@ offset_um = [0.0, {dy}]
 """
 
 
-def uniform_three_bearing_file(tmp_path, *, viscosity=0.03, offset_um=0.0, support=None, name="three"):
+def uniform_three_bearing_file(tmp_path, *, viscosity=0.03, offset_um=0.0, support=None, name="three",
+                               pedestal=None):
     """A uniform 60 mm shaft, 800 mm long, on three equal L/D = 0.5 bearings at its ends and middle (two equal spans)
     with a 40 kg wheel in the middle, coarse films (40 x 20) to keep tests quick; optionally the middle bearing
     raised by `offset_um` and a ball bearing a quarter along with constant stiffness `support` = (kXX, kYY) N/m and
-    1e3 N s/m damping. Returns the file's path."""
+    1e3 N s/m damping; `pedestal` = (mass kg, stiffness N/m, damping N s/m) under the middle bearing. Returns the
+    file's path."""
     elements = ", ".join(f"[{SPAN_MM / 4}, {DIAMETER_MM}]" for _ in range(8))
     text = f"""
 [machine]
@@ -45,7 +47,9 @@ diametral_inertia_kg_m2 = 0.1
 node = 3
 moment_kg_m = 1.0e-4
 phase_deg = 0.0
-""" + "".join(_BEARING.format(node=n, mu=viscosity, dy=offset_um if n == 5 else 0.0) for n in (1, 5, 9))
+""" + "".join(_BEARING.format(node=n, mu=viscosity, dy=offset_um if n == 5 else 0.0)
+             + (f"pedestal_mass_kg = {pedestal[0]:g}\npedestal_stiffness_n_m = {pedestal[1]:g}\n"
+                f"pedestal_damping_ns_m = {pedestal[2]:g}\n" if n == 5 and pedestal else "") for n in (1, 5, 9))
     if support is not None:
         text += f"""
 [[supports]]

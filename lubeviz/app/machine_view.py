@@ -109,10 +109,15 @@ def summary_markdown(m: Machine) -> str:
             b.supply, f"known supply {b.supply_flow * MLMIN_PER_M3S if b.supply_flow else 0:.0f} ml/min")
         lines.append(f"- Q{k + 1}: {plain(b.name or f'bearing {k + 1}')} at node {b.node}: D {b.diameter * 1e3:g} mm, "
                      f"L {b.length * 1e3:g} mm, c {b.clearance * 1e6:g} µm, {len(b.grooves)} groove"
-                     f"{'s' if len(b.grooves) != 1 else ''}; {supply}")
+                     f"{'s' if len(b.grooves) != 1 else ''}; {supply}{_pedestal_words(b.pedestal)}")
     if not unknown:
         lines += ["", "No bearing's supply is unknown: there is nothing to identify on this machine."]
     return "\n".join(lines)
+
+
+def _pedestal_words(p) -> str:
+    """'; on a pedestal (60 kg, 4e+08 N/m)', or '' without one."""
+    return "" if p is None else f"; on a pedestal ({p.mass:g} kg, {p.stiffness:.3g} N/m): its probes ride the housing"
 
 
 # --- the drawing -------------------------------------------------------------------------------------------
@@ -161,17 +166,28 @@ def machine_svg(m: Machine) -> str:
                      f'fill="#51606f" stroke="#222" stroke-width="0.6"><title>{e(d.name or "disc")} '
                      f'(node {d.node})</title></rect>')
     labels = []
+
+    def spring(x, y):  # a pedestal: a spring from the housing's foot (svg x, y) down to a ground line
+        pts = " ".join(f"{x + (5 if i % 2 else -5) * (0 < i < 6):.1f},{y + 2.5 * i:.1f}" for i in range(7))
+        parts.append(f'<polyline points="{pts}" fill="none" stroke="#555" stroke-width="1.2"/>'
+                     f'<line x1="{x - 8:.1f}" y1="{y + 16:.1f}" x2="{x + 8:.1f}" y2="{y + 16:.1f}" stroke="#555" '
+                     'stroke-width="1.5"/>')
+
     for k, b in enumerate(m.bearings):
         x, r, hl = xs[b.node - 1], b.radius * 1e3, max(b.length * 500.0, 3.0 / s)
         for y0 in (r, -r - 25.0):
             parts.append(f'<rect x="{X(x - hl):.1f}" y="{Y(y0 + 25.0):.1f}" width="{2 * hl * s:.1f}" '
                          f'height="{25.0 * s:.1f}" fill="#e8a33d" stroke="#333" stroke-width="0.6"/>')
+        if b.pedestal is not None:
+            spring(X(x), Y(-r - 25.0))
         labels.append((x, f"Q{k + 1}: {b.name or f'bearing {k + 1}'}", "#a0651a"))
     for sp in m.supports:
         x, r = xs[sp.node - 1], m.elements[min(sp.node - 1, len(m.elements) - 1)].diameter * 500.0
         for y0 in (r, -r - 25.0):
             parts.append(f'<rect x="{X(x) - 6:.1f}" y="{Y(y0 + 25.0):.1f}" width="12" height="{25.0 * s:.1f}" '
                          f'fill="#5a9e5a" stroke="#333" stroke-width="0.6"/>')
+        if sp.pedestal is not None:
+            spring(X(x), Y(-r - 25.0))
         labels.append((x, sp.name or "support", "#3c763d"))
     for j, p in enumerate(m.measurement_planes):
         x = X(xs[p.node - 1])
@@ -183,7 +199,7 @@ def machine_svg(m: Machine) -> str:
     for u in _unbalances(m):
         parts.append(f'<text x="{X(xs[u - 1]):.1f}" y="{axis + 5:.1f}" font-size="16" text-anchor="middle" '
                      f'fill="#d62728">★</text>')
-    base = Y(-r_max) + 16
+    base = Y(-r_max) + 16 + (18 if any(p.pedestal is not None for p in (*m.bearings, *m.supports)) else 0)
     for k, (x, text, colour) in enumerate(labels):
         parts.append(f'<text x="{X(x):.1f}" y="{base + 13 * (k % 2):.1f}" font-size="11" text-anchor="middle" '
                      f'fill="{colour}">{e(text)}</text>')
@@ -219,7 +235,8 @@ def machine_svg(m: Machine) -> str:
     defs = ('<defs><marker id="lv-arrow" viewBox="0 0 10 10" refX="5" refY="5" markerWidth="5" markerHeight="5" '
             'orient="auto-start-reverse"><path d="M0,0 L10,5 L0,10 z" fill="#888"/></marker></defs>')
     title = e(f"{m.name}: the machine to scale (▼ probe planes, orange: oil-film bearings, green: other supports, "
-              "★ unbalances); below, each bearing's grooves (blue, rotation arrowed) and each plane's probes")
+              "a spring under one: its pedestal, ★ unbalances); below, each bearing's grooves (blue, rotation "
+              "arrowed) and each plane's probes")
     return (f'<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 {_W:.0f} {height:.0f}" role="img" '
             f'class="lubeviz-machine-drawing"><title>{title}</title>{defs}{"".join(parts)}</svg>')
 

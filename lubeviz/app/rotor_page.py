@@ -546,7 +546,7 @@ class RotorPage(pn.viewable.Viewer):
         modal = data["modal"]
         curves = []
         for j in range(min(4, modal.modes.shape[1])):
-            shape = modal.modes[:, j]
+            shape = modal.modes[:DOF_PER_NODE * xs.size, j]  # the shaft's (a pedestal's housing after it)
             ux = shape[X::DOF_PER_NODE]
             uy = shape[Y::DOF_PER_NODE]
             ref = ux[np.argmax(np.abs(ux))] if np.abs(ux).max() >= np.abs(uy).max() else uy[np.argmax(np.abs(uy))]

@@ -323,7 +323,8 @@ def _candidate_pool(candidates, oil_known: bool, rotor, *, n_planes: int) -> tup
         if nodes:
             pool.append([e.copy(node=n) for n in nodes])
         else:
-            pool.extend(e.placements(n_bearings=len(rotor.bearing_nodes), n_planes=n_planes))
+            pool.extend(p for p in e.placements(n_bearings=len(rotor.bearing_nodes), n_planes=n_planes)
+                        if p.placeable(rotor))
     return pool, orbit
 
 

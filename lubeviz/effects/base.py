@@ -189,6 +189,11 @@ class Effect(param.Parameterized):
         planes (each bearing, plane, channel...): the candidates to try."""
         return [self]
 
+    def placeable(self, rotor) -> bool:
+        """Whether this placement can act on `rotor` (True: the default). A pedestal cannot go under a bearing
+        whose model file declares one."""
+        return True
+
     def scan_nodes(self, rotor) -> tuple[int, ...]:
         """The rotor nodes where this effect can act, when where it acts is a node a diagnosis should scan
         (`diagnose.scan`): every one is fitted and the profile kept. () (the default): no scan, `placements`."""

@@ -60,5 +60,9 @@ class Pedestals(Effect):
         check_bearing_choice(self.bearing, machine, self.effect_name)
         return self
 
+    def placeable(self, rotor) -> bool:
+        return not any(self.applies(k) and rotor.housing("bearing", k) is not None
+                       for k in range(len(rotor.bearing_nodes)))
+
     def placements(self, *, n_bearings: int, n_planes: int):
         return [self.copy(bearing=b) for b in (every_bearing_word(n_bearings), *range(1, n_bearings + 1))]

@@ -122,12 +122,6 @@ class Machine(param.Parameterized):
         if len(self.bearings) + len(self.supports) < 2:
             out.append(f"{len(self.bearings)} [[bearings]] and {len(self.supports)} [[supports]]: a shaft needs two "
                        "supports at least to stand")
-        for k, b in enumerate(self.bearings, start=1):
-            if b.pedestal is not None:
-                out.append(f"[[bearings]] {k} ({b.name}): a pedestal; give it as the pedestals effect today")
-        for k, s in enumerate(self.supports, start=1):
-            if s.pedestal is not None:
-                out.append(f"[[supports]] {k} ({s.name}): a pedestal under a constant support is not in the rotor yet")
         return out
 
     def require_modelled(self, what: str) -> None:

@@ -242,6 +242,7 @@ def film_time_response(rotor: Rotor, bearings: FilmBearings, unbalances: Sequenc
     prediction starts it) instead of extrapolated: the coupling stays stable where the film is far from its
     linearization (large orbits, oil whirl), at 2-3 film solves per bearing and step instead of one.
     """
+    rotor.require_films_on_ground("the time integration on the p-theta films")
     t_start = time.perf_counter()
     nodes = tuple(rotor.bearing_nodes) if nodes is None else tuple(nodes)  # default: at the bearings
     omega = bearings.omega

@@ -15,6 +15,10 @@ df = -dW: (I + K_s K_f^-1) df = K_s dp, so dW = -(I + K_s K_f^-1)^-1 K_s dp. Eac
 |W + dW| / |W| and its lean turns with W + dW. From the shifted loads the films are evaluated again and the same
 solve, with the residual W - W0 + K_s (p(W) - p0) on its right, is a Newton step (`STEPS` of them). A statically
 determinate machine (two bearings, no other support): K_s dp = 0, no shift.
+
+A film over a pedestal yields by its housing's sag too, dW / k_h (the pedestal's stiffness k_h): with H = blockdiag
+(I / k_h) the equilibrium is (I + K_s H) (W - W0) + K_s (dp + K_f^-1 dW) = 0, i.e. the same equations with the shaft's
+stiffness seen through the pedestals, K_s' = (I + K_s H)^-1 K_s (`LoadShift.k_s`).
 """
 
 from __future__ import annotations
@@ -41,8 +45,15 @@ class LoadShift:
         journals = np.concatenate([node_dofs(int(n))[[X, Y]] for n in nodes])
         others = np.setdiff1d(np.arange(rotor.n_dof), journals)
         K = rotor.K
-        self.k_s = K[np.ix_(journals, journals)] - K[np.ix_(journals, others)] @ np.linalg.solve(
+        k_s = K[np.ix_(journals, journals)] - K[np.ix_(journals, others)] @ np.linalg.solve(
             K[np.ix_(others, others)], K[np.ix_(others, journals)])
+        # the housings under the films (uncoupled from the shaft in rotor.K: a film is not in it) add their sag
+        h = np.zeros(2 * len(nodes))
+        for k, n in enumerate(nodes):
+            housing = rotor.bearing_housing(int(n)) if hasattr(rotor, "bearing_housing") else None
+            if housing is not None:
+                h[2 * k:2 * k + 2] = 1.0 / housing.stiffness
+        self.k_s = np.linalg.solve(np.eye(2 * len(nodes)) + k_s * h[None, :], k_s)
 
     def shifted(self, positions, stiffness, loads=None) -> np.ndarray:
         """The loads (..., N, 2) with the journals at `positions` (..., N, 2) in their bearings (m), each film of

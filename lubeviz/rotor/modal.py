@@ -111,7 +111,8 @@ def modal_analysis(rotor: Rotor, omega: float, bearings, *, n_modes: int | None 
         order = order[:n_modes]
     lam, vec = lam[order], vec[:, order]
 
-    qx, qy = vec[X::DOF_PER_NODE], vec[Y::DOF_PER_NODE]  # (n_nodes, n_modes)
+    shaft = rotor.shaft_dofs  # a pedestal's housing moves too; the whirl is the shaft's
+    qx, qy = vec[X:shaft:DOF_PER_NODE], vec[Y:shaft:DOF_PER_NODE]  # (n_nodes, n_modes)
     zf, zb = directional_components(qx, qy)
     orbit = np.abs(zf) + np.abs(zb)  # semi-major axis of each node's orbit
     nodes = (np.argmax(orbit, axis=0) if whirl_node is None

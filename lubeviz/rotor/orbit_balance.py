@@ -499,6 +499,7 @@ def orbit_balance(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unb
     also gives its force's derivative in the supply at fixed motion (`film.linearize.supply_derivative`, one
     back-substitution), and the balance's own Newton matrix carries it to the orbit. No further balance.
     """
+    rotor.require_films_on_ground("the orbit's harmonic balance on the p-theta films")
     t0 = time.perf_counter()
     threads = FILM_THREADS if threads is None else max(1, int(threads))
     H, N = int(harmonics), int(points)

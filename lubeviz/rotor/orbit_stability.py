@@ -344,6 +344,7 @@ def orbit_stability(rotor: Rotor, bearings: FilmBearings, orbit, *, scan: tuple[
     """The real Floquet exponents of `orbit` (an `OrbitBalance` of `rotor` on `bearings`' films) within `scan` x
     Omega: the films re-solved along the orbit (one solve per point and bearing), then Hill's determinant for
     half and whole orders."""
+    rotor.require_films_on_ground("the orbit's Floquet stability")
     if abs(orbit.omega - bearings.omega) > 1e-9 * orbit.omega:
         raise InputError("orbit stability: the orbit and the films have another speed")
     P, V = orbit_tangents(orbit, bearings)

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from .assembly import Rotor, as_bearings, bearing_matrices
+from .assembly import Rotor, as_bearings, bearing_matrices, film_dofs
 from .elements import DOF_PER_NODE, THETA_X, X, Y, node_dofs
 
 
@@ -23,10 +23,13 @@ def _check_gravity(gravity: float) -> float:
 
 
 def gravity_load(rotor: Rotor, gravity: float = 9.81) -> np.ndarray:
-    """Consistent nodal load vector of the rotor's weight (N, N*m), along -Y."""
+    """Consistent nodal load vector of the rotor's weight (N, N*m), along -Y. A pedestal's housing carries its own
+    weight straight to the ground: not in this load (its sag moves housing and journal alike)."""
     u = np.zeros(rotor.n_dof)
-    u[Y::DOF_PER_NODE] = 1.0
-    return -_check_gravity(gravity) * (rotor.M @ u)
+    u[Y:rotor.shaft_dofs:DOF_PER_NODE] = 1.0
+    F = -_check_gravity(gravity) * (rotor.M @ u)
+    F[rotor.shaft_dofs:] = 0.0
+    return F
 
 
 def weight(rotor: Rotor, gravity: float = 9.81) -> float:
@@ -117,8 +120,13 @@ def static_deflection(rotor: Rotor, bearings, gravity: float = 9.81) -> StaticDe
     except np.linalg.LinAlgError:
         raise InputError("the bearings do not restrain the rotor (singular stiffness): "
                          "give non-zero bearing stiffness at two or more nodes") from None
-    forces = np.array([-b.stiffness @ q[b.dofs()] for b in bearings])
-    return StaticDeflection(q=q, x=q[X::DOF_PER_NODE].copy(), y=q[Y::DOF_PER_NODE].copy(),
+    forces = []
+    for b in bearings:  # over a pedestal the film is strained by the journal's motion relative to the housing
+        i, h = film_dofs(rotor, b.node)
+        forces.append(-b.stiffness @ (q[i] - (0.0 if h is None else q[h])))
+    forces = np.array(forces)
+    shaft = rotor.shaft_part(q)
+    return StaticDeflection(q=q, x=shaft[X::DOF_PER_NODE].copy(), y=shaft[Y::DOF_PER_NODE].copy(),
                             bearing_nodes=tuple(b.node for b in bearings), bearing_forces=forces)
 
 
@@ -215,6 +223,7 @@ def coupled_statics(machine, *, max_iter: int = 30) -> CoupledStatics:
         raise InputError(f"{machine.source or machine.name}: bearing(s) {bad} would be lifted off (no downward "
                          f"load on the journal: {np.round(-R[:, 1], 1).tolist()} N): a film cannot carry that")
     dofs = np.array([node_dofs(n)[[X, Y]] for n in nodes])
+    housed = [film_dofs(rotor, n)[1] for n in nodes]  # a pedestal's DOFs under the film, or None
     positions = [None] * len(nodes)
     for it in range(1, max_iter + 1):
         Kf = []
@@ -230,11 +239,18 @@ def coupled_statics(machine, *, max_iter: int = 30) -> CoupledStatics:
         A = rotor.K.copy()
         rhs = F.copy()
         for k in range(len(nodes)):
+            h = housed[k]
             idx = np.ix_(dofs[k], dofs[k])
             A[idx] += Kf[k]
             rhs[dofs[k]] += R[k] + Kf[k] @ (offsets[k] + positions[k])
+            if h is not None:  # the film pushes the housing back as it pushes the journal
+                A[np.ix_(h, h)] += Kf[k]
+                A[np.ix_(dofs[k], h)] -= Kf[k]
+                A[np.ix_(h, dofs[k])] -= Kf[k]
+                rhs[h] -= R[k] + Kf[k] @ (offsets[k] + positions[k])
         u = np.linalg.solve(A, rhs)
-        new = np.array([R[k] - Kf[k] @ (u[dofs[k]] - offsets[k] - positions[k]) for k in range(len(nodes))])
+        new = np.array([R[k] - Kf[k] @ (u[dofs[k]] - (0.0 if housed[k] is None else u[housed[k]]) - offsets[k]
+                                        - positions[k]) for k in range(len(nodes))])
         change = np.max(np.abs(new - R)) / np.max(np.abs(new))
         R = new
         if change < COUPLED_TOL:
@@ -244,8 +260,12 @@ def coupled_statics(machine, *, max_iter: int = 30) -> CoupledStatics:
 
         raise ConvergenceError(f"coupled statics: the loads still changed by {change:.1e} after {max_iter} steps")
     full = -R
-    support_forces = np.array([-(np.asarray(k) @ u[node_dofs(n)[[X, Y]]]) for n, k, _ in rotor.supports]) \
-        if rotor.supports else np.zeros((0, 2))
+    support_forces = []
+    for j, (n, k, _) in enumerate(rotor.supports):  # over a pedestal: the shaft's motion relative to the housing
+        h = rotor.housing("support", j)
+        rel = u[node_dofs(n)[[X, Y]]] - (0.0 if h is None else u[list(h.dofs)])
+        support_forces.append(-(np.asarray(k) @ rel))
+    support_forces = np.array(support_forces) if support_forces else np.zeros((0, 2))
     out = CoupledStatics(loads=full, positions=np.array(positions), pinned_loads=pinned,
                          support_forces=support_forces, iterations=it,
                          horizontal_share=float(np.max(np.abs(full[:, 0]) / np.abs(full[:, 1]))))

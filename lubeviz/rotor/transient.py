@@ -28,7 +28,7 @@ import numpy as np
 import scipy.linalg
 
 from ..errors import InputError
-from .assembly import Rotor, bearing_matrices
+from .assembly import Rotor, bearing_matrices, probe_housings
 from .elements import DOF_PER_NODE, X, Y, node_dofs
 from .modal import state_matrix
 from .response import Unbalance, unbalance_force
@@ -232,9 +232,10 @@ def node_output_dofs(nodes: Sequence[int]) -> np.ndarray:
 def unbalance_time_response(rotor: Rotor, omega: float, unbalances: Sequence[Unbalance], bearings, *,
                             duration: float = 15.0, dt: float = 1e-4, keep_last: float | None = 5.0,
                             nodes: Sequence[int] | None = None, method: str = "exact",
-                            system: LinearSystem | None = None) -> TimeResponse:
+                            system: LinearSystem | None = None, probes: bool = False) -> TimeResponse:
     """The paper's reference response: start at rest, integrate `duration` s, keep the last `keep_last` s, at
-    `nodes` (default: the bearings' nodes).
+    `nodes` (default: the bearings' nodes). `probes`: each node as its probes read it, relative to the pedestal they
+    ride on (`assembly.probe_housings`; the same as the shaft's motion without pedestals).
 
     The unbalance force of Eq. 9 (a force turning with the shaft) is sampled every `dt`.
     """
@@ -250,8 +251,21 @@ def unbalance_time_response(rotor: Rotor, omega: float, unbalances: Sequence[Unb
     force = (F[force_dofs, None] * np.exp(1j * omega * t)[None, :]).real
     for n in nodes:
         rotor.check_node(n, "output node")
-    return simulate(system, dt, force, force_dofs, output_dofs=node_output_dofs(nodes), keep_from=keep_from,
-                    method=method)
+    out = node_output_dofs(nodes)
+    housings = probe_housings(rotor, nodes) if probes else [None] * len(nodes)
+    if all(h is None for h in housings):
+        return simulate(system, dt, force, force_dofs, output_dofs=out, keep_from=keep_from, method=method)
+    ref = np.concatenate([h if h is not None else np.full(2, -1) for h in housings])
+    extra = np.unique(ref[ref >= 0])
+    tr = simulate(system, dt, force, force_dofs, output_dofs=np.concatenate([out, extra]), keep_from=keep_from,
+                  method=method)
+    d, v = tr.displacement[:out.size].copy(), tr.velocity[:out.size].copy()
+    for i, r in enumerate(ref):
+        if r >= 0:
+            j = out.size + int(np.searchsorted(extra, r))
+            d[i] -= tr.displacement[j]
+            v[i] -= tr.velocity[j]
+    return TimeResponse(t=tr.t, dofs=out, displacement=d, velocity=v, method=tr.method, seconds=tr.seconds)
 
 
 __all__ = ["DOF_PER_NODE", "LinearSystem", "TimeResponse", "linear_system", "node_output_dofs", "simulate",

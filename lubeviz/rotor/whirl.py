@@ -114,6 +114,7 @@ def whirl_onset(rotor: Rotor, bearings: FilmBearings, unbalances: Sequence[Unbal
     equilibrium, e.g. `OrbitBalance.state()`; default the linear steady orbit) disturbed along its least
     stable mode by `kick` of the clearance (largest journal displacement). Refuses a duration over which an
     unstable whirl would grow beyond a fraction of the clearance (`reach_time`)."""
+    rotor.require_films_on_ground("the whirl's onset on the p-theta films")
     stab = stability or equilibrium_stability(rotor, bearings)
     check_duration(stab, duration, kick)
     n = rotor.n_dof

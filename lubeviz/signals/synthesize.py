@@ -27,7 +27,7 @@ import numpy as np
 
 from ..errors import InputError
 from .records.record import MAX_PLANES
-from ..rotor.assembly import rotor_from_machine
+from ..rotor.assembly import probe_housings, rotor_from_machine
 from ..rotor.film_bearings import FilmBearings, film_bearings
 from ..rotor.response import machine_unbalance, unbalance_response
 from ..rotor.transient import unbalance_time_response
@@ -56,6 +56,8 @@ def synthesize_record(machine, flows: Sequence[float], *, nodes: Sequence[int] |
         raise InputError(f"a record has 2 to {MAX_PLANES} distinct measurement planes; got nodes {nodes!r}")
     omega = 2.0 * math.pi * speed_hz
     rotor = rotor_from_machine(machine) if rotor is None else rotor
+    if method == "orbit":  # before any film solve
+        rotor.require_films_on_ground("simulate --method orbit (the films solved along the orbit)")
     fb = film_bearings(machine, flows, omega) if bearings is None else bearings
     dt = 1.0 / sample_rate_hz
     extra = {}
@@ -68,14 +70,18 @@ def synthesize_record(machine, flows: Sequence[float], *, nodes: Sequence[int] |
                              f"ml/min the machine is {stab.describe()}: there is no steady 1X orbit to record; "
                              "choose flows nearer the bearings' Q_T, or --method orbit for the whirl's onset")
         tr = unbalance_time_response(rotor, omega, machine_unbalance(machine), fb.coefficients,
-                                     duration=total_s, dt=dt, keep_last=duration_s, nodes=nodes)
+                                     duration=total_s, dt=dt, keep_last=duration_s, nodes=nodes, probes=True)
         t = tr.t
         xy = tr.displacement.reshape(len(nodes), 2, -1)
     elif method == "steady":
         r = unbalance_response(rotor, omega, machine_unbalance(machine), fb.coefficients, nodes=nodes)
         n_keep = int(round(duration_s * sample_rate_hz))
         t = total_s - duration_s + dt * np.arange(1, n_keep + 1)  # the same samples as "time" keeps
-        xy = steady_signals(r.x, r.y, omega, t)
+        x, y = r.x.copy(), r.y.copy()
+        for k, h in enumerate(probe_housings(rotor, nodes)):  # probes on a pedestal read the shaft relative to it
+            if h is not None:
+                x[k], y[k] = x[k] - r.q[h[0]], y[k] - r.q[h[1]]
+        xy = steady_signals(x, y, omega, t)
     elif method == "orbit":
         from ..progress import silent
         from ..rotor.orbit_balance import orbit_balance

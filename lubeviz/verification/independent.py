@@ -284,15 +284,22 @@ def _plane_housing(rotor: Rotor, node: int) -> int:
 
 
 def _check_machine(machine) -> None:
-    """Refuse what this source does not build: a pedestal declared in the model file (give the pedestals effect)."""
-    for k, b in enumerate(machine.bearings, start=1):
-        if getattr(b, "pedestal", None) is not None:
-            raise InputError(f"{machine.source or machine.name} [[bearings]] {k} ({b.name}): a pedestal in the model "
-                             "file; the independent source takes it as the pedestals effect")
+    """Refuse what this source does not build: a pedestal under a constant support (a pedestal under a fluid-film
+    bearing is built: a housing mass on its spring and damper, the film between journal and housing)."""
     for k, s in enumerate(getattr(machine, "supports", ()), start=1):
         if getattr(s, "pedestal", None) is not None:
             raise InputError(f"{machine.source or machine.name} [[supports]] {k} ({s.name}): a pedestal under a "
                              "constant support is not built by the independent source")
+
+
+def _sag_compliance(machine) -> np.ndarray:
+    """(2N,) each journal's extra static compliance (m/N) from the pedestal its model file puts under its bearing: the
+    housing yields by W / k along the load W the film carries (0 without a pedestal)."""
+    h = np.zeros(2 * len(machine.bearings))
+    for k, b in enumerate(machine.bearings):
+        if getattr(b, "pedestal", None) is not None:
+            h[2 * k:2 * k + 2] = 1.0 / b.pedestal.stiffness
+    return h
 
 
 def _xy(node: int) -> np.ndarray:
@@ -312,6 +319,24 @@ def _static_shape(rotor: Rotor, gravity: float, journal_positions, extra=None) -
         F = F + extra
     q[free] = np.linalg.solve(rotor.K[np.ix_(free, free)], F[free])
     return q
+
+
+def _rest_sag(rotor: Rotor, gravity: float, rest, extra, H) -> np.ndarray:
+    """(N, 2) each pedestal's sag (m) at rest, each journal on its bearing at `rest` (N, 2) from the straight line
+    plus the sag: with R(g) = R0 + S g the journals' force on the shaft held at g, g = rest - H R solves
+    (I + S H) R = R0 + S rest. Zero without pedestals (H = 0)."""
+    h = np.ravel(H)
+    if not np.any(h):
+        return np.zeros_like(np.asarray(rest, float))
+    fixed = np.concatenate([_xy(b) for b in rotor.bearing_nodes])
+    free = np.setdiff1d(np.arange(rotor.n_dof), fixed)
+    F = gravity_load(rotor, gravity) + (0.0 if extra is None else extra)
+    K = rotor.K
+    solved = np.linalg.solve(K[np.ix_(free, free)], np.column_stack([F[free], K[np.ix_(free, fixed)]]))
+    R0 = K[np.ix_(fixed, free)] @ solved[:, 0] - F[fixed]
+    S = K[np.ix_(fixed, fixed)] - K[np.ix_(fixed, free)] @ solved[:, 1:]
+    R = np.linalg.solve(np.eye(h.size) + S * h[None, :], R0 + S @ np.ravel(rest))
+    return (-h * R).reshape(-1, 2)
 
 
 def _pinned_reactions(rotor: Rotor, F: np.ndarray) -> np.ndarray:
@@ -373,12 +398,16 @@ class _Build:
 
 
 def _system(spec: IndependentSpec, rotor: Rotor, machine, omega: float, films) -> _Build:
-    peds = {}
+    peds = {k: {"mass_kg": b.pedestal.mass, "stiffness_n_m": b.pedestal.stiffness,
+                "damping_ns_m": b.pedestal.damping}
+            for k, b in enumerate(machine.bearings) if getattr(b, "pedestal", None) is not None}
+    declared = set(peds)
     for name, p in spec.effects:
         if name == "pedestals":
             for k in _bearings_of(p, len(rotor.bearing_nodes)):
                 if k in peds:
-                    raise InputError(f"effect pedestals: bearing {k + 1} is given a pedestal twice")
+                    raise InputError(f"effect pedestals: bearing {k + 1} is given a pedestal twice"
+                                     + (" (its model file declares one)" if k in declared else ""))
                 peds[k] = p
     n_r = rotor.n_dof
     n = n_r + 2 * len(peds)
@@ -529,7 +558,8 @@ def _coupled_statics(machine, rotor: Rotor, omega: float, bearings, flows, side,
     R0 = K[np.ix_(fixed, free)] @ solved[:, 0] - F[fixed]
     S = K[np.ix_(fixed, fixed)] - K[np.ix_(fixed, free)] @ solved[:, 1:]
     d = _offsets(machine).ravel()
-    R = R0 + S @ d  # the stiff-film limit: journals pinned at the bearing centres
+    H = _sag_compliance(machine)  # a pedestal's housing sags by -H R: the journal's place on the ground moves with it
+    R = np.linalg.solve(np.eye(2 * n) + S * H[None, :], R0 + S @ d)  # stiff films: journals at the bearing centres
     scale = float(np.max(np.abs(R)))
     residual = math.inf
     for it in range(1, STATIC_MAX_ITER + 1):
@@ -541,18 +571,19 @@ def _coupled_statics(machine, rotor: Rotor, omega: float, bearings, flows, side,
             raise ConvergenceError(f"independent statics, step {it}: loads {np.round(loads, 1).tolist()} N: {exc}") \
                 from None
         p = np.concatenate([f.position for f in films])
-        r = R - (R0 + S @ (d + p))
+        r = R - (R0 + S @ (d + p - H * R))
         last, residual = residual, float(np.max(np.abs(r)) / max(float(np.max(np.abs(R))), 1e-12 * scale))
         if residual < STATIC_TOLERANCE or (residual < STATIC_FLOOR and residual > 0.5 * last):
             break
-        Kf = scipy.linalg.block_diag(*[f.K for f in films])
+        # each film in series with its housing's spring: stiffness (K^-1 + H)^-1, the journal at p - H R
+        Kf = np.linalg.inv(scipy.linalg.block_diag(*[np.linalg.inv(f.K) for f in films]) + np.diag(H))
         dp = np.linalg.solve(S + Kf, r)
         R = R - Kf @ dp
     else:
         raise ConvergenceError(f"independent statics: the films' forces still differ from the shaft's reactions by "
                                f"{residual:.1e} (relative) after {STATIC_MAX_ITER} steps")
     positions = p.reshape(n, 2)
-    q = _static_shape(rotor, machine.gravity, positions + _offsets(machine), side)
+    q = _static_shape(rotor, machine.gravity, positions + _offsets(machine) + (H * loads.ravel()).reshape(n, 2), side)
     return StaticEquilibrium(loads=loads, positions=positions, films=tuple(films),
                              support_forces=_support_forces(rotor, q), iterations=it, residual=residual,
                              determinate=False)
@@ -652,10 +683,15 @@ def _truth(spec: IndependentSpec, prepared) -> dict:
     clear = [ch["clearance"] for ch in changes]
     offsets = _offsets(machine)
     side = _side_force(spec, rotor)
-    q_run = _static_shape(rotor, machine.gravity, pos + offsets, side)
-    p_run = q_run[np.array(shaft)] - offsets[housing]
-    p_rest = _static_shape(rotor, machine.gravity, np.array([(0.0, -c) for c in clear]) + offsets,
-                           side)[np.array(shaft)] - offsets[housing]
+    # a pedestal's housing sags along the load its film carries, and its probes sag with it
+    H = _sag_compliance(machine).reshape(-1, 2)
+    sag_run = H * np.asarray(statics.loads, float)
+    rest = np.array([(0.0, -c) for c in clear]) + offsets
+    sag_rest = _rest_sag(rotor, machine.gravity, rest, side, H)
+    q_run = _static_shape(rotor, machine.gravity, pos + offsets + sag_run, side)
+    p_run = q_run[np.array(shaft)] - offsets[housing] - sag_run[housing]
+    p_rest = _static_shape(rotor, machine.gravity, rest + sag_rest, side)[np.array(shaft)] - offsets[housing] \
+        - sag_rest[housing]
 
     angles, gain = _probes(spec)
     u = np.stack([np.cos(angles), np.sin(angles)], axis=-1)  # (plane, probe, xy): where each probe points

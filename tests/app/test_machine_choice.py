@@ -78,6 +78,16 @@ def test_the_drawing_shows_every_part_and_names_from_the_file_only_as_text(tmp_p
     assert "<script" not in text and "Q3:" in text
 
 
+def test_a_pedestal_is_drawn_as_a_spring_under_its_bearing_and_named_in_the_summary(tmp_path):
+    anchor = b'name = "sleeve C (non-drive end)"'
+    text = FAN.read_bytes().replace(anchor, anchor + b"\npedestal_mass_kg = 60.0\npedestal_stiffness_n_m = 4.0e8"
+                                                     b"\npedestal_damping_ns_m = 2.0e4", 1)
+    m = machine_from_upload(text, "fan.toml", tmp_path)
+    assert machine_svg(m).count("<polyline") == 1 and "<polyline" not in machine_svg(load_machine(FAN))
+    summary = summary_markdown(m)
+    assert summary.count("on a pedestal (60 kg, 4e+08 N/m)") == 1 and "Q3:" in summary.split("on a pedestal")[0]
+
+
 def test_the_two_groove_bearing_is_drawn_with_two_grooves_where_the_file_puts_them():
     m = load_machine(MODELS_DIR / "overhung_pump.toml")
     svg = machine_svg(m)
@@ -97,7 +107,8 @@ def test_the_template_is_a_valid_model_file_naming_every_table_of_spec_8():
                   "[[supports]]", "[[planes]]"):
         assert table in text, table
     for key in ("supply", "supply_mlmin", "offset_um", "grooves", "probe_angles_deg", "elements_mm",
-                "mass_kg", "stiffness_n_m", "damping_ns_m"):
+                "mass_kg", "stiffness_n_m", "damping_ns_m", "pedestal_mass_kg", "pedestal_stiffness_n_m",
+                "pedestal_damping_ns_m"):
         assert key in text, key
     tomllib.loads(text)
     for step in ("[machine]", "[shaft]", "[[bearings]]", "[[planes]]"):

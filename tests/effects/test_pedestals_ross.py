@@ -18,10 +18,9 @@ by 33-79 % of their journal's amplitude in these cases (ROSS's numbers):
 2. what the probes read, the shaft relative to the housing of the plane's bearing (absolute where the
    bearing has no pedestal): the forward chain's `output` (the rank-4 update the identification uses) and
    `direct_output` (its assembled check), planes at the journals (6, 20) and outboard of them (5, 21);
-3. natural frequencies on pedestals: not compared. lubeviz exposes no eigen-analysis that includes the
-   pedestals (`rotor.modal.modal_analysis` and `campbell` take one (K, C) per bearing to ground; the
-   pedestal exists only as the frequency-dependent B_eff of the forward chain, which is not a
-   constant-coefficient eigenproblem), so there is nothing of lubeviz's to check there.
+3. natural frequencies on pedestals: the effect's series support exists at one frequency only, so its modes are
+   not compared here; a pedestal declared in the model file gives the housing two DOFs of the rotor, and its modes
+   are compared with ROSS's in tests/rotor/test_declared_pedestals.py (to 1e-6).
 
 The bearings are constant, anisotropic and cross-coupled, different at the two bearings, with
 cxy != cyx at bearing 2 (a transposed C would show), so the series combination is exercised as a full

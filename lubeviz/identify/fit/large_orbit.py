@@ -150,6 +150,7 @@ class OrbitFit:
 def check_orbit_chain(chain: ForwardChain) -> None:
     """Large orbits are computed on the declared machine: no effect may change the machine, the rotor or the
     forcing underneath (probe effects, which act after the response, are fine)."""
+    chain.rotor.require_films_on_ground("large_orbit (the films solved along the orbit)")
     other = [e.label() for e in chain.effects if e.stage != "probes"]
     if other:
         raise InputError(f"large_orbit combines with probe effects only (the balance runs on the declared "

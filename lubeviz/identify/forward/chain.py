@@ -38,7 +38,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...progress import ProgressFn, silent
-from ...rotor.assembly import bearing_matrices, rotor_from_machine
+from ...rotor.assembly import bearing_matrices, film_dofs, probe_housings, rotor_from_machine
 from ...rotor.elements import X, Y, node_dofs
 from ...rotor.response import dynamic_stiffness, machine_unbalance, unbalance_force
 from ...rotor import load_shift
@@ -413,6 +413,9 @@ class ForwardChain:
             if len(on_k) > 1:
                 raise InputError(f"bearing {k + 1} is given a pedestal twice ({', '.join(on_k)}); "
                                  "one pedestals effect per bearing")
+            if on_k and self.rotor.housing("bearing", k) is not None:
+                raise InputError(f"bearing {k + 1} stands on the pedestal its model file declares; {on_k[0]} would "
+                                 "put a second one under it")
         if tables is None:
             from ..tables.cache import machine_tables
 
@@ -709,9 +712,22 @@ class ForwardChain:
         rhs = np.zeros((rotor.n_dof, nf + nu), dtype=complex)
         rhs[:, :nf] = np.stack(shapes, axis=1)
         rhs[self._U, nf + np.arange(nu)] = 1.0
+        # a film over a declared pedestal acts between journal and housing: its unit loads push both, and the
+        # journal's motion that strains it (x_U) is relative to the housing, as are the probes riding on it
+        housings = [film_dofs(rotor, n)[1] for n in rotor.bearing_nodes]
+        for k, h in enumerate(housings):
+            if h is not None:
+                rhs[h, nf + 2 * k + np.arange(2)] = -1.0
         sol = _reference_solve(rotor, omega, B0, rhs)
-        self._x0_out, self._x0_U = sol[out, :nf], sol[self._U, :nf]  # (2P, nf), (2N, nf)
-        self._Z_out, self._W = sol[out, nf:], sol[self._U, nf:]
+        journal, read = sol[self._U], sol[out]
+        for k, h in enumerate(housings):
+            if h is not None:
+                journal[2 * k:2 * k + 2] -= sol[h]
+        for p, h in enumerate(probe_housings(rotor, self.nodes)):
+            if h is not None:
+                read[2 * p:2 * p + 2] -= sol[h]
+        self._x0_out, self._x0_U = read[:, :nf], journal[:, :nf]  # (2P, nf), (2N, nf)
+        self._Z_out, self._W = read[:, nf:], journal[:, nf:]
         self._n_forcing = nf
         # a plane at a bearing's centre node reads that bearing's static position (SPEC §6)
         self._plane_bearing = tuple(self.plane_bearing(p) for p in range(self.n_planes))
@@ -827,9 +843,13 @@ class ForwardChain:
         for k, (change, (K, C, pos)) in enumerate(self.bearing_states(theta, ())):
             clearance = float(change.clearance)
             B = K + 1j * omega * C
-            jd = node_dofs(rotor.bearing_nodes[k])[[X, Y]]
+            jd, declared = film_dofs(rotor, rotor.bearing_nodes[k])
             other = hdofs.get(k)
             D[np.ix_(jd, jd)] += B
+            if declared is not None:  # the model file's pedestal: in the rotor, the film acts against it
+                D[np.ix_(declared, declared)] += B
+                D[np.ix_(jd, declared)] -= B
+                D[np.ix_(declared, jd)] -= B
             if other is not None:
                 e = next(e for e in self.effects if e.applies(k))
                 m, s, c = e.housing(self._values(theta, e))
@@ -848,6 +868,9 @@ class ForwardChain:
         for p, k in enumerate(self._plane_housing):
             if k in hdofs:
                 d[p] = d[p] - q[hdofs[k]]
+        for p, h in enumerate(probe_housings(rotor, self.nodes)):
+            if h is not None:
+                d[p] = d[p] - q[h]
         if self.defect is not None:
             dd, ds = self.defect.at(theta[:nb])
             d, static = d + dd, static + ds

@@ -149,6 +149,9 @@ class ForwardModel:
             raise InputError("coefficient tables at different speeds")
         self.omega = omega
         self.rotor = rotor_from_machine(machine) if rotor is None else rotor
+        if any(h.part == "bearing" for h in self.rotor.housings):
+            raise InputError("the paper's table model (paper mode, its maps) takes its films on the ground; this "
+                             "machine's bearings stand on pedestals: use best mode")
         self.nodes = tuple(self.rotor.check_node(int(n), "measurement node") for n in nodes)
         if len(self.nodes) != 2:
             raise InputError(f"two measurement planes expected, got nodes {self.nodes}")
