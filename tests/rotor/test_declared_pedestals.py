@@ -97,6 +97,29 @@ def test_a_pedestal_effect_on_a_declared_pedestal_is_refused_and_not_a_candidate
     assert placed == [2]
 
 
+def test_the_time_response_reads_the_probes_against_the_housing_as_the_steady_response_does(machine):
+    """`unbalance_time_response(probes=True)` (what `simulate --method time` records) against the steady phasors of
+    the shaft minus its housing: the same 1X once the start-up has decayed."""
+    from lubeviz.rotor.transient import unbalance_time_response
+
+    omega = 2 * math.pi * 75.0
+    rotor = rotor_from_machine(on_pedestals(machine))
+    nodes = (6, 13, 20)
+    steady = unbalance_response(rotor, omega, machine_unbalance(machine), BEARINGS, nodes=nodes)
+    tr = unbalance_time_response(rotor, omega, machine_unbalance(machine), BEARINGS, duration=3.0, dt=2e-4,
+                                 keep_last=1.0, nodes=nodes, probes=True)
+    housings = [list(rotor.housing("bearing", 0).dofs), list(rotor.housing("bearing", 0).dofs),
+                list(rotor.housing("bearing", 1).dofs)]  # node 13 is as near bearing 1 as bearing 2: the first
+    for i, h in enumerate(housings):
+        for j, phasor in enumerate((steady.x[i] - steady.q[h[0]], steady.y[i] - steady.q[h[1]])):
+            expected = (phasor * np.exp(1j * omega * tr.t)).real
+            got = tr.displacement[2 * i + j]
+            assert np.max(np.abs(got - expected)) < 1e-3 * np.max(np.abs(expected)), (nodes[i], j)
+    absolute = unbalance_time_response(rotor, omega, machine_unbalance(machine), BEARINGS, duration=3.0, dt=2e-4,
+                                       keep_last=1.0, nodes=nodes)
+    assert np.max(np.abs(absolute.displacement - tr.displacement)) > 0.05 * np.max(np.abs(tr.displacement))
+
+
 # --- ROSS -------------------------------------------------------------------------------------------------------
 
 def ross_rotor(machine, pedestals=PEDESTALS):
