@@ -16,6 +16,7 @@ from .base import EFFECTS, STAGES, Effect, Registry, register
 from .viscosity import Viscosity
 from .oil_temperature import OilTemperature
 from .clearance import Clearance
+from .misalignment import Misalignment
 from .side_load import SideLoad
 from .unbalance2 import Unbalance2
 from .pedestals import Pedestals
@@ -35,6 +36,6 @@ def parse_effects(texts: Iterable[str]) -> tuple[Effect, ...]:
     return tuple(parse_effect(t) for t in texts)
 
 
-__all__ = ["EFFECTS", "STAGES", "Bow", "Clearance", "Effect", "LargeOrbit", "OilTemperature", "Pedestals", "ProbeGain",
+__all__ = ["EFFECTS", "STAGES", "Bow", "Clearance", "Effect", "LargeOrbit", "Misalignment", "OilTemperature", "Pedestals", "ProbeGain",
            "ProbeRotation", "Registry", "SideLoad", "Unbalance2", "Viscosity", "Wiring", "bow_shape", "parse_effect",
            "parse_effects", "register"]

@@ -83,6 +83,11 @@ class Effect(param.Parameterized):
         """What this effect changes of bearing `k` (0-based): {'viscosity_factor': x, 'clearance': m}, or {}."""
         return {}
 
+    def bearing_offset(self, k: int, values: dict, shape):
+        """How far bearing `k`'s (0-based) centre sits from its declared place, (..., 2) m (dX, dY), or None. On 3+
+        supports it moves the static loads (`rotor.load_shift`); two supports do not notice."""
+        return None
+
     # rotor stage: extra synchronous forcing
     def forcing_shapes(self, rotor, omega: float, machine) -> list:
         """Force vectors (rotor DOFs) whose weighted sum this effect adds to the unbalance's; [] for none."""

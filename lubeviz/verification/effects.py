@@ -30,6 +30,10 @@ physics lives where the record is built (`independent.py`), each hook a few line
   film solved at its own load, in its own direction (a horizontal part turns the film's load line: the
   diagnosis's tables hold vertical loads only, so such a record is outside its library).
 
+- `misalignment` (bearing 1|2|..., dx_um = 0, dy_um = 0): that bearing's centre moved from where the model file
+  puts it (its offset_um plus these), the housing and its probes with it: on 3+ supports the shaft held at the
+  journals' new places shares its weight otherwise (a statically determinate machine does not notice).
+
 Nodes are given in the machine's own numbering (the paper's 1..21), whatever the independent rotor's
 finer mesh. Effects compose: a list of them is applied in order (gains multiply, rotations add,
 unbalances and bows add; a bearing's pedestal can be given once).
@@ -57,6 +61,7 @@ EFFECTS: dict[str, dict[str, object]] = {
     "bow": {"node": REQUIRED, "amplitude_um": REQUIRED, "phase_deg": 0.0},
     "seal": {"node": REQUIRED, "kxy_n_m": REQUIRED, "kxx_n_m": 0.0},
     "side_load": {"node": REQUIRED, "force_n": REQUIRED, "moment_nm": 0.0, "angle_deg": 0.0},
+    "misalignment": {"bearing": REQUIRED, "dx_um": 0.0, "dy_um": 0.0},
 }
 
 

@@ -264,6 +264,22 @@ def _offsets(machine) -> np.ndarray:
     return np.array([tuple(getattr(b, "offset", (0.0, 0.0))) for b in machine.bearings], dtype=float).reshape(-1, 2)
 
 
+def _misaligned(machine, effects):
+    """`machine` with each `misalignment` effect's move added to its bearing's offset (the file's machine itself when
+    there is none): the statics, the static shape and the readings then take the bearing where it is."""
+    moves = [(p, _bearings_of(p, len(machine.bearings))) for name, p in effects if name == "misalignment"]
+    if not moves:
+        return machine
+    bearings = list(machine.bearings)
+    for p, ks in moves:
+        for k in ks:
+            dx, dy = tuple(getattr(bearings[k], "offset", (0.0, 0.0)))
+            bearings[k] = bearings[k].copy(offset=(dx + 1e-6 * float(p["dx_um"]), dy + 1e-6 * float(p["dy_um"])))
+    moved = load_machine(Path(machine.source)) if machine.source else load_machine()
+    moved.bearings = bearings
+    return moved
+
+
 def _bearings_of(params, n: int) -> tuple[int, ...]:
     """0-based bearing indices an effect with a `bearing` parameter applies to: `both` is every one of the
     machine's n fluid-film bearings."""
@@ -593,7 +609,7 @@ def static_equilibrium(machine: str | None = None, speed_hz: float | None = None
                        mesh=None, use_cache: bool = True) -> StaticEquilibrium:
     """The independent source's static equilibrium of `machine` (a model file, default the paper's) at `speed_hz`
     (default its operating speed) and supply flows `q_mlmin` (every fluid-film bearing's, file order), with
-    the effects that change it (viscosity, clearance, side_load). `mesh` (n_circumferential, n_axial): the films
+    the effects that change it (viscosity, clearance, side_load, misalignment). `mesh` (n_circumferential, n_axial): the films
     on another mesh than the fine one (a quick check; records always use the fine mesh). What `make_record`
     uses for the same spec (with mesh=None)."""
     m = _machine(machine)
@@ -604,6 +620,7 @@ def static_equilibrium(machine: str | None = None, speed_hz: float | None = None
         raise InputError(f"static_equilibrium: q_mlmin = {q_mlmin!r}; expected every fluid-film bearing's flow "
                          "(ml/min) in file order")
     spec = IndependentSpec(speed_hz=speed, q_mlmin=tuple(q_mlmin), effects=effects, machine=machine)
+    m = _misaligned(m, spec.effects)
     omega = 2.0 * math.pi * spec.speed_hz
     bearings = _film_bearings(m, _bearing_changes(spec.effects, m), mesh)
     flows = tuple(q / MLMIN_PER_M3S for q in spec.flows_mlmin)
@@ -648,7 +665,7 @@ def _resolve(readings, declared_deg):
 
 def _prepare(spec: IndependentSpec, use_cache: bool):
     """Films, the linear system and its eigenvalues (first-order form) of one spec."""
-    machine = _machine(spec.machine)
+    machine = _misaligned(_machine(spec.machine), spec.effects)
     _check_machine(machine)
     rotor = split_rotor(spec.machine)
     for node in spec.nodes:

@@ -586,17 +586,35 @@ class ForwardChain:
         if self._shift is None:
             states = [src.evaluate(theta[..., k], *changes[k]) for k, src in enumerate(self.sources)]
             return list(zip(changes, states)), None
-        compiled = self._compiled_states(theta, changes, shape)
+        offsets = self.bearing_offsets(theta, shape)
+        compiled = self._compiled_states(theta, changes, shape, offsets)
         if compiled is not None:
             return compiled
-        return self._numpy_states(theta, changes)
+        return self._numpy_states(theta, changes, offsets)
 
-    def _numpy_states(self, theta, changes):
-        """`_states` on 3+ supports in numpy: every bearing's table evaluated (which loads the slices it needs)."""
+    def bearing_offsets(self, theta, shape=()):
+        """(..., N, 2) how far each bearing's centre sits from its declared place at parameters theta (the
+        bearings-stage effects' `bearing_offset`, m), or None when no effect moves one."""
+        out = None
+        for e in self.effects:
+            if e.stage != "bearings":
+                continue
+            for k in range(self.n_flows):
+                d = e.bearing_offset(k, self._values(theta, e), shape)
+                if d is not None:
+                    if out is None:
+                        out = np.zeros(shape + (self.n_flows, 2))
+                    out[..., k, :] += d
+        return out
+
+    def _numpy_states(self, theta, changes, offsets=None):
+        """`_states` on 3+ supports in numpy: every bearing's table evaluated (which loads the slices it needs). A
+        moved bearing (`offsets`) holds its journal that much away from the shaft's flooded line."""
         states = [src.evaluate(theta[..., k], *changes[k]) for k, src in enumerate(self.sources)]
         loads = None
         for _ in range(load_shift.STEPS):
-            loads = self._shift.shifted(np.stack([st[2] for st in states], axis=-2),
+            positions = np.stack([st[2] for st in states], axis=-2)
+            loads = self._shift.shifted(positions if offsets is None else positions + offsets,
                                         np.stack([st[0] for st in states], axis=-3), loads)
             factors = self._within_grid(np.linalg.norm(loads, axis=-1) / np.linalg.norm(self.loads, axis=-1),
                                         changes)
@@ -623,7 +641,7 @@ class ForwardChain:
                                                                           out[..., k]))
         return out
 
-    def _compiled_states(self, theta, changes, shape):
+    def _compiled_states(self, theta, changes, shape, offsets=None):
         """`_states` through `forward.shifted` (one compiled loop over the points). The slices a point misses (a
         load shifted beyond the four slices about the flooded one) are loaded, or built, for each bearing at once
         (`BearingSource.load_slices`) and the loop run again; a point still not served (a Sommerfeld number off the
@@ -645,6 +663,8 @@ class ForwardChain:
             return np.stack(cols, axis=-1).reshape(-1, n)
 
         q = np.broadcast_to(theta[..., :n], shape + (n,)).reshape(-1, n)
+        reference = self._shift.reference if offsets is None else \
+            (self._shift.reference - np.broadcast_to(offsets, shape + (n, 2))).reshape(-1, n, 2)
         f, c, lf = columns("viscosity_factor"), columns("clearance", declared), columns("load_factor")
         for attempt in range(3):
             packed = self._packed
@@ -661,9 +681,8 @@ class ForwardChain:
                 packed = self._packed = packed_stacks(stacks, angles)
             self._packed_held = tuple((src._held, src._held.table, len(src._held.table.slices))
                                       for src in self.sources)
-            out, factors, loads, served, missed = shifted_states(packed, q, f, c, lf, self._shift.k_s,
-                                                                 self._shift.reference, self._shift.loads,
-                                                                 load_shift.STEPS)
+            out, factors, loads, served, missed = shifted_states(packed, q, f, c, lf, self._shift.k_s, reference,
+                                                                 self._shift.loads, load_shift.STEPS)
             if served.all() or attempt == 2:
                 break
             # the slices a point missed: loaded (or built) for each bearing at once, and the loop run again
@@ -678,7 +697,8 @@ class ForwardChain:
             flat = np.broadcast_to(theta, shape + theta.shape[-1:]).reshape(-1, theta.shape[-1])[bad]
             sub = [ch._replace(**{name: np.broadcast_to(np.asarray(getattr(ch, name), dtype=float), shape).ravel()[bad]
                                   for name in ch._fields if getattr(ch, name) is not None}) for ch in changes]
-            sub_states, sub_loads = self._numpy_states(flat, sub)
+            sub_off = None if offsets is None else np.broadcast_to(offsets, shape + (n, 2)).reshape(-1, n, 2)[bad]
+            sub_states, sub_loads = self._numpy_states(flat, sub, sub_off)
             for k, (ch, (K, C, pos)) in enumerate(sub_states):
                 out[bad, k, 0:4], out[bad, k, 4:8], out[bad, k, 8:10] = K.reshape(-1, 4), C.reshape(-1, 4), pos
                 factors[bad, k] = np.asarray(ch.load_factor, dtype=float) / sub[k].load_factor

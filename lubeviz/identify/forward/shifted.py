@@ -95,10 +95,11 @@ def shifted_states(packed: PackedStacks, q, f, c, lf, k_s, reference, loads, ste
     flooded load (M, N), the loads (M, N, 2), which points were served (M,) and, for the others, the bearing and
     the Sommerfeld number whose slices were missing (M, 2; NaN when served), for M points of N flows (m^3/s),
     viscosity factors, clearances and load factors (each (M, N)): `LoadShift.shifted` `steps` times from the
-    flooded `loads` (N, 2), the journals' flooded positions `reference` (N, 2) and the shaft's condensed stiffness
-    `k_s` (2N, 2N)."""
+    flooded `loads` (N, 2), the journals' flooded positions `reference` (N, 2; or (M, N, 2), each point's: a moved
+    bearing's flooded place less its move) and the shaft's condensed stiffness `k_s` (2N, 2N)."""
     q, f, c, lf = (np.ascontiguousarray(a, dtype=float) for a in (q, f, c, lf))
     m, n = q.shape
+    reference = np.ascontiguousarray(np.broadcast_to(np.asarray(reference, dtype=float), (m, n, 2)))
     out = np.empty((m, n, 10))
     factors = np.empty((m, n))
     loads_out = np.empty((m, n, 2))
@@ -109,7 +110,7 @@ def shifted_states(packed: PackedStacks, q, f, c, lf, k_s, reference, loads, ste
     states_kernel(q, f, c, lf, packed.nodes, packed.log_nodes, packed.n_nodes, packed.mask, packed.log_qbar,
                   packed.ratio, packed.n_ratio, packed.split, packed.below, packed.m_below, packed.above,
                   packed.m_above, packed.scalars, packed.angles, _dimensionless.SNAP_LN,
-                  np.ascontiguousarray(k_s, dtype=float), np.ascontiguousarray(reference, dtype=float), loads, lean0,
+                  np.ascontiguousarray(k_s, dtype=float), reference, loads, lean0,
                   int(steps), out, factors, loads_out, served, missed)
     return out, factors, loads_out, served, missed
 
@@ -205,8 +206,8 @@ def states_kernel(q, f, c, lf, nodes, log_nodes, n_nodes, mask, log_qbar, ratio,
             for i in range(2 * n):
                 acc = w[i // 2, i % 2] - loads[i // 2, i % 2]
                 for k in range(n):
-                    acc += k_s[i, 2 * k] * (out[p, k, 8] - reference[k, 0])
-                    acc += k_s[i, 2 * k + 1] * (out[p, k, 9] - reference[k, 1])
+                    acc += k_s[i, 2 * k] * (out[p, k, 8] - reference[p, k, 0])
+                    acc += k_s[i, 2 * k + 1] * (out[p, k, 9] - reference[p, k, 1])
                 rhs[i] = -acc
             dw = np.linalg.solve(a, rhs)
             for k in range(n):
