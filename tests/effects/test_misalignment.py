@@ -70,3 +70,25 @@ def test_a_lowered_middle_bearing_sheds_load_as_the_independent_statics_say():
     np.testing.assert_allclose(shed, shed_ind, rtol=0, atol=0.01 * np.abs(shed_ind).max())
     # the films see it: B's journal sits higher in its bearing under the smaller load
     assert chain.bearing_states(theta)[1][1][2][1] > plain.bearing_states(theta[:3])[1][1][2][1] + 0.2e-6
+
+
+def test_a_diagnosis_of_an_independent_record_puts_the_moved_bearing_first_and_its_flows_hold():
+    """An independent record of the fan (planes at A and B) with B lowered 20 um, flows 0.9, 1.2, 1.0 Q_T. Each
+    bearing's move, a second unbalance, a bow and a pedestal all fit one record's four 1X invariants: the diagnosis
+    may not name it alone, but the moved bearing must rank first, inside the set, and the set's flow intervals must
+    hold the truth. Measured (seed 5): ambiguous, misalignment[bearing=2] first (chi2 0.55), then bearings 1 and 3;
+    Q1 in [157, 210] (truth 192.3), Q2 in [413, 491] (448.5), Q3 in [102, 223] (146.4) ml/min."""
+    from lubeviz.diagnose.pipeline import run_diagnosis
+    from lubeviz.verification.independent import IndependentSpec, make_record
+
+    m = load_machine(FAN)
+    qt = quiet(thresholds_mlmin, m.operating_speed, FAN)
+    q = tuple(float(v) for v in np.round(qt * np.array([0.9, 1.2, 1.0]), 1))
+    spec = IndependentSpec(speed_hz=m.operating_speed, q_mlmin=q, nodes=(7, 15), machine=FAN, seed=5, total_s=4.0,
+                           duration_s=3.0, effects=("misalignment:bearing=2,dy_um=-20",))
+    d = quiet(run_diagnosis, [quiet(make_record, spec).record], m).diagnosis
+    assert d.candidates[0].label == "misalignment[bearing=2]"
+    assert d.candidates[0].effect.dy_um == pytest.approx(-20.0, abs=8.0)
+    assert d.ambiguous and d.set_intervals is not None  # its look-alikes fit as well: the set's flows are given
+    for (lo, hi), truth in zip(d.set_intervals, q):  # m^3/s
+        assert lo * MLMIN_PER_M3S < truth and (hi is None or truth < hi * MLMIN_PER_M3S), (lo, hi, truth)
