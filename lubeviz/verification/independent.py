@@ -337,6 +337,17 @@ def _static_shape(rotor: Rotor, gravity: float, journal_positions, extra=None) -
     return q
 
 
+def _held_journals(rotor: Rotor, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(R0, S): the journals' force on the shaft (2N,) held at x (2N,) under the static load F (all DOFs) is
+    R0 + S x, the split rotor (its supports in K) condensed on the journals' x, y."""
+    fixed = np.concatenate([_xy(b) for b in rotor.bearing_nodes])
+    free = np.setdiff1d(np.arange(rotor.n_dof), fixed)
+    K = rotor.K
+    solved = np.linalg.solve(K[np.ix_(free, free)], np.column_stack([F[free], K[np.ix_(free, fixed)]]))
+    return (K[np.ix_(fixed, free)] @ solved[:, 0] - F[fixed],
+            K[np.ix_(fixed, fixed)] - K[np.ix_(fixed, free)] @ solved[:, 1:])
+
+
 def _rest_sag(rotor: Rotor, gravity: float, rest, extra, H) -> np.ndarray:
     """(N, 2) each pedestal's sag (m) at rest, each journal on its bearing at `rest` (N, 2) from the straight line
     plus the sag: with R(g) = R0 + S g the journals' force on the shaft held at g, g = rest - H R solves
@@ -344,13 +355,7 @@ def _rest_sag(rotor: Rotor, gravity: float, rest, extra, H) -> np.ndarray:
     h = np.ravel(H)
     if not np.any(h):
         return np.zeros_like(np.asarray(rest, float))
-    fixed = np.concatenate([_xy(b) for b in rotor.bearing_nodes])
-    free = np.setdiff1d(np.arange(rotor.n_dof), fixed)
-    F = gravity_load(rotor, gravity) + (0.0 if extra is None else extra)
-    K = rotor.K
-    solved = np.linalg.solve(K[np.ix_(free, free)], np.column_stack([F[free], K[np.ix_(free, fixed)]]))
-    R0 = K[np.ix_(fixed, free)] @ solved[:, 0] - F[fixed]
-    S = K[np.ix_(fixed, fixed)] - K[np.ix_(fixed, free)] @ solved[:, 1:]
+    R0, S = _held_journals(rotor, gravity_load(rotor, gravity) + (0.0 if extra is None else extra))
     R = np.linalg.solve(np.eye(h.size) + S * h[None, :], R0 + S @ np.ravel(rest))
     return (-h * R).reshape(-1, 2)
 
@@ -564,15 +569,8 @@ def _coupled_statics(machine, rotor: Rotor, omega: float, bearings, flows, side,
     below STATIC_FLOOR once it stops halving). Each step solves every film (fine mesh, actual supply, cached on
     disk); the answer's films are those solved at the loads returned."""
     n = len(bearings)
-    fixed = np.concatenate([_xy(b) for b in rotor.bearing_nodes])
-    free = np.setdiff1d(np.arange(rotor.n_dof), fixed)
     F = gravity_load(rotor, machine.gravity)
-    if side is not None:
-        F = F + side
-    K = rotor.K
-    solved = np.linalg.solve(K[np.ix_(free, free)], np.column_stack([F[free], K[np.ix_(free, fixed)]]))
-    R0 = K[np.ix_(fixed, free)] @ solved[:, 0] - F[fixed]
-    S = K[np.ix_(fixed, fixed)] - K[np.ix_(fixed, free)] @ solved[:, 1:]
+    R0, S = _held_journals(rotor, F if side is None else F + side)
     d = _offsets(machine).ravel()
     H = _sag_compliance(machine)  # a pedestal's housing sags by -H R: the journal's place on the ground moves with it
     R = np.linalg.solve(np.eye(2 * n) + S * H[None, :], R0 + S @ d)  # stiff films: journals at the bearing centres
@@ -599,7 +597,8 @@ def _coupled_statics(machine, rotor: Rotor, omega: float, bearings, flows, side,
         raise ConvergenceError(f"independent statics: the films' forces still differ from the shaft's reactions by "
                                f"{residual:.1e} (relative) after {STATIC_MAX_ITER} steps")
     positions = p.reshape(n, 2)
-    q = _static_shape(rotor, machine.gravity, positions + _offsets(machine) + (H * loads.ravel()).reshape(n, 2), side)
+    sag = (H * loads.ravel()).reshape(n, 2)  # each pedestal's housing, sagging under its film's load
+    q = _static_shape(rotor, machine.gravity, positions + _offsets(machine) + sag, side)
     return StaticEquilibrium(loads=loads, positions=positions, films=tuple(films),
                              support_forces=_support_forces(rotor, q), iterations=it, residual=residual,
                              determinate=False)
@@ -609,9 +608,9 @@ def static_equilibrium(machine: str | None = None, speed_hz: float | None = None
                        mesh=None, use_cache: bool = True) -> StaticEquilibrium:
     """The independent source's static equilibrium of `machine` (a model file, default the paper's) at `speed_hz`
     (default its operating speed) and supply flows `q_mlmin` (every fluid-film bearing's, file order), with
-    the effects that change it (viscosity, clearance, side_load, misalignment). `mesh` (n_circumferential, n_axial): the films
-    on another mesh than the fine one (a quick check; records always use the fine mesh). What `make_record`
-    uses for the same spec (with mesh=None)."""
+    the effects that change it (viscosity, clearance, side_load, misalignment). `mesh` (n_circumferential,
+    n_axial): the films on another mesh than the fine one (a quick check; records always use the fine mesh).
+    What `make_record` uses for the same spec (with mesh=None)."""
     m = _machine(machine)
     _check_machine(m)
     rotor = split_rotor(machine)

@@ -29,7 +29,6 @@ when there is one). Tests check every path against a direct solve of the assembl
 from __future__ import annotations
 
 import functools
-
 import math
 import threading
 from dataclasses import dataclass
