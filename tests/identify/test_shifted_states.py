@@ -61,6 +61,29 @@ def test_an_effect_s_changes_per_point_go_through_the_compiled_loop_and_its_copi
             np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12 * np.abs(b).max())
 
 
+def test_a_moved_bearing_per_point_goes_through_the_compiled_loop_as_through_numpy():
+    """`misalignment`: each point's own move of bearing B (the compiled loop's reference place per point)."""
+    m = load_machine(FAN)
+    chain = ForwardChain(m, 24.75, (7, 15))
+    moved = chain.adding(parse_effect("misalignment:bearing=2,dx_um=3"))
+    theta = np.tile(moved.start(), (10, 1))
+    theta[:, :3] = moved.q_threshold  # the flows held: only the move changes from point to point
+    assert moved.names[3] == "misalignment.dy_um"
+    theta[:, 3] = np.linspace(-25.0, 25.0, 10)
+    moved._states(theta, (10,))  # loads the slices the moved loads need
+    moved._numpy_states = lambda *a: pytest.fail("every slice is loaded: no point goes through numpy")
+    got, loads = moved._states(theta, (10,))
+    del moved._numpy_states
+    changes = [moved.bearing_changes(k, theta, (10,)) for k in range(3)]
+    reference, loads_ref = moved._numpy_states(theta, changes, moved.bearing_offsets(theta, (10,)))
+    np.testing.assert_allclose(loads, loads_ref, rtol=1e-11, atol=1e-9)
+    for (_, state), (_, state_ref) in zip(got, reference):
+        for a, b in zip(state, state_ref):
+            np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12 * np.abs(b).max())
+    b_load = np.linalg.norm(loads[:, 1], axis=-1)  # B raised takes load from its neighbours, lowered sheds it
+    assert np.all(np.diff(b_load) > 0) and b_load[-1] > b_load[0] + 100.0
+
+
 def test_a_load_shifted_off_the_tables_grid_holds_its_film_at_the_grid_s_edge():
     """The fan with a fourth sleeve bearing in place of its roller support (`bench flows --extra-bearing`): with
     bearings A and B over-fed and the fourth starved, the shaft lifts off the fourth (its load 416 N flooded, 22 N
