@@ -11,7 +11,7 @@ On the paper's machine (any other: its own speeds, parts and sizes, `_Scales`; e
   position (the probes' DC gap);
 - each library effect the source can make (viscosity, clearance, unbalance2, pedestals, probe_rotation,
   probe_gain, bow, side_load) at two strengths, its placement drawn over the machine (any node, bearing, plane,
-  channel);
+  channel); on a machine on 3+ supports a misaligned bearing too (10-40 % of its clearance, up or down);
 - sets of three speeds (the same flows): hot oil (viscosity x0.8) at 60, 75, 90 Hz and a worn bearing 1 (165 um)
   at 60, 70, 80 Hz (it whirls above);
 - pairs: two library effects at once;
@@ -46,6 +46,8 @@ from .records import _held, wilson
 
 KINDS = ("clean", "effect", "set", "pair", "out")
 LIBRARY = ("viscosity", "clearance", "unbalance2", "pedestals", "probe_rotation", "probe_gain", "bow", "side_load")
+# drawn only on a machine on 3+ supports (on two, nothing the probes read depends on it; the paper's draws unchanged)
+STATIC_ONLY = ("misalignment",)
 STRENGTHS = ("weak", "strong")
 FLOWS_OVER_QT = (0.3, 1.8)  # each flow over its bearing's Q_T at the record's speed, uniform
 SPEEDS_HZ = (50.0, 100.0)  # uniform on the paper's machine; on any machine 2/3 to 4/3 of its speed (`_Scales`)
@@ -118,6 +120,10 @@ class _Scales:
         self.force, self.couple, self.stiffness = w / w0, w * span / (w0 * span0), film / film0
         self.worn_um = 1e6 * machine.bearings[0].clearance * 165.0 / 120.0  # the paper's 120 um worn to 165
         self.n_nodes = len(machine.elements) + 1
+        from ..rotor.statics import statically_determinate
+
+        self.indeterminate = not statically_determinate(machine)  # 3+ supports: a misaligned bearing moves loads
+        self.clearances_um = tuple(1e6 * b.clearance for b in machine.bearings)
 
 
 @lru_cache(maxsize=16)
@@ -184,6 +190,10 @@ def _effect_text(name: str, strength: str, rng, machine, sc: _Scales) -> str:
                 f"angle_deg={_sign(rng) * _split(rng, 3, 8, strength):.4g}")
     if name == "probe_gain":
         return f"probe_gain:channel={_pick(rng, ('x1', 'y1', 'x2', 'y2'))},gain={_split(rng, 1.08, 1.2, strength):.4g}"
+    if name == "misalignment":  # a bearing's centre moved vertically (settled or grown): 10-40 % of its clearance
+        b = int(rng.integers(1, nb + 1))
+        dy = _sign(rng) * _split(rng, 0.10, 0.40, strength) * sc.clearances_um[b - 1]
+        return f"misalignment:bearing={b},dx_um=0,dy_um={dy:.4g}"
     if name == "side_load":  # a vertical force, a couple (a load moved from one bearing to another), or both
         what = _pick(rng, ("force", "couple", "both"))
         force = _sign(rng) * _split(rng, 150, 350, strength) * sc.force if what != "couple" else 0.0
@@ -254,7 +264,7 @@ def draw_cases(machine_path=None, *, n_clean: int = 40, per_strength: int = 5, n
 
     clean = [_single("clean", "clean", None, (), (), rng, mp, static=(i % 3 == 0)) for i in range(n_clean)]
     effects = []
-    for name in LIBRARY:
+    for name in LIBRARY + (STATIC_ONLY if sc.indeterminate else ()):
         group = []
         for strength in STRENGTHS:
             for _ in range(per_strength):
