@@ -571,11 +571,13 @@ def summarize(rows, seconds: float | None = None) -> dict:
 
 def bench_loop(machine_path=None, *, n_clean: int = 40, seed: int = 2026, processes: int = 2,
                limit: int | None = None, per_strength: int = 5, n_sets: int = 6, n_pairs: int = 12, n_out: int = 12,
-               progress: ProgressFn = silent) -> dict:
+               rows_path=None, progress: ProgressFn = silent) -> dict:
     """The residual loop over the cases of `draw_cases` (default 40 clean + 8 effects x 2 strengths x 5 + 6 sets of
     3 speeds + 12 pairs + 12 out of the library = 150), `processes` cases at a time in spawned worker processes
     (one BLAS thread each), one case a task: {"summary", "rates" (each k, n, rate, Wilson 95 %), "confusion"
-    (truth -> answer -> count), "silent_wrong_cases", "rows", "seconds"}."""
+    (truth -> answer -> count), "silent_wrong_cases", "rows", "seconds"}. `rows_path`: a JSON-lines file each case's
+    row is appended to as it ends; a case already there (the same id, kind, group, effects, flows and seed) is not run
+    again, so a long run (the fan's: hours) goes on where a stopped one ended."""
     from concurrent.futures import ProcessPoolExecutor, as_completed
     from multiprocessing import get_context
 
@@ -587,14 +589,17 @@ def bench_loop(machine_path=None, *, n_clean: int = 40, seed: int = 2026, proces
     mp = None if machine_path is None else str(machine_path)
     saved = {v: os.environ.get(v) for v in THREAD_VARS}
     _set_threads()  # spawned workers take the environment as it is when they start (numpy reads it on import)
-    rows = []
+    done = _saved_rows(rows_path, cases)
+    rows = list(done.values())
     pool = ProcessPoolExecutor(max_workers=int(processes), mp_context=get_context("spawn"), initializer=_set_threads)
     try:
-        futures = {pool.submit(run_case, c, mp): c for c in cases}
-        progress(0, len(cases), "making and diagnosing the cases")
-        for i, f in enumerate(as_completed(futures), start=1):
+        futures = {pool.submit(run_case, c, mp): c for c in cases if c["id"] not in done}
+        progress(len(rows), len(cases), "making and diagnosing the cases")
+        for i, f in enumerate(as_completed(futures), start=len(rows) + 1):
             c = futures[f]
             rows.append(f.result())
+            if rows_path is not None:
+                _append_row(rows_path, c, rows[-1])
             progress(i, len(cases), f"#{c['id']} {c['kind']}: {c['group']}")
     finally:
         pool.shutdown(wait=True, cancel_futures=True)  # a Cancelled progress leaves no case running
@@ -608,6 +613,48 @@ def bench_loop(machine_path=None, *, n_clean: int = 40, seed: int = 2026, proces
     out["summary"].update(seed=seed, processes=int(processes), limit=limit, n_clean=n_clean,
                           per_strength=per_strength, n_sets=n_sets, n_pairs=n_pairs, n_out=n_out)
     return out
+
+
+def _case_key(case) -> str:
+    import json
+
+    return json.dumps({k: case[k] for k in ("id", "kind", "group", "effects", "speeds_hz", "q_mlmin", "seed",
+                                            "nodes", "static") if k in case}, sort_keys=True)
+
+
+def _saved_rows(path, cases) -> dict:
+    """{case id: row} of the rows `path` (JSON lines of {"case": key, "row": row}) holds for these very cases."""
+    import json
+
+    if path is None or not os.path.exists(path):
+        return {}
+    keys = {_case_key(c): c["id"] for c in cases}
+    out = {}
+    with open(path, encoding="utf-8") as fh:
+        for line in fh:
+            try:
+                item = json.loads(line)
+            except ValueError:
+                continue  # a line cut short by a stopped run
+            cid = keys.get(item.get("case"))
+            if cid is not None:
+                out[cid] = item["row"]
+    return out
+
+
+def _append_row(path, case, row) -> None:
+    import json
+
+    with open(path, "a", encoding="utf-8") as fh:
+        fh.write(json.dumps({"case": _case_key(case), "row": row}, default=_plain) + "\n")
+
+
+def _plain(v):
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    raise TypeError(f"{type(v).__name__} is not JSON")
 
 
 __all__ = ["bench_loop", "draw_cases", "judge", "rates", "run_case", "summarize"]

@@ -69,6 +69,9 @@ def register(sub) -> None:
     p.add_argument("--limit", type=int, default=None,
                    help="loop: only the first N cases (drawn round-robin over the kinds; the same cases as the "
                         "full run's)")
+    p.add_argument("--rows", default=None, metavar="PATH",
+                   help="loop: append each case's row to this JSON-lines file as it ends, and skip the cases it "
+                        "already holds (a long run goes on where a stopped one ended)")
     p.add_argument("--no-ross", action="store_true", help="rotor: skip the side-by-side ROSS timings")
     p.add_argument("--extra-bearing", action="store_true",
                    help="flows: the machine's first [[supports]] replaced by a sleeve bearing (N + 1 flows)")
@@ -144,7 +147,7 @@ def run_bench(args) -> dict:
             raise ValueError(f"--limit {args.limit}: expected at least 1")
         args.json = True  # rows and nested rates: only JSON reads them (stdout, with or without --json)
         return bench_loop(args.machine, n_clean=args.n_clean, seed=args.seed, processes=args.processes,
-                          limit=args.limit, progress=StderrBar())
+                          limit=args.limit, rows_path=args.rows, progress=StderrBar())
     if args.what in ("coverage", "budget", "diagnose"):
         from ..bench import records as vb
 

@@ -121,6 +121,37 @@ def test_another_machine_draws_over_its_own_parts_speeds_and_sizes():
     assert bearings == {1, 2, 3}
 
 
+def test_a_misaligned_bearing_is_drawn_on_three_supports_only(cases):
+    """On the fan (3 sleeves and a roller) a bearing moved up or down by 10-40 % of its clearance, at two strengths;
+    never on the paper's two bearings, whose loads do not depend on where they sit (its 150 cases unchanged)."""
+    from lubeviz.model.machine import MODELS_DIR
+
+    assert not any(c["group"] == "misalignment" for c in cases) and len(cases) == 150
+    fan = draw_cases(str(MODELS_DIR / "three_bearing_fan.toml"))
+    moved = [c for c in fan if c["group"] == "misalignment"]
+    assert len(moved) == 10 and len(fan) == 160
+    dy = [float(_params(c["effects"][0])["dy_um"]) for c in moved]
+    assert all(7.5 - 1e-9 <= abs(v) <= 30.0 + 1e-9 for v in dy) and min(dy) < 0 < max(dy)
+    weak = [abs(v) for c, v in zip(moved, dy) if c["strength"] == "weak"]
+    assert max(weak) <= 0.25 * 75.0 + 1e-9
+    assert {int(_params(c["effects"][0])["bearing"]) for c in moved} == {1, 2, 3}
+
+
+def test_a_stopped_run_goes_on_from_its_rows_file(tmp_path):
+    """Each case's row is appended as it ends; a rerun takes those of the same cases (a line cut short by a stop is
+    skipped) and none of another draw's."""
+    from lubeviz.bench import loop
+
+    cs = draw_cases(limit=4)
+    path = tmp_path / "rows.jsonl"
+    loop._append_row(path, cs[1], {"id": cs[1]["id"], "x": np.float64(1.5), "a": np.arange(2)})
+    with open(path, "a") as fh:
+        fh.write('{"case": "cut')
+    got = loop._saved_rows(path, cs)
+    assert list(got) == [cs[1]["id"]] and got[cs[1]["id"]]["x"] == 1.5 and got[cs[1]["id"]]["a"] == [0, 1]
+    assert loop._saved_rows(path, draw_cases(limit=4, seed=5)) == {}
+
+
 # --- the judging (fast, on stand-in diagnoses) ------------------------------------------------------------------
 
 def _fit(q_mlmin, half_width_pct):
