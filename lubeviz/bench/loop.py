@@ -11,7 +11,8 @@ On the paper's machine (any other: its own speeds, parts and sizes, `_Scales`; e
   position (the probes' DC gap);
 - each library effect the source can make (viscosity, clearance, unbalance2, pedestals, probe_rotation,
   probe_gain, bow, side_load) at two strengths, its placement drawn over the machine (any node, bearing, plane,
-  channel); on a machine on 3+ supports a misaligned bearing too (10-40 % of its clearance, up or down);
+  channel); on a machine on 3+ supports a misaligned bearing too (10-40 % of its clearance, up or down), and where
+  the file declares constant supports one of them worn loose (0.3-0.8 of its stiffness and damping);
 - sets of three speeds (the same flows): hot oil (viscosity x0.8) at 60, 75, 90 Hz and a worn bearing 1 (165 um)
   at 60, 70, 80 Hz (it whirls above);
 - pairs: two library effects at once;
@@ -46,8 +47,9 @@ from .records import _held, wilson
 
 KINDS = ("clean", "effect", "set", "pair", "out")
 LIBRARY = ("viscosity", "clearance", "unbalance2", "pedestals", "probe_rotation", "probe_gain", "bow", "side_load")
-# drawn only on a machine on 3+ supports (on two, nothing the probes read depends on it; the paper's draws unchanged)
-STATIC_ONLY = ("misalignment",)
+# drawn only on a machine that has the part (the paper's draws unchanged): a misaligned bearing on 3+ supports (on two,
+# nothing the probes read depends on it), a constant support's stiffness where the file declares [[supports]]
+MACHINE_PARTS = ("misalignment", "support_stiffness")
 STRENGTHS = ("weak", "strong")
 FLOWS_OVER_QT = (0.3, 1.8)  # each flow over its bearing's Q_T at the record's speed, uniform
 SPEEDS_HZ = (50.0, 100.0)  # uniform on the paper's machine; on any machine 2/3 to 4/3 of its speed (`_Scales`)
@@ -124,6 +126,11 @@ class _Scales:
 
         self.indeterminate = not statically_determinate(machine)  # 3+ supports: a misaligned bearing moves loads
         self.clearances_um = tuple(1e6 * b.clearance for b in machine.bearings)
+        self.n_supports = len(getattr(machine, "supports", ()))
+
+    def has(self, effect: str) -> bool:
+        """Whether the machine has what `effect` (one of MACHINE_PARTS) acts on."""
+        return self.indeterminate if effect == "misalignment" else self.n_supports > 0
 
 
 @lru_cache(maxsize=16)
@@ -194,6 +201,9 @@ def _effect_text(name: str, strength: str, rng, machine, sc: _Scales) -> str:
         b = int(rng.integers(1, nb + 1))
         dy = _sign(rng) * _split(rng, 0.10, 0.40, strength) * sc.clearances_um[b - 1]
         return f"misalignment:bearing={b},dx_um=0,dy_um={dy:.4g}"
+    if name == "support_stiffness":  # a rolling-element support worn loose: 0.55-0.8 (weak) or 0.3-0.55 of its stiffness
+        j = int(rng.integers(1, sc.n_supports + 1))
+        return f"support_stiffness:support={j},factor={1.0 - _split(rng, 0.2, 0.7, strength):.4g}"
     if name == "side_load":  # a vertical force, a couple (a load moved from one bearing to another), or both
         what = _pick(rng, ("force", "couple", "both"))
         force = _sign(rng) * _split(rng, 150, 350, strength) * sc.force if what != "couple" else 0.0
@@ -264,7 +274,7 @@ def draw_cases(machine_path=None, *, n_clean: int = 40, per_strength: int = 5, n
 
     clean = [_single("clean", "clean", None, (), (), rng, mp, static=(i % 3 == 0)) for i in range(n_clean)]
     effects = []
-    for name in LIBRARY + (STATIC_ONLY if sc.indeterminate else ()):
+    for name in LIBRARY + tuple(n for n in MACHINE_PARTS if sc.has(n)):
         group = []
         for strength in STRENGTHS:
             for _ in range(per_strength):
@@ -347,7 +357,7 @@ def _placement_right(case, labels) -> bool | None:
             continue
         places = [_placements(lab).get(name) for lab in labels]
         places = [p for p in places if p is not None]
-        keys = [k for k in ("bearing", "plane", "channel") if k in params]
+        keys = [k for k in ("bearing", "support", "plane", "channel") if k in params]
         if not places or not keys:
             continue
         verdicts.append(any(all(str(p.get(k)) == str(params[k]) for k in keys) for p in places))

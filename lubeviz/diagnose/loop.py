@@ -323,9 +323,20 @@ def _candidate_pool(candidates, oil_known: bool, rotor, *, n_planes: int) -> tup
         if nodes:
             pool.append([e.copy(node=n) for n in nodes])
         else:
-            pool.extend(p for p in e.placements(n_bearings=len(rotor.bearing_nodes), n_planes=n_planes)
-                        if p.placeable(rotor))
+            pool.extend(p for p in _placements(e, rotor, n_planes) if p.placeable(rotor))
     return pool, orbit
+
+
+def _placements(e, rotor, n_planes: int) -> list:
+    """`e.placements` over the machine's parts, given the counts its signature takes (an effect written before
+    `n_supports` was one takes the bearings and planes only)."""
+    import inspect
+
+    counts = {"n_bearings": len(rotor.bearing_nodes), "n_planes": n_planes, "n_supports": len(rotor.supports)}
+    params = inspect.signature(e.placements).parameters
+    if not any(p.kind == p.VAR_KEYWORD for p in params.values()):
+        counts = {k: v for k, v in counts.items() if k in params}
+    return e.placements(**counts)
 
 
 def _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progress=silent) -> list:

@@ -20,6 +20,7 @@ from .misalignment import Misalignment
 from .side_load import SideLoad
 from .unbalance2 import Unbalance2
 from .pedestals import Pedestals
+from .support_stiffness import SupportStiffness
 from .probe_rotation import ProbeRotation
 from .probe_gain import ProbeGain
 from .bow import Bow, bow_shape
@@ -37,5 +38,5 @@ def parse_effects(texts: Iterable[str]) -> tuple[Effect, ...]:
 
 
 __all__ = ["EFFECTS", "STAGES", "Bow", "Clearance", "Effect", "LargeOrbit", "Misalignment", "OilTemperature", "Pedestals", "ProbeGain",
-           "ProbeRotation", "Registry", "SideLoad", "Unbalance2", "Viscosity", "Wiring", "bow_shape", "parse_effect",
+           "ProbeRotation", "Registry", "SideLoad", "SupportStiffness", "Unbalance2", "Viscosity", "Wiring", "bow_shape", "parse_effect",
            "parse_effects", "register"]

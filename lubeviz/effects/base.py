@@ -78,10 +78,17 @@ class Effect(param.Parameterized):
     # `values`: trial values of the free continuous parameters ({name: array of the batch `shape`}; see
     # `as_array`), so one call evaluates a whole batch of trial points.
 
-    # bearings stage
+    # bearings stage (and any effect that moves the bearings' static loads: the chain asks every stage)
     def bearing_change(self, k: int, values: dict, shape) -> dict:
-        """What this effect changes of bearing `k` (0-based): {'viscosity_factor': x, 'clearance': m}, or {}."""
+        """What this effect changes of bearing `k` (0-based): {'viscosity_factor': x, 'clearance': m,
+        'load_factor': x}, or {}."""
         return {}
+
+    def static_load_change(self, values: dict, shape):
+        """(..., N, 2) how much this effect changes every film's static load (N, the films held where the declared
+        statics put them), or None. On 3+ supports the load shift then lets the films yield (`rotor.load_shift`):
+        the loads' size and lean both follow."""
+        return None
 
     def bearing_offset(self, k: int, values: dict, shape):
         """How far bearing `k`'s (0-based) centre sits from its declared place, (..., 2) m (dX, dY), or None. On 3+
@@ -111,6 +118,16 @@ class Effect(param.Parameterized):
         """(mass kg, stiffness N/m, damping N s/m) of the support's housing at `values`, for the direct check
         of the assembled system (`ForwardChain.direct_output`)."""
         raise NotImplementedError(f"{type(self).__name__} puts a support under a bearing but declares no housing")
+
+    # rotor stage: a constant support (the model file's [[supports]]) stiffer or softer than declared
+    def changes_support(self, j: int) -> bool:
+        """Whether this effect changes constant support `j` (0-based, in the model file's order)."""
+        return False
+
+    def support_change(self, j: int, omega: float, values: dict, shape):
+        """(..., 2, 2) complex change of constant support `j`'s dynamic stiffness K + i Omega C (acting between its
+        node and the ground, or the pedestal its file declares under it), or None."""
+        return None
 
     # probes stage
     def probe_matrix(self, plane: int, angles_deg, values: dict, shape):
@@ -189,9 +206,9 @@ class Effect(param.Parameterized):
         new._free = tuple(p for p in self.continuous if p in self.diagnose_free)
         return new
 
-    def placements(self, *, n_bearings: int, n_planes: int) -> list["Effect"]:
-        """Every placement of this effect on a machine of `n_bearings` fluid-film bearings measured at `n_planes`
-        planes (each bearing, plane, channel...): the candidates to try."""
+    def placements(self, *, n_bearings: int, n_planes: int, n_supports: int = 0) -> list["Effect"]:
+        """Every placement of this effect on a machine of `n_bearings` fluid-film bearings and `n_supports` constant
+        supports measured at `n_planes` planes (each bearing, support, plane, channel...): the candidates to try."""
         return [self]
 
     def placeable(self, rotor) -> bool:

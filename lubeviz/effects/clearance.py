@@ -46,7 +46,7 @@ class Clearance(Effect):
         check_bearing_choice(self.bearing, machine, self.effect_name)
         return self
 
-    def placements(self, *, n_bearings: int, n_planes: int):
+    def placements(self, *, n_bearings: int, n_planes: int, n_supports: int = 0):
         return [self.copy(bearing=b) for b in range(1, n_bearings + 1)]
 
     def demo(self, machine) -> "Clearance":

@@ -60,7 +60,7 @@ class Misalignment(Effect):
     def placeable(self, rotor) -> bool:
         return len(rotor.bearing_nodes) + len(rotor.supports) >= 3 and int(self.bearing) <= len(rotor.bearing_nodes)
 
-    def placements(self, *, n_bearings: int, n_planes: int):
+    def placements(self, *, n_bearings: int, n_planes: int, n_supports: int = 0):
         return [self.copy(bearing=b) for b in range(1, n_bearings + 1)]
 
     def demo(self, machine) -> "Misalignment":

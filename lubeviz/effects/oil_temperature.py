@@ -66,7 +66,7 @@ class OilTemperature(Effect):
         return {"viscosity_factor": np.asarray(self.oil.factor(t), dtype=float)}
 
 
-    def placements(self, *, n_bearings: int, n_planes: int):
+    def placements(self, *, n_bearings: int, n_planes: int, n_supports: int = 0):
         return [self.copy(bearing=b) for b in (every_bearing_word(n_bearings), *range(1, n_bearings + 1))]
 
     def demo(self, machine) -> "OilTemperature":

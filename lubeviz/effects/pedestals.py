@@ -64,5 +64,5 @@ class Pedestals(Effect):
         return not any(self.applies(k) and rotor.housing("bearing", k) is not None
                        for k in range(len(rotor.bearing_nodes)))
 
-    def placements(self, *, n_bearings: int, n_planes: int):
+    def placements(self, *, n_bearings: int, n_planes: int, n_supports: int = 0):
         return [self.copy(bearing=b) for b in (every_bearing_word(n_bearings), *range(1, n_bearings + 1))]

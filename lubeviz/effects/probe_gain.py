@@ -45,5 +45,5 @@ class ProbeGain(Effect):
         G[..., idx % 2, idx % 2] = g
         return np.linalg.inv(P) @ G @ P
 
-    def placements(self, *, n_planes: int, n_bearings: int):
+    def placements(self, *, n_planes: int, n_bearings: int, n_supports: int = 0):
         return [self.copy(channel=c) for c in CHANNELS[:2 * n_planes]]

@@ -41,5 +41,5 @@ class ProbeRotation(Effect):
         return rotation(-np.radians(as_array(values, self, "angle_deg", shape)))
 
 
-    def placements(self, *, n_planes: int, n_bearings: int):
+    def placements(self, *, n_planes: int, n_bearings: int, n_supports: int = 0):
         return [self.copy(plane=p) for p in range(1, n_planes + 1)]

@@ -44,7 +44,7 @@ class Viscosity(Effect):
         check_bearing_choice(self.bearing, machine, self.effect_name)
         return self
 
-    def placements(self, *, n_bearings: int, n_planes: int):
+    def placements(self, *, n_bearings: int, n_planes: int, n_supports: int = 0):
         return [self.copy(bearing=b) for b in (every_bearing_word(n_bearings), *range(1, n_bearings + 1))]
 
     def demo(self, machine) -> "Viscosity":

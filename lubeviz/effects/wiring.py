@@ -79,7 +79,7 @@ class Wiring(Effect):
 
         return apply(d), (None if static is None else apply(static))
 
-    def placements(self, *, n_planes: int, n_bearings: int):
+    def placements(self, *, n_planes: int, n_bearings: int, n_supports: int = 0):
         """Its mix-ups are those of two planes' four channels (SPEC §6 records): none on another machine's planes."""
         return [self.copy(fault=f) for f in FAULTS] if n_planes == 2 else []
 

@@ -55,12 +55,13 @@ class LoadShift:
                 h[2 * k:2 * k + 2] = 1.0 / housing.stiffness
         self.k_s = np.linalg.solve(np.eye(2 * len(nodes)) + k_s * h[None, :], k_s)
 
-    def shifted(self, positions, stiffness, loads=None) -> np.ndarray:
+    def shifted(self, positions, stiffness, loads=None, target=None) -> np.ndarray:
         """The loads (..., N, 2) with the journals at `positions` (..., N, 2) in their bearings (m), each film of
         static stiffness `stiffness` (..., N, 2, 2) there (its K at its flow), the films carrying `loads`
         (..., N, 2; default the flooded ones). From the flooded loads this is the linearized statics; from loads
         already shifted once (the films evaluated again under them) it is a Newton step of the equilibrium
-        W - W0 + K_s (p(W) - p0) = 0."""
+        W - W0 + K_s (p(W) - p0) = 0. `target` (..., N, 2): W0, the loads the films would carry held where the flooded
+        statics put them (default the flooded loads; an effect that loads the shaft otherwise adds its change)."""
         dp = np.asarray(positions, dtype=float) - self.reference
         n = dp.shape[-2]
         base = self.loads if loads is None else np.asarray(loads, dtype=float)
@@ -70,7 +71,9 @@ class LoadShift:
             compliance[..., 2 * k:2 * k + 2, 2 * k:2 * k + 2] = inv[..., k, :, :]
         a = np.eye(2 * n) + self.k_s @ compliance
         residual = np.einsum("ij,...j->...i", self.k_s, dp.reshape(dp.shape[:-2] + (2 * n,)))
-        if loads is not None:
-            residual = residual + np.broadcast_to(base - self.loads, dp.shape).reshape(residual.shape)
+        if loads is not None or target is not None:
+            aim = self.loads if target is None else np.asarray(target, dtype=float)
+            shape = np.broadcast_shapes(np.shape(base), np.shape(aim), dp.shape)
+            residual = residual + np.broadcast_to(base - aim, shape).reshape(shape[:-2] + (2 * n,))
         dw = -np.linalg.solve(a, residual[..., None])[..., 0]
         return base + dw.reshape(dp.shape)  # (base broadcasts)

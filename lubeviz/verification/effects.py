@@ -62,6 +62,7 @@ EFFECTS: dict[str, dict[str, object]] = {
     "seal": {"node": REQUIRED, "kxy_n_m": REQUIRED, "kxx_n_m": 0.0},
     "side_load": {"node": REQUIRED, "force_n": REQUIRED, "moment_nm": 0.0, "angle_deg": 0.0},
     "misalignment": {"bearing": REQUIRED, "dx_um": 0.0, "dy_um": 0.0},
+    "support_stiffness": {"support": REQUIRED, "factor": REQUIRED},
 }
 
 
@@ -134,6 +135,15 @@ def _check(name: str, p: dict) -> dict:
         p["stiffness_n_m"] = _number(name, "stiffness_n_m", p["stiffness_n_m"], positive=True)
         p["damping_ns_m"] = _number(name, "damping_ns_m", p["damping_ns_m"], non_negative=True)
         p["bearing"] = _bearing(name, p["bearing"])
+    elif name == "misalignment":
+        p["bearing"] = _bearing(name, p["bearing"])
+        for key in ("dx_um", "dy_um"):
+            p[key] = _number(name, key, p[key])
+    elif name == "support_stiffness":
+        p["support"] = _integer(name, "support", p["support"])
+        if p["support"] < 1:
+            raise InputError(f"effect {name}: support = {p['support']!r}; expected a support's number (1, 2, ...)")
+        p["factor"] = _number(name, "factor", p["factor"], positive=True)
     elif name == "probe_rotation":
         p["plane"] = _integer(name, "plane", p["plane"])
         if p["plane"] < 1:

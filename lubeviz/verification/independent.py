@@ -280,6 +280,28 @@ def _misaligned(machine, effects):
     return moved
 
 
+def _supports_changed(rotor: Rotor, effects) -> Rotor:
+    """`rotor` with each `support_stiffness` effect's support at `factor` times its declared stiffness and damping
+    (the split rotor's K and C, statics and dynamics alike)."""
+    changes = [p for name, p in effects if name == "support_stiffness"]
+    if not changes:
+        return rotor
+    K, C = rotor.K.copy(), rotor.C.copy()
+    supports = list(rotor.supports)
+    for p in changes:
+        j = int(p["support"]) - 1
+        if not 0 <= j < len(supports):
+            raise InputError(f"effect support_stiffness: support {p['support']}; the machine has {len(supports)} "
+                             "constant support(s)")
+        node, k, c = supports[j]
+        f = float(p["factor"])
+        i = np.ix_(_xy(node), _xy(node))
+        K[i] += (f - 1.0) * k
+        C[i] += (f - 1.0) * c
+        supports[j] = (node, f * k, f * c)
+    return dataclasses.replace(rotor, K=K, C=C, supports=tuple(supports))
+
+
 def _bearings_of(params, n: int) -> tuple[int, ...]:
     """0-based bearing indices an effect with a `bearing` parameter applies to: `both` is every one of the
     machine's n fluid-film bearings."""
@@ -620,6 +642,7 @@ def static_equilibrium(machine: str | None = None, speed_hz: float | None = None
                          "(ml/min) in file order")
     spec = IndependentSpec(speed_hz=speed, q_mlmin=tuple(q_mlmin), effects=effects, machine=machine)
     m = _misaligned(m, spec.effects)
+    rotor = _supports_changed(rotor, spec.effects)
     omega = 2.0 * math.pi * spec.speed_hz
     bearings = _film_bearings(m, _bearing_changes(spec.effects, m), mesh)
     flows = tuple(q / MLMIN_PER_M3S for q in spec.flows_mlmin)
@@ -666,7 +689,7 @@ def _prepare(spec: IndependentSpec, use_cache: bool):
     """Films, the linear system and its eigenvalues (first-order form) of one spec."""
     machine = _misaligned(_machine(spec.machine), spec.effects)
     _check_machine(machine)
-    rotor = split_rotor(spec.machine)
+    rotor = _supports_changed(split_rotor(spec.machine), spec.effects)
     for node in spec.nodes:
         rotor.check_node(fine_node(node), "record node")
     omega = 2.0 * math.pi * spec.speed_hz

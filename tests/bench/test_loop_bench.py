@@ -121,15 +121,18 @@ def test_another_machine_draws_over_its_own_parts_speeds_and_sizes():
     assert bearings == {1, 2, 3}
 
 
-def test_a_misaligned_bearing_is_drawn_on_three_supports_only(cases):
-    """On the fan (3 sleeves and a roller) a bearing moved up or down by 10-40 % of its clearance, at two strengths;
-    never on the paper's two bearings, whose loads do not depend on where they sit (its 150 cases unchanged)."""
+def test_a_misaligned_bearing_and_a_loose_support_are_drawn_where_the_machine_has_them(cases):
+    """On the fan (3 sleeves and a roller) a bearing moved up or down by 10-40 % of its clearance, and the roller at
+    0.3-0.8 of its stiffness, each at two strengths; never on the paper's two bearings, whose loads do not depend on
+    where they sit and which has no other support (its 150 cases unchanged)."""
     from lubeviz.model.machine import MODELS_DIR
 
     assert not any(c["group"] == "misalignment" for c in cases) and len(cases) == 150
     fan = draw_cases(str(MODELS_DIR / "three_bearing_fan.toml"))
     moved = [c for c in fan if c["group"] == "misalignment"]
-    assert len(moved) == 10 and len(fan) == 160
+    assert len(moved) == 10 and len(fan) == 170
+    loose = [float(_params(c["effects"][0])["factor"]) for c in fan if c["group"] == "support_stiffness"]
+    assert len(loose) == 10 and all(0.3 - 1e-9 <= f <= 0.8 + 1e-9 for f in loose)
     dy = [float(_params(c["effects"][0])["dy_um"]) for c in moved]
     assert all(7.5 - 1e-9 <= abs(v) <= 30.0 + 1e-9 for v in dy) and min(dy) < 0 < max(dy)
     weak = [abs(v) for c, v in zip(moved, dy) if c["strength"] == "weak"]

@@ -303,13 +303,14 @@ class BearingChange(NamedTuple):
 
 
 def bearing_changes(effects, k: int, declared_clearance: float, values=lambda e: {}, shape=()) -> BearingChange:
-    """The `BearingChange` of bearing k (0-based) after the bearings-stage `effects`: viscosity and load factors
-    multiply, the last clearance given wins. `values(effect)` gives trial values of its free parameters
-    (default: none, i.e. the effects' own values)."""
+    """The `BearingChange` of bearing k (0-based) after the `effects` (the bearings stage's, and any other's that
+    moves the static loads: a support stiffer than declared): viscosity and load factors multiply, the last
+    clearance given wins. `values(effect)` gives trial values of its free parameters (default: none, i.e. the
+    effects' own values)."""
     factor, clearance, load = 1.0, declared_clearance, 1.0
     for e in effects:
-        if e.stage == "bearings":
-            change = e.bearing_change(k, values(e), shape)
+        change = e.bearing_change(k, values(e), shape)
+        if change:
             factor = factor * change.get("viscosity_factor", 1.0)
             clearance = change.get("clearance", clearance)
             load = load * change.get("load_factor", 1.0)
@@ -593,10 +594,21 @@ class ForwardChain:
             states = [src.evaluate(theta[..., k], *changes[k]) for k, src in enumerate(self.sources)]
             return list(zip(changes, states)), None
         offsets = self.bearing_offsets(theta, shape)
-        compiled = self._compiled_states(theta, changes, shape, offsets)
+        target = self.load_targets(theta, shape)
+        compiled = self._compiled_states(theta, changes, shape, offsets, target)
         if compiled is not None:
             return compiled
-        return self._numpy_states(theta, changes, offsets)
+        return self._numpy_states(theta, changes, offsets, target)
+
+    def load_targets(self, theta, shape=()):
+        """(..., N, 2) the films' static loads held where the flooded statics put them, the effects' changes
+        (`Effect.static_load_change`) added, or None when no effect changes them (3+ supports)."""
+        out = None
+        for e in self.effects:
+            d = e.static_load_change(self._values(theta, e), shape)
+            if d is not None:
+                out = (np.broadcast_to(self.loads, shape + self.loads.shape) if out is None else out) + d
+        return out
 
     def bearing_offsets(self, theta, shape=()):
         """(..., N, 2) how far each bearing's centre sits from its declared place at parameters theta (the
@@ -613,7 +625,7 @@ class ForwardChain:
                     out[..., k, :] += d
         return out
 
-    def _numpy_states(self, theta, changes, offsets=None):
+    def _numpy_states(self, theta, changes, offsets=None, target=None):
         """`_states` on 3+ supports in numpy: every bearing's table evaluated (which loads the slices it needs). A
         moved bearing (`offsets`) holds its journal that much away from the shaft's flooded line."""
         states = [src.evaluate(theta[..., k], *changes[k]) for k, src in enumerate(self.sources)]
@@ -621,7 +633,7 @@ class ForwardChain:
         for _ in range(load_shift.STEPS):
             positions = np.stack([st[2] for st in states], axis=-2)
             loads = self._shift.shifted(positions if offsets is None else positions + offsets,
-                                        np.stack([st[0] for st in states], axis=-3), loads)
+                                        np.stack([st[0] for st in states], axis=-3), loads, target)
             factors = self._within_grid(np.linalg.norm(loads, axis=-1) / np.linalg.norm(self.loads, axis=-1),
                                         changes)
             turns = _lean(loads) - _lean(self.loads)
@@ -647,7 +659,7 @@ class ForwardChain:
                                                                           out[..., k]))
         return out
 
-    def _compiled_states(self, theta, changes, shape, offsets=None):
+    def _compiled_states(self, theta, changes, shape, offsets=None, target=None):
         """`_states` through `forward.shifted` (one compiled loop over the points). The slices a point misses (a
         load shifted beyond the four slices about the flooded one) are loaded, or built, for each bearing at once
         (`BearingSource.load_slices`) and the loop run again; a point still not served (a Sommerfeld number off the
@@ -687,8 +699,9 @@ class ForwardChain:
                 packed = self._packed = packed_stacks(stacks, angles)
             self._packed_held = tuple((src._held, src._held.table, len(src._held.table.slices))
                                       for src in self.sources)
-            out, factors, loads, served, missed = shifted_states(packed, q, f, c, lf, self._shift.k_s, reference,
-                                                                 self._shift.loads, load_shift.STEPS)
+            out, factors, loads, served, missed = shifted_states(
+                packed, q, f, c, lf, self._shift.k_s, reference, self._shift.loads, load_shift.STEPS,
+                None if target is None else np.broadcast_to(target, shape + (n, 2)).reshape(-1, n, 2))
             if served.all() or attempt == 2:
                 break
             # the slices a point missed: loaded (or built) for each bearing at once, and the loop run again
@@ -704,7 +717,8 @@ class ForwardChain:
             sub = [ch._replace(**{name: np.broadcast_to(np.asarray(getattr(ch, name), dtype=float), shape).ravel()[bad]
                                   for name in ch._fields if getattr(ch, name) is not None}) for ch in changes]
             sub_off = None if offsets is None else np.broadcast_to(offsets, shape + (n, 2)).reshape(-1, n, 2)[bad]
-            sub_states, sub_loads = self._numpy_states(flat, sub, sub_off)
+            sub_target = None if target is None else np.broadcast_to(target, shape + (n, 2)).reshape(-1, n, 2)[bad]
+            sub_states, sub_loads = self._numpy_states(flat, sub, sub_off, sub_target)
             for k, (ch, (K, C, pos)) in enumerate(sub_states):
                 out[bad, k, 0:4], out[bad, k, 4:8], out[bad, k, 8:10] = K.reshape(-1, 4), C.reshape(-1, 4), pos
                 factors[bad, k] = np.asarray(ch.load_factor, dtype=float) / sub[k].load_factor
@@ -731,28 +745,35 @@ class ForwardChain:
             if cols:
                 self._forcing.append((e, len(shapes), len(cols)))
                 shapes.extend(cols)
-        self._U = np.concatenate([node_dofs(n)[[X, Y]] for n in rotor.bearing_nodes])
+        # the rank update's pairs of DOFs: each film (journal; its declared pedestal's DOFs or None), then each
+        # constant support an effect changes (`Effect.changes_support`: its node; its pedestal's or None)
+        self._changed_supports = tuple(j for j in range(len(rotor.supports))
+                                       if any(e.changes_support(j) for e in self.effects))
+        pairs = [film_dofs(rotor, n) for n in rotor.bearing_nodes]
+        for j in self._changed_supports:
+            h = rotor.housing("support", j)
+            pairs.append((node_dofs(rotor.supports[j][0])[[X, Y]], None if h is None else np.array(h.dofs)))
+        self._U = np.concatenate([p for p, _ in pairs])
         out = np.concatenate([node_dofs(n)[[X, Y]] for n in self.nodes])
         nf = len(shapes)
-        nu = self._U.size  # 2 N
+        nu = self._U.size  # 2 (N + changed supports)
         rhs = np.zeros((rotor.n_dof, nf + nu), dtype=complex)
         rhs[:, :nf] = np.stack(shapes, axis=1)
         rhs[self._U, nf + np.arange(nu)] = 1.0
-        # a film over a declared pedestal acts between journal and housing: its unit loads push both, and the
-        # journal's motion that strains it (x_U) is relative to the housing, as are the probes riding on it
-        housings = [film_dofs(rotor, n)[1] for n in rotor.bearing_nodes]
-        for k, h in enumerate(housings):
+        # a film (or support) over a declared pedestal acts between journal and housing: its unit loads push both,
+        # and the journal's motion that strains it (x_U) is relative to the housing, as are the probes riding on it
+        for k, (_, h) in enumerate(pairs):
             if h is not None:
                 rhs[h, nf + 2 * k + np.arange(2)] = -1.0
         sol = _reference_solve(rotor, omega, B0, rhs)
         journal, read = sol[self._U], sol[out]
-        for k, h in enumerate(housings):
+        for k, (_, h) in enumerate(pairs):
             if h is not None:
                 journal[2 * k:2 * k + 2] -= sol[h]
         for p, h in enumerate(probe_housings(rotor, self.nodes)):
             if h is not None:
                 read[2 * p:2 * p + 2] -= sol[h]
-        self._x0_out, self._x0_U = read[:, :nf], journal[:, :nf]  # (2P, nf), (2N, nf)
+        self._x0_out, self._x0_U = read[:, :nf], journal[:, :nf]  # (2P, nf), (2N + 2S', nf)
         self._Z_out, self._W = read[:, nf:], journal[:, nf:]
         self._n_forcing = nf
         # a plane at a bearing's centre node reads that bearing's static position (SPEC §6)
@@ -764,7 +785,7 @@ class ForwardChain:
     def output(self, theta, dB_extra=None) -> ChainOutput:
         """Probe readings for parameter vectors theta (..., n_params).
 
-        `dB_extra` (..., 4, 4), optional: added to the bearings' dynamic stiffness (the model budget
+        `dB_extra` (..., 2N, 2N), optional: added to the bearings' dynamic stiffness (the model budget
         perturbs the coefficients with it)."""
         theta = np.asarray(theta, dtype=float)
         if theta.shape[-1] != self.n_params:
@@ -780,7 +801,8 @@ class ForwardChain:
         x0_U = np.einsum("ij,...j->...i", self._x0_U, w)
         # bearings stage, then supports
         nb, npl = self.n_flows, self.n_planes
-        dB = np.zeros(shape + (2 * nb, 2 * nb), dtype=complex)
+        nu = self._U.size
+        dB = np.zeros(shape + (nu, nu), dtype=complex)
         housing = [None] * nb
         journal = np.zeros(shape + (nb, 2))
         for k, (change, (K, C, pos)) in enumerate(self.bearing_states(theta, shape)):
@@ -795,9 +817,17 @@ class ForwardChain:
             dB[..., 2 * k:2 * k + 2, 2 * k:2 * k + 2] = B - self._B0[k]
             journal[..., k, 0] = pos[..., 0]
             journal[..., k, 1] = pos[..., 1] + clearance
-        if dB_extra is not None:
-            dB = dB + dB_extra
-        A = np.eye(2 * nb) + dB @ self._W
+        for i, j in enumerate(self._changed_supports):  # constant supports changed by an effect
+            a = 2 * (nb + i)
+            for e in self.effects:
+                d = e.support_change(j, omega, self._values(theta, e), shape)
+                if d is not None:
+                    dB[..., a:a + 2, a:a + 2] += d
+        if dB_extra is not None:  # on the films' blocks
+            extra = np.zeros(np.broadcast_shapes(dB.shape[:-2], np.shape(dB_extra)[:-2]) + (nu, nu), dtype=complex)
+            extra[..., :2 * nb, :2 * nb] = dB_extra
+            dB = dB + extra
+        A = np.eye(nu) + dB @ self._W
         c = np.linalg.solve(A, (dB @ x0_U[..., None]))[..., 0]
         x_out = x0_out - np.einsum("ij,...j->...i", self._Z_out, c)
         x_U = x0_U - np.einsum("ij,...j->...i", self._W, c)
@@ -884,6 +914,17 @@ class ForwardChain:
                 D[np.ix_(jd, other)] -= B
                 D[np.ix_(other, jd)] -= B
             journal[k] = pos + np.array([0.0, clearance])
+        for j in self._changed_supports:  # a constant support an effect changes, between its node and its pedestal
+            d = sum(e.support_change(j, omega, self._values(theta, e), ()) for e in self.effects
+                    if e.changes_support(j))
+            sd = node_dofs(rotor.supports[j][0])[[X, Y]]
+            D[np.ix_(sd, sd)] += d
+            h = rotor.housing("support", j)
+            if h is not None:
+                hd = list(h.dofs)
+                D[np.ix_(hd, hd)] += d
+                D[np.ix_(sd, hd)] -= d
+                D[np.ix_(hd, sd)] -= d
         rhs = np.zeros(n, dtype=complex)
         rhs[:n0] = F
         q = np.linalg.solve(D, rhs)

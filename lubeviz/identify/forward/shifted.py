@@ -90,13 +90,15 @@ class PackedStacks:
         self.angles = np.asarray(angles, dtype=float)
 
 
-def shifted_states(packed: PackedStacks, q, f, c, lf, k_s, reference, loads, steps: int):
+def shifted_states(packed: PackedStacks, q, f, c, lf, k_s, reference, loads, steps: int, target=None):
     """K (M, N, 4), C (M, N, 4), positions (M, N, 2) in the machine's frame, each bearing's load factor over the
     flooded load (M, N), the loads (M, N, 2), which points were served (M,) and, for the others, the bearing and
     the Sommerfeld number whose slices were missing (M, 2; NaN when served), for M points of N flows (m^3/s),
     viscosity factors, clearances and load factors (each (M, N)): `LoadShift.shifted` `steps` times from the
     flooded `loads` (N, 2), the journals' flooded positions `reference` (N, 2; or (M, N, 2), each point's: a moved
-    bearing's flooded place less its move) and the shaft's condensed stiffness `k_s` (2N, 2N)."""
+    bearing's flooded place less its move) and the shaft's condensed stiffness `k_s` (2N, 2N). `target` (M, N, 2): the
+    loads the films would carry held where the flooded statics put them (default `loads`; an effect's static load
+    change added, `Effect.static_load_change`): the equilibrium W - target + K_s (p(W) - p0) = 0."""
     q, f, c, lf = (np.ascontiguousarray(a, dtype=float) for a in (q, f, c, lf))
     m, n = q.shape
     reference = np.ascontiguousarray(np.broadcast_to(np.asarray(reference, dtype=float), (m, n, 2)))
@@ -106,11 +108,13 @@ def shifted_states(packed: PackedStacks, q, f, c, lf, k_s, reference, loads, ste
     served = np.zeros(m, np.bool_)
     missed = np.full((m, 2), np.nan)  # (bearing, S) of the evaluation a point was not served at
     loads = np.ascontiguousarray(loads, dtype=float)
+    target = np.ascontiguousarray(np.broadcast_to(loads if target is None else np.asarray(target, dtype=float),
+                                                  (m, n, 2)))
     lean0 = np.arctan2(loads[:, 0], -loads[:, 1])
     states_kernel(q, f, c, lf, packed.nodes, packed.log_nodes, packed.n_nodes, packed.mask, packed.log_qbar,
                   packed.ratio, packed.n_ratio, packed.split, packed.below, packed.m_below, packed.above,
                   packed.m_above, packed.scalars, packed.angles, _dimensionless.SNAP_LN,
-                  np.ascontiguousarray(k_s, dtype=float), reference, loads, lean0,
+                  np.ascontiguousarray(k_s, dtype=float), reference, loads, target, lean0,
                   int(steps), out, factors, loads_out, served, missed)
     return out, factors, loads_out, served, missed
 
@@ -166,7 +170,7 @@ def _within_grid(k, f, c, lf, factor, scalars, nodes, n_nodes):
 
 @numba.njit(cache=True, nogil=True)
 def states_kernel(q, f, c, lf, nodes, log_nodes, n_nodes, mask, log_qbar, ratio, n_ratio, split, below, m_below,
-                  above, m_above, scalars, angles, snap_ln, k_s, reference, loads, lean0, steps, out, factors,
+                  above, m_above, scalars, angles, snap_ln, k_s, reference, loads, target, lean0, steps, out, factors,
                   loads_out, served, missed):
     """`shifted_states` point by point."""
     m, n = q.shape
@@ -191,7 +195,7 @@ def states_kernel(q, f, c, lf, nodes, log_nodes, n_nodes, mask, log_qbar, ratio,
             w[k, 1] = loads[k, 1]
             factors[p, k] = 1.0
         for step in range(steps):
-            # (I + K_s K_f^-1) dW = -(K_s dp + W - W0)
+            # (I + K_s K_f^-1) dW = -(K_s dp + W - W0), W0 the target
             for i in range(2 * n):
                 for j in range(2 * n):
                     a[i, j] = 1.0 if i == j else 0.0
@@ -204,7 +208,7 @@ def states_kernel(q, f, c, lf, nodes, log_nodes, n_nodes, mask, log_qbar, ratio,
                     a[i, 2 * k] += s0 * i00 + s1 * i10
                     a[i, 2 * k + 1] += s0 * i01 + s1 * i11
             for i in range(2 * n):
-                acc = w[i // 2, i % 2] - loads[i // 2, i % 2]
+                acc = w[i // 2, i % 2] - target[p, i // 2, i % 2]
                 for k in range(n):
                     acc += k_s[i, 2 * k] * (out[p, k, 8] - reference[p, k, 0])
                     acc += k_s[i, 2 * k + 1] * (out[p, k, 9] - reference[p, k, 1])
