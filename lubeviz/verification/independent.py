@@ -214,9 +214,16 @@ def _machine(path: str | None):
     return load_machine(None if path is None else Path(path))
 
 
+def split_rotor(path: str | None = None, shaft_damping_beta: float = SHAFT_DAMPING_BETA, effects=()) -> Rotor:
+    """The machine's rotor with every shaft element split into two equal halves (40 elements), its constant supports
+    in K and C (`effects`: a `support_stiffness` changes one)."""
+    factors = tuple((int(p["support"]), float(p["factor"])) for name, p in normalize_effects(effects)
+                    if name == "support_stiffness")
+    return _split_rotor(path, shaft_damping_beta, factors)
+
+
 @functools.lru_cache(maxsize=4)
-def split_rotor(path: str | None = None, shaft_damping_beta: float = SHAFT_DAMPING_BETA) -> Rotor:
-    """The machine's rotor with every shaft element split into two equal halves (40 elements)."""
+def _split_rotor(path: str | None, shaft_damping_beta: float, factors: tuple) -> Rotor:
     m = _machine(path)
     beams = []
     for e in m.elements:
@@ -229,28 +236,56 @@ def split_rotor(path: str | None = None, shaft_damping_beta: float = SHAFT_DAMPI
              for d in m.discs]
     rotor = assemble(beams, discs, bearing_nodes=[fine_node(b.node) for b in m.bearings],
                      shaft_damping_beta=shaft_damping_beta)
-    return _add_supports(rotor, m)
+    effects = tuple(("support_stiffness", {"support": j, "factor": f}) for j, f in factors)
+    return _add_supports(rotor, _support_parts(m, effects, rotor))
 
 
-def _add_supports(rotor: Rotor, machine) -> Rotor:
-    """`rotor` with the machine's constant-coefficient supports (SPEC §8 [[supports]]; Lund's sign: the support's
-    force on the shaft is -K x - C v) added to K and C at the split rotor's node, x and y; the shaft damping
-    (beta K, already in C) stays the shaft's own."""
+def _support_parts(machine, effects=(), rotor: Rotor | None = None) -> list[tuple]:
+    """(split-rotor node, K 2x2, C 2x2, pedestal or None) of each constant support (SPEC §8 [[supports]]), each
+    `support_stiffness` effect's factor applied to its K and C."""
     supports = tuple(getattr(machine, "supports", ()))
-    if not supports:
-        return rotor
-    K, C = rotor.K.copy(), rotor.C.copy()
-    added = []
-    for k, s in enumerate(supports, start=1):
-        node = rotor.check_node(fine_node(s.node), f"[[supports]] {k} node (split rotor)")
+    factors = [1.0] * len(supports)
+    for name, p in normalize_effects(effects):
+        if name == "support_stiffness":
+            j = int(p["support"]) - 1
+            if not 0 <= j < len(supports):
+                raise InputError(f"effect support_stiffness: support {p['support']}; the machine has {len(supports)} "
+                                 "constant support(s)")
+            factors[j] *= float(p["factor"])
+    out = []
+    for k, (s, f) in enumerate(zip(supports, factors), start=1):
+        node = fine_node(s.node)
+        if rotor is not None:
+            rotor.check_node(node, f"[[supports]] {k} node (split rotor)")
         stiffness, damping = np.asarray(s.stiffness, dtype=float), np.asarray(s.damping, dtype=float)
         if stiffness.shape != (2, 2) or damping.shape != (2, 2) \
                 or not (np.all(np.isfinite(stiffness)) and np.all(np.isfinite(damping))):
             raise InputError(f"[[supports]] {k} ({s.name}): stiffness and damping must be finite 2x2 matrices")
+        out.append((node, f * stiffness, f * damping, getattr(s, "pedestal", None)))
+    return out
+
+
+def _series(stiffness: np.ndarray, pedestal) -> np.ndarray:
+    """The static stiffness of a support over its pedestal: (K^-1 + I / k_h)^-1."""
+    return np.linalg.inv(np.linalg.inv(stiffness) + np.eye(2) / pedestal.stiffness)
+
+
+def _add_supports(rotor: Rotor, parts) -> Rotor:
+    """`rotor` with the constant supports `parts` (`_support_parts`; Lund's sign: the support's force on the shaft is
+    -K x - C v) added to K and C at the split rotor's node, x and y; the shaft damping (beta K, already in C) stays the
+    shaft's own. A support over a pedestal enters K with its static stiffness in series with the pedestal's, and not
+    C: the dynamics build the housing (`_system`). `rotor.supports`: (node, static K, C) of each."""
+    if not parts:
+        return rotor
+    K, C = rotor.K.copy(), rotor.C.copy()
+    added = []
+    for node, stiffness, damping, pedestal in parts:
         i = np.ix_(_xy(node), _xy(node))
-        K[i] += stiffness
-        C[i] += damping
-        added.append((node, stiffness, damping))
+        static = stiffness if pedestal is None else _series(stiffness, pedestal)
+        K[i] += static
+        if pedestal is None:
+            C[i] += damping
+        added.append((node, static, damping))
     return dataclasses.replace(rotor, K=K, C=C, supports=tuple(added))
 
 
@@ -280,28 +315,6 @@ def _misaligned(machine, effects):
     return moved
 
 
-def _supports_changed(rotor: Rotor, effects) -> Rotor:
-    """`rotor` with each `support_stiffness` effect's support at `factor` times its declared stiffness and damping
-    (the split rotor's K and C, statics and dynamics alike)."""
-    changes = [p for name, p in effects if name == "support_stiffness"]
-    if not changes:
-        return rotor
-    K, C = rotor.K.copy(), rotor.C.copy()
-    supports = list(rotor.supports)
-    for p in changes:
-        j = int(p["support"]) - 1
-        if not 0 <= j < len(supports):
-            raise InputError(f"effect support_stiffness: support {p['support']}; the machine has {len(supports)} "
-                             "constant support(s)")
-        node, k, c = supports[j]
-        f = float(p["factor"])
-        i = np.ix_(_xy(node), _xy(node))
-        K[i] += (f - 1.0) * k
-        C[i] += (f - 1.0) * c
-        supports[j] = (node, f * k, f * c)
-    return dataclasses.replace(rotor, K=K, C=C, supports=tuple(supports))
-
-
 def _bearings_of(params, n: int) -> tuple[int, ...]:
     """0-based bearing indices an effect with a `bearing` parameter applies to: `both` is every one of the
     machine's n fluid-film bearings."""
@@ -322,12 +335,9 @@ def _plane_housing(rotor: Rotor, node: int) -> int:
 
 
 def _check_machine(machine) -> None:
-    """Refuse what this source does not build: a pedestal under a constant support (a pedestal under a fluid-film
-    bearing is built: a housing mass on its spring and damper, the film between journal and housing)."""
-    for k, s in enumerate(getattr(machine, "supports", ()), start=1):
-        if getattr(s, "pedestal", None) is not None:
-            raise InputError(f"{machine.source or machine.name} [[supports]] {k} ({s.name}): a pedestal under a "
-                             "constant support is not built by the independent source")
+    """What this source does not build is refused here (today: nothing of SPEC §8; a pedestal under a fluid-film
+    bearing or a constant support is a housing mass on its spring and damper, the film or support between the shaft
+    and it)."""
 
 
 def _sag_compliance(machine) -> np.ndarray:
@@ -466,6 +476,22 @@ def _system(spec: IndependentSpec, rotor: Rotor, machine, omega: float, films) -
         M[h, h] += p["mass_kg"]
         K[h, h] += p["stiffness_n_m"]
         C[h, h] += p["damping_ns_m"]
+    # a constant support over a pedestal: out of the shaft's K (its static series stiffness, `_add_supports`), and
+    # between the shaft and its own housing instead
+    parts = [part for part in _support_parts(machine, spec.effects) if part[3] is not None]
+    if parts:
+        grown = n + 2 * len(parts)
+        M, K, C = (np.pad(A, ((0, grown - n), (0, grown - n))) for A in (M, K, C))
+        for i, (node, stiffness, damping, ped) in enumerate(parts):
+            j, h = _xy(node), n + 2 * i + np.array([0, 1])
+            K[np.ix_(j, j)] -= _series(stiffness, ped)
+            M[h, h] += ped.mass
+            K[h, h] += ped.stiffness
+            C[h, h] += ped.damping
+            for a, c, sign in ((j, j, 1.0), (j, h, -1.0), (h, j, -1.0), (h, h, 1.0)):
+                K[np.ix_(a, c)] += sign * stiffness
+                C[np.ix_(a, c)] += sign * damping
+        n = grown
     for k, (b, film) in enumerate(zip(rotor.bearing_nodes, films)):
         j = _xy(b)
         # SPEC §1: the film's K, C enter with + sign, acting on the journal's motion relative to
@@ -642,7 +668,7 @@ def static_equilibrium(machine: str | None = None, speed_hz: float | None = None
                          "(ml/min) in file order")
     spec = IndependentSpec(speed_hz=speed, q_mlmin=tuple(q_mlmin), effects=effects, machine=machine)
     m = _misaligned(m, spec.effects)
-    rotor = _supports_changed(rotor, spec.effects)
+    rotor = split_rotor(machine, effects=spec.effects)
     omega = 2.0 * math.pi * spec.speed_hz
     bearings = _film_bearings(m, _bearing_changes(spec.effects, m), mesh)
     flows = tuple(q / MLMIN_PER_M3S for q in spec.flows_mlmin)
@@ -689,7 +715,7 @@ def _prepare(spec: IndependentSpec, use_cache: bool):
     """Films, the linear system and its eigenvalues (first-order form) of one spec."""
     machine = _misaligned(_machine(spec.machine), spec.effects)
     _check_machine(machine)
-    rotor = _supports_changed(split_rotor(spec.machine), spec.effects)
+    rotor = split_rotor(spec.machine, effects=spec.effects)
     for node in spec.nodes:
         rotor.check_node(fine_node(node), "record node")
     omega = 2.0 * math.pi * spec.speed_hz
