@@ -261,6 +261,21 @@ def _basins(cost: np.ndarray, limit: float, most: int) -> list[tuple[int, ...]]:
     return idx[:most] or [tuple(np.unravel_index(np.argmin(cost), cost.shape))]
 
 
+def _search_starts(problem, chain, start, lo, hi, flows, grid: int, margin: float, most: int) -> list:
+    """The global search's starts: the grid's basins (`_basins`) within `margin` of its best cost, the `most` best.
+    A coarse grid (3+ flows) is searched at its cells' centres too, where a narrow valley may pass between its points
+    (CENTRES)."""
+    n = grid_size(len(flows), grid)
+    lattices = [_grid_starts(chain, start, lo, hi, n, flows)]
+    if n < grid:
+        lattices.append(_grid_starts(chain, start, lo, hi, n, flows, centres=True))
+    costs = [problem.cost_many(pts) for pts in lattices]
+    limit = min(float(np.min(c)) for c in costs) + margin
+    found = sorted(((float(c[ij]), i, ij) for i, c in enumerate(costs) for ij in _basins(c, limit, most)
+                    if c[ij] <= limit), key=lambda t: t[0])
+    return [lattices[i][ij] for _, i, ij in found[:most]]
+
+
 def _parts(chains, measured, names):
     """[(chain, feature names, measured values)] and the block-diagonal noise covariance."""
     parts, blocks = [], []
@@ -330,16 +345,8 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     problem = _Problem(parts, _Problem(parts, np.eye(len(all_names)), free).model_cov(start, budget, noise), free)
     # 1. global scan over the flow box
     if hold_flows is None and not local and free_flows:
-        n = grid_size(len(free_flows), grid)
-        lattices = [_grid_starts(ref, start, lo, hi, n, free_flows)]
-        if n < grid:  # a coarse grid (3+ flows): its cells' centres too, where a narrow valley may pass between
-            lattices.append(_grid_starts(ref, start, lo, hi, n, free_flows, centres=True))  # its points (CENTRES)
-        costs = [problem.cost_many(pts) for pts in lattices]
-        best = min(float(np.min(c)) for c in costs)
-        limit = best + max(stats.chi2.ppf(1 - level, max(dof, 1)) * 4.0, 25.0)
-        found = sorted(((float(c[ij]), i, ij) for i, c in enumerate(costs) for ij in _basins(c, limit, most_basins)
-                        if c[ij] <= limit), key=lambda t: t[0])
-        starts = [lattices[i][ij] for _, i, ij in found[:most_basins]]
+        limit = max(stats.chi2.ppf(1 - level, max(dof, 1)) * 4.0, 25.0)
+        starts = _search_starts(problem, ref, start, lo, hi, free_flows, grid, limit, most_basins)
     else:
         starts = [start]
     # 2. refine each basin, re-weighting once with the budget at the refined point
