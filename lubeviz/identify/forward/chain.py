@@ -591,6 +591,9 @@ class ForwardChain:
         `rotor.load_shift.STEPS` Newton steps of the shaft's equilibrium on its films from the flooded loads."""
         changes = [self.bearing_changes(k, theta, shape) for k in range(self.n_flows)]
         if self._shift is None:
+            if self.load_targets(theta, shape) is not None:  # the hook's contract: 3+ supports only
+                raise InputError(f"{', '.join(e.label() for e in self.effects)}: a static load change on a machine "
+                                 "whose loads do not follow the journals (two supports); give it as a load factor")
             states = [src.evaluate(theta[..., k], *changes[k]) for k, src in enumerate(self.sources)]
             return list(zip(changes, states)), None
         offsets = self.bearing_offsets(theta, shape)
