@@ -12,14 +12,16 @@ from .base import Effect, as_array, register
 
 @register
 class SupportStiffness(Effect):
-    """Constant support `support` (the model file's [[supports]], 1..S) has `factor` times its declared stiffness and
-    damping: a rolling-element bearing worn loose or preloaded, a loose plummer block, a seal rubbed open.
+    """Constant support `support` has `factor` times its declared stiffness and damping. The support is the model
+    file's [[supports]] entry (1..S): a rolling-element bearing worn loose or preloaded, a loose plummer block, a seal
+    rubbed open.
 
     The support's change acts at its node (between the shaft and its pedestal when the file declares one): the
     machine's modes and its 1X response move as a film's change of flow moves them. On three or more supports it
     shares the weight otherwise as well: a softer support sags and sheds load onto the films, which then sit
     elsewhere in their bearings. Those load changes are taken with the films held where they sit at the declared
-    statics (as a `side_load`'s), the films' own yield left to the flows' load shift (`rotor.load_shift`).
+    statics (`static_load_change`), and the films then yield to them in the flows' load shift (`rotor.load_shift`),
+    in size and lean.
     Changes the rotor stage (and the bearings' static loads).
     """
 
@@ -95,7 +97,8 @@ class SupportStiffness(Effect):
         w = st.loads(np.asarray(float(self.factor)))
         each = ", ".join(f"bearing {k + 1} {np.linalg.norm(a):.0f} N (declared {np.linalg.norm(b):.0f} N)"
                          for k, (a, b) in enumerate(zip(w, st.W0)))
-        return f"{text} The bearings' static loads: {each}."
+        return (f"{text} The bearings' static loads with the journals held where the declared statics put them: "
+                f"{each} (the films then yield some of the change back).")
 
 
 class _SupportStatics:
@@ -136,7 +139,8 @@ class _SupportStatics:
             journals.extend(int(d) for d in jd)
             if hd is not None:
                 tied.update({int(a): int(c) for a, c in zip(jd, hd)})
-        kept = [d for d in range(n) if d not in set(journals)]
+        held = set(journals)
+        kept = [d for d in range(n) if d not in held]
         T = np.zeros((n, len(kept)))
         T[kept, np.arange(len(kept))] = 1.0
         col = {d: i for i, d in enumerate(kept)}
