@@ -127,6 +127,13 @@ class _Scales:
         self.indeterminate = not statically_determinate(machine)  # 3+ supports: a misaligned bearing moves loads
         self.clearances_um = tuple(1e6 * b.clearance for b in machine.bearings)
         self.n_supports = len(getattr(machine, "supports", ()))
+        held = sorted({*nodes, *(sp.node for sp in getattr(machine, "supports", ()))})
+        # a bow's spans beyond the outermost bearings' one: each between two places the shaft is held, where there
+        # are three or more (the effect's `span`), with its length over the outer span's
+        z = rotor_from_machine(machine).node_z
+        outer = z[nodes[-1] - 1] - z[nodes[0] - 1]
+        self.spans = tuple((a, b, (z[b - 1] - z[a - 1]) / outer) for a, b in zip(held[:-1], held[1:])
+                           if (a, b) != (nodes[0], nodes[-1])) if len(held) > 2 else ()
 
     def has(self, effect: str) -> bool:
         """Whether the machine has what `effect` (one of MACHINE_PARTS) acts on."""
@@ -186,9 +193,15 @@ def _effect_text(name: str, strength: str, rng, machine, sc: _Scales) -> str:
     if name == "unbalance2":
         return (f"unbalance2:node={int(rng.integers(1, n_nodes + 1))},ratio={_split(rng, 0.3, 0.8, strength):.4g},"
                 f"phase_deg={rng.uniform(0, 360):.4g}")
-    if name == "bow":
-        return (f"bow:node={int(rng.integers(sc.inner[0], sc.inner[1] + 1))},"
-                f"amplitude_um={_split(rng, 30, 100, strength):.4g},phase_deg={rng.uniform(0, 360):.4g}")
+    if name == "bow":  # over the outermost bearings' span, or (a shaft held at 3+ places) over one of the others,
+        # its amplitude then in proportion to the span's length
+        k = int(rng.integers(len(sc.spans) + 1)) if sc.spans else 0
+        if k == 0:
+            return (f"bow:node={int(rng.integers(sc.inner[0], sc.inner[1] + 1))},"
+                    f"amplitude_um={_split(rng, 30, 100, strength):.4g},phase_deg={rng.uniform(0, 360):.4g}")
+        a, b, share = sc.spans[k - 1]
+        return (f"bow:node={int(rng.integers(a + 1, b))},amplitude_um={share * _split(rng, 30, 100, strength):.4g},"
+                f"phase_deg={rng.uniform(0, 360):.4g},from_node={a},to_node={b}")
     if name == "pedestals":  # weak: the stiffer pedestal
         k = (2e8 + 8e7 - _split(rng, 8e7, 2e8, strength)) * sc.stiffness
         return f"pedestals:bearing={int(rng.integers(1, nb + 1))},mass_kg=50,stiffness_n_m={k:.4g},damping_ns_m=1e4"

@@ -16,9 +16,10 @@ physics lives where the record is built (`independent.py`), each hook a few line
 - `probe_rotation` (plane 1|2|..., angle_deg, + from +X to +Y): that probe pair is turned by the angle but
   declared at its nominal angles, so the resolved reading is R(-angle) d.
 - `probe_gain` (channel x1|y1|x2|y2|..., gain): that probe's raw reading (gap included) times gain.
-- `bow` (node, amplitude_um, phase_deg): a residual bow sin(pi (z - z_b1)/(z_b2 - z_b1)) between the
-  bearing centres, |bow(node)| = amplitude, turning with the shaft at phase_deg from the unbalance;
-  it loads the rotor with the rotating force K_shaft q_bow(t).
+- `bow` (node, amplitude_um, phase_deg, from_node = 0, to_node = 0): a residual bow
+  sin(pi (z - z_a)/(z_b - z_a)) between nodes from_node and to_node (0, 0: the outermost bearing centres),
+  |bow(node)| = amplitude, turning with the shaft at phase_deg from the unbalance; it loads the rotor with the
+  rotating force K_shaft q_bow(t).
 - `seal` (node, kxy_n_m, kxx_n_m = 0): an effect NOT in the diagnosis library (for "unexplained" tests):
   a seal or a rub at a node, with cross-coupled stiffness K[x, y] += kxy, K[y, x] -= kxy and direct
   stiffness K[x, x] += kxx, K[y, y] += kxx. (Cross-coupling alone destabilizes the whirl mode before it
@@ -58,7 +59,7 @@ EFFECTS: dict[str, dict[str, object]] = {
     "pedestals": {"mass_kg": REQUIRED, "stiffness_n_m": REQUIRED, "damping_ns_m": 0.0, "bearing": "both"},
     "probe_rotation": {"plane": REQUIRED, "angle_deg": REQUIRED},
     "probe_gain": {"channel": REQUIRED, "gain": REQUIRED},
-    "bow": {"node": REQUIRED, "amplitude_um": REQUIRED, "phase_deg": 0.0},
+    "bow": {"node": REQUIRED, "amplitude_um": REQUIRED, "phase_deg": 0.0, "from_node": 0, "to_node": 0},
     "seal": {"node": REQUIRED, "kxy_n_m": REQUIRED, "kxx_n_m": 0.0},
     "side_load": {"node": REQUIRED, "force_n": REQUIRED, "moment_nm": 0.0, "angle_deg": 0.0},
     "misalignment": {"bearing": REQUIRED, "dx_um": 0.0, "dy_um": 0.0},
@@ -125,6 +126,11 @@ def _check(name: str, p: dict) -> dict:
             p["ratio"] = _number(name, "ratio", p["ratio"], non_negative=True)
         if name == "bow":
             p["amplitude_um"] = _number(name, "amplitude_um", p["amplitude_um"], non_negative=True)
+            p["from_node"] = _integer(name, "from_node", p["from_node"])
+            p["to_node"] = _integer(name, "to_node", p["to_node"])
+            if (p["from_node"] == 0) != (p["to_node"] == 0) or (p["from_node"] and p["from_node"] >= p["to_node"]):
+                raise InputError(f"effect bow: from_node {p['from_node']}, to_node {p['to_node']}: expected both 0 "
+                                 "(the outermost bearings) or from_node < to_node")
         if name == "seal":
             p["kxy_n_m"] = _number(name, "kxy_n_m", p["kxy_n_m"])
             p["kxx_n_m"] = _number(name, "kxx_n_m", p["kxx_n_m"], non_negative=True)

@@ -422,12 +422,15 @@ def _side_force(spec, rotor: Rotor) -> np.ndarray | None:
     return F
 
 
-def _bow_shape(rotor: Rotor, node: int) -> tuple[np.ndarray, np.ndarray]:
-    """s(z) = sin(pi (z - z1)/(z2 - z1)) between the bearing centres (the outermost ones, 0 outside) and its
-    slope."""
+def _bow_shape(rotor: Rotor, node: int, ends: tuple[int, int] = (0, 0)) -> tuple[np.ndarray, np.ndarray]:
+    """s(z) = sin(pi (z - z1)/(z2 - z1)) between the machine's nodes `ends` ((0, 0): the outermost bearing
+    centres; 0 outside) and its slope."""
     z = rotor.node_z
-    zb = [z[b - 1] for b in rotor.bearing_nodes]
-    z1, z2 = min(zb), max(zb)
+    if ends[0]:
+        z1, z2 = (z[fine_node(n) - 1] for n in ends)
+    else:
+        zb = [z[b - 1] for b in rotor.bearing_nodes]
+        z1, z2 = min(zb), max(zb)
     inside = (z >= z1) & (z <= z2)
     arg = math.pi * (z - z1) / (z2 - z1)
     s = np.where(inside, np.sin(arg), 0.0)
@@ -527,7 +530,10 @@ def _system(spec: IndependentSpec, rotor: Rotor, machine, omega: float, films) -
             K[i[1], i[1]] += p.get("kxx_n_m", 0.0)
         elif name == "bow":
             rotor.check_node(fine_node(p["node"]), "bow node")
-            s, ds = _bow_shape(rotor, p["node"])
+            for end in (p.get("from_node", 0), p.get("to_node", 0)):
+                if end:
+                    rotor.check_node(fine_node(end), "bow span end")
+            s, ds = _bow_shape(rotor, p["node"], (p.get("from_node", 0), p.get("to_node", 0)))
             a = 1e-6 * p["amplitude_um"] * np.exp(1j * (machine.unbalance_phase + math.radians(p["phase_deg"])))
             qb = np.zeros(rotor.n_dof, dtype=complex)
             qb[0::DOF_PER_NODE] = a * s  # x = Re(a s e^{i Omega t})

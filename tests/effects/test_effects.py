@@ -146,7 +146,7 @@ def test_bowed_shaft_on_rigid_supports_takes_its_bent_line(machine):
     i13 = node_dofs(13)
     assert abs(q_bow[i13[X]]) == pytest.approx(1.0)
     np.testing.assert_allclose(q, q_bow, atol=1e-5)
-    with pytest.raises(InputError, match="between the bearings"):
+    with pytest.raises(InputError, match="outside the ends of its span"):
         bow_shape(rotor, 21)
 
 
