@@ -114,3 +114,30 @@ def test_the_shaft_damping_is_carried_from_none_to_several_times_as_two_one_side
         assert np.allclose(S[:, 2 * PER_BEARING + j], expect, rtol=1e-6, atol=1e-12)
     flat = model_sensitivity(chain, theta, ALL_FEATURES, ModelBudget(shaft_damping_low=1.0, shaft_damping_high=1.0))
     assert not np.any(flat[:, 2 * PER_BEARING:2 * PER_BEARING + 2])
+
+
+def test_a_candidate_s_shaft_damping_columns_on_three_supports_are_those_of_a_chain_built_afresh():
+    """A diagnosis's candidates are made from one chain (`with_effects`) and share the rotors of the other shaft
+    damping it built (`ForwardChain.damped_rotor`, `with_rotor`: the statics, which do not see damping, shared too).
+    On the fan (three films and a roller, its loads following the flows) with a bow in the first wheel's span, the
+    columns equal those of chains assembled from scratch with that damping and that effect."""
+    from lubeviz.effects import Bow
+    from lubeviz.model.machine import load_machine
+
+    fan = load_machine("models/three_bearing_fan.toml")
+    base = ForwardChain(fan, 24.75)
+    bow = Bow(span=2, amplitude_um=20.0, phase_deg=40.0)
+    cand = base.adding(bow)
+    theta = cand.start()
+    theta[:3] = base.q_threshold * np.array([0.8, 1.2, 1.5])
+    budget = ModelBudget(shaft_damping_low=0.0, shaft_damping_high=4.0)
+    names = ALL_FEATURES  # planes 1 and 2 (A, B)
+    S = model_sensitivity(cand, theta, names, budget)
+    assert cand.damped_rotor(fan.shaft_damping_beta * 2.5) is base.damped_rotor(fan.shaft_damping_beta * 2.5)
+    mid = cand.features(theta, names)
+    col = 12 * 3
+    for j, factor, sign in ((0, 2.5, 1.0), (1, 0.5, -1.0)):
+        other = ForwardChain(fan, 24.75, None, (bow,), shaft_damping_beta=fan.shaft_damping_beta * factor)
+        expect = sign * (other.features(theta, names) - mid) / np.sqrt(2.0)
+        assert np.abs(expect).max() > 0
+        np.testing.assert_allclose(S[:, col + j], expect, rtol=1e-6, atol=1e-12 * np.abs(expect).max())

@@ -345,20 +345,12 @@ def _shaft_damping_columns(chain, theta, names, budget) -> tuple[np.ndarray, np.
     gives one direction, dominated by the steep side, and hides the other (measured on a held-out record just
     above the first critical speed, whose intervals missed the truth: docs/notes/coverage-and-budget.md,
     session 7). For a linear response the two columns carry the symmetric difference's covariance."""
-    from .chain import ForwardChain
-
     factors = shaft_damping_factors(budget)
     key = ("beta", factors)
     cache = chain.__dict__.setdefault("_budget_chains", {})
-    if key not in cache:
+    if key not in cache:  # the same chain on the other rotors (a diagnosis's candidates share those rotors)
         beta = chain.rotor.shaft_damping_beta
-        tables = [s.nominal for s in chain.sources]
-        cache[key] = [ForwardChain(chain.machine, chain.speed_hz, chain.nodes, chain.effects,
-                                   probe_angles_deg=chain.probe_angles_deg, tables=tables,
-                                   shaft_damping_beta=beta * f, loads=chain.loads) for f in factors]
-        for c in cache[key]:
-            for s_new, s_old in zip(c.sources, chain.sources):
-                s_new.share_views(s_old._views)
+        cache[key] = [chain.with_rotor(chain.damped_rotor(beta * f)) for f in factors]
     hi, lo = (c.with_defect(chain.defect) for c in cache[key])
     mid = chain.features(theta, names)
     return (wrap_difference(hi.features(theta, names) - mid, names) / np.sqrt(2.0),

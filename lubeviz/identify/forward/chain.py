@@ -448,6 +448,7 @@ class ForwardChain:
         self._build_reference()
         self.evaluations = 0
         self.defect: ResponseDefect | None = None
+        self._damped_rotors: dict = {}  # shaft damping beta -> rotor (`damped_rotor`), shared with derived chains
 
     def with_defect(self, defect: ResponseDefect | None) -> "ForwardChain":
         """The same chain (tables, views, effects shared) with `defect` added to its response."""
@@ -462,12 +463,34 @@ class ForwardChain:
         return new
 
     def with_effects(self, effects) -> "ForwardChain":
-        """The same machine, speed, planes and tables with other effects (tables and bearing views shared)."""
+        """The same machine, speed, planes and tables with other effects (tables and bearing views shared, and the
+        rotors of other shaft damping the model budget built: `with_rotor`)."""
         new = ForwardChain(self.machine, self.speed_hz, self.nodes, effects, probe_angles_deg=self.probe_angles_deg,
                            tables=[s.nominal for s in self.sources], rotor=self.rotor, loads=self.loads,
                            progress=self.sources[0].progress)
         for s_new, s_old in zip(new.sources, self.sources):
             s_new.share_views(s_old._views)
+        new._damped_rotors = self._damped_rotors
+        return new
+
+    def damped_rotor(self, beta: float):
+        """This chain's rotor with the shaft damping `beta` (s) instead (the model budget's), built once for a chain
+        and every chain made from it by `with_effects`."""
+        if beta == self.rotor.shaft_damping_beta:
+            return self.rotor
+        if beta not in self._damped_rotors:
+            self._damped_rotors[beta] = rotor_from_machine(self.machine, shaft_damping_beta=beta)
+        return self._damped_rotors[beta]
+
+    def with_rotor(self, rotor) -> "ForwardChain":
+        """The same chain (sources, effects, load shift, defect shared) on another `rotor` of the same shaft and
+        supports: another shaft damping (the statics, which do not see damping, stay)."""
+        import copy
+
+        new = copy.copy(self)
+        new.rotor = rotor
+        new.__dict__.pop("_budget_chains", None)
+        new._build_reference()
         return new
 
     def adding(self, *effects) -> "ForwardChain":
