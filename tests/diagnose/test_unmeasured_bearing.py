@@ -1,0 +1,40 @@
+"""A bearing no probe plane watches: its clearance is a constant the record does not pin.
+
+On the fan a record of planes A and B sees bearing C's film only through the shaft, where a worn C and a starved C
+trade against each other. The fan loop (session 47) had such a record, C worn to 1.37 x its clearance, explained
+by the plain model with Q3 at 37 ml/min (the box's floor) and an interval [37, 53] ml/min against a true 125: a
+silent wrong answer. A diagnosis now frees that clearance from the declared to UNMEASURED_CLEARANCE x it and
+reports the flows over that range. The record is the loop's case 122, made by the independent source."""
+
+import numpy as np
+import pytest
+
+from lubeviz.diagnose.loop import UNMEASURED_CLEARANCE, unmeasured_bearings
+from lubeviz.diagnose.pipeline import run_diagnosis
+from lubeviz.identify.forward.chain import ForwardChain
+from lubeviz.model.machine import MODELS_DIR, load_machine
+from lubeviz.units import MLMIN_PER_M3S
+from lubeviz.verification.independent import IndependentSpec, make_record
+
+FAN = str(MODELS_DIR / "three_bearing_fan.toml")
+Q = (112.59695779742113, 634.0266737691616, 124.68602402715696)
+
+
+def test_a_record_of_planes_a_and_b_leaves_bearing_c_unwatched():
+    fan = load_machine(FAN)
+    assert unmeasured_bearings(ForwardChain(fan, 24.75, (7, 15))) == (2,)
+    assert unmeasured_bearings(ForwardChain(fan, 24.75, (9, 23))) == (1,)  # node 9 is nearer to A than to B
+    assert unmeasured_bearings(ForwardChain(fan, 24.75)) == ()
+
+
+@pytest.mark.slow
+def test_a_worn_unwatched_bearing_s_flow_is_carried_in_the_interval():
+    spec = IndependentSpec(speed_hz=29.49241948975963, q_mlmin=Q, effects=("clearance:bearing=3,clearance_um=103",),
+                           static=True, seed=1817133546, machine=FAN, nodes=(7, 15))
+    d = run_diagnosis([make_record(spec).record], load_machine(FAN)).diagnosis
+    assert d.explained
+    iv = d.set_intervals if d.set_intervals is not None else [d.final.intervals[f"q{k + 1}"] for k in range(3)]
+    for (lo, hi), q in zip(iv, Q):
+        assert lo * MLMIN_PER_M3S <= q <= (np.inf if hi is None else hi * MLMIN_PER_M3S)
+    assert f"bearing 3's clearance (no probe watches it: from the declared to x{UNMEASURED_CLEARANCE:g}" in d.verdict
+    assert "probes at bearing 3" in d.verdict
