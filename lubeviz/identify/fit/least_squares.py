@@ -22,8 +22,10 @@ stated level (`level`, default 1 %) against noise *and* model, not noise alone.
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 import math
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import Sequence
@@ -276,6 +278,37 @@ def _search_starts(problem, chain, start, lo, hi, flows, grid: int, margin: floa
     return [lattices[i][ij] for _, i, ij in found[:most]]
 
 
+# SEARCH_MEMO: the global search's starts and the weights it was made with, for the last fits. A diagnosis fits each
+# candidate effect with the flows; most start where they change nothing (a gain of 1, a rotation of 0, the declared
+# clearance), so their search over the flows would be the plain fit's again, point for point. The key holds the
+# record, the box, the settings and the model's features at the start and at the box's two corners, so a chain that
+# differs anywhere there searches afresh.
+SEARCH_MEMO = 32
+_SEARCHES: dict = {}
+_SEARCHES_LOCK = threading.Lock()  # the app fits in several threads
+
+
+def _search_key(parts, noise, start, lo, hi, flows, settings, budget) -> str:
+    probes = np.stack([start, start, start])
+    probes[1, flows] = lo[flows]
+    probes[2, flows] = hi[flows]
+    terms = sorted((k, v) for k, v in budget.param.values().items() if k != "name")  # not its instance's name
+    h = hashlib.sha256(repr((tuple(n for _, ns, _ in parts for n in ns), tuple(flows), settings, terms)).encode())
+    for chain, names, fm in parts:
+        h.update(np.ascontiguousarray(chain.features(probes, names)).tobytes())
+        h.update(np.ascontiguousarray(fm).tobytes())
+    for a in (noise, lo[flows], hi[flows]):
+        h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()
+
+
+def _remember(key: str, value) -> None:
+    with _SEARCHES_LOCK:
+        while _SEARCHES and len(_SEARCHES) >= SEARCH_MEMO:
+            _SEARCHES.pop(next(iter(_SEARCHES)))
+        _SEARCHES[key] = value
+
+
 def _parts(chains, measured, names):
     """[(chain, feature names, measured values)] and the block-diagonal noise covariance."""
     parts, blocks = [], []
@@ -342,11 +375,24 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     start = ref.start() if start is None else np.array(start, dtype=float)
     if hold_flows is not None:
         start[:nq] = hold_flows
-    problem = _Problem(parts, _Problem(parts, np.eye(len(all_names)), free).model_cov(start, budget, noise), free)
-    # 1. global scan over the flow box
-    if hold_flows is None and not local and free_flows:
+    # 1. global scan over the flow box (a search another fit already made is not made again: SEARCH_MEMO)
+    search = hold_flows is None and not local and bool(free_flows)
+    key = _search_key(parts, noise, start, lo, hi, free_flows, (grid, most_basins, level), budget) if search else None
+    memo = _SEARCHES.get(key) if search else None
+    if memo is None:
+        cov0 = _Problem(parts, np.eye(len(all_names)), free).model_cov(start, budget, noise)
+    else:
+        cov0, found = memo
+    problem = _Problem(parts, cov0, free)
+    if search and memo is None:
         limit = max(stats.chi2.ppf(1 - level, max(dof, 1)) * 4.0, 25.0)
         starts = _search_starts(problem, ref, start, lo, hi, free_flows, grid, limit, most_basins)
+        _remember(key, (cov0, [s[free_flows].copy() for s in starts]))
+    elif search:
+        starts = []
+        for flows in found:
+            starts.append(start.copy())
+            starts[-1][free_flows] = flows
     else:
         starts = [start]
     # 2. refine each basin, re-weighting once with the budget at the refined point
