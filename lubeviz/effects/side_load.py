@@ -52,10 +52,14 @@ class SideLoad(Effect):
                          doc="(n_bearings, 2): each bearing's share of a unit force and of a unit couple at the node "
                              "(set when the effect is bound to a machine)")
     loads = param.Array(None, allow_None=True, precedence=-1, doc="The bearings' declared static loads (N)")
+    indeterminate = param.Boolean(False, precedence=-1,
+                                  doc="Whether the machine stands on 3+ supports (set when bound): the loads' change "
+                                      "is then given with the journals held (`static_load_change`) and the films "
+                                      "yield to it in the chain's load shift")
 
     def bind(self, machine) -> "SideLoad":
         from ..rotor.assembly import rotor_from_machine
-        from ..rotor.statics import bearing_static_loads, load_shares, moment_shares
+        from ..rotor.statics import bearing_static_loads, load_shares, moment_shares, statically_determinate
 
         rotor = rotor_from_machine(machine)
         node = self.node
@@ -66,7 +70,8 @@ class SideLoad(Effect):
         if not 1 <= node <= rotor.n_nodes:
             raise InputError(f"effect side_load: node {node} is not a node of the rotor (1..{rotor.n_nodes})")
         return self.copy(shares=np.stack([load_shares(rotor, node), moment_shares(rotor, node)], axis=-1),
-                         loads=np.abs(bearing_static_loads(machine)[:, 1]))
+                         loads=np.abs(bearing_static_loads(machine)[:, 1]),
+                         indeterminate=not statically_determinate(machine, rotor))
 
     def values(self) -> dict:
         v = super().values()
@@ -94,9 +99,25 @@ class SideLoad(Effect):
         return f[..., None] * shares[:, 0] + m[..., None] * shares[:, 1]
 
     def bearing_change(self, k: int, values: dict, shape) -> dict:
+        """Two supports: bearing `k`'s load x a factor (the lever rule's share of the force and couple). On 3+
+        supports nothing here: the loads change through `static_load_change`."""
         _, loads = self._bound()
+        if self.indeterminate:
+            return {}
         factor = 1.0 + self.load_changes(values, shape)[..., k] / loads[k]
         return {"load_factor": np.clip(factor, *LOAD_FACTOR_RANGE)}
+
+    def static_load_change(self, values: dict, shape):
+        """On 3+ supports, (..., N, 2): each film's load changed by its share of the force and couple with the
+        journals held (`load_shares`, `moment_shares`: the shaft pinned at them, the constant supports elastic);
+        the chain's load shift then lets the films yield, so the loads' size and lean follow (one mechanism with a
+        support's stiffness, `Effect.static_load_change`). None on two supports (the load factor there)."""
+        if not self.indeterminate:
+            return None
+        change = self.load_changes(values, shape)  # > 0: the bearing carries more, along the weight (-Y)
+        out = np.zeros(change.shape + (2,))
+        out[..., 1] = -change
+        return out
 
     def at_limit(self) -> list[int]:
         """The bearings (1-based) whose load change at the current values reaches past LOAD_FACTOR_RANGE."""
