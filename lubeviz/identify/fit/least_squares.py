@@ -302,6 +302,12 @@ def _search_key(parts, noise, start, lo, hi, flows, settings, budget) -> str:
     return h.hexdigest()
 
 
+def forget_searches() -> None:
+    """Drop the remembered searches (SEARCH_MEMO): a benchmark times each fit's search as a first fit makes it."""
+    with _SEARCHES_LOCK:
+        _SEARCHES.clear()
+
+
 def _remember(key: str, value) -> None:
     with _SEARCHES_LOCK:
         while _SEARCHES and len(_SEARCHES) >= SEARCH_MEMO:
