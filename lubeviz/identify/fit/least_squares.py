@@ -315,6 +315,30 @@ def _remember(key: str, value) -> None:
         _SEARCHES[key] = value
 
 
+def _weighted_starts(parts, noise, ref, start, box, free, flows, settings, budget, dof):
+    """(the problem weighted with the model budget at `start`, the starts to refine): the global search's over the
+    `flows` in `box` (none: `start` alone), remembered (SEARCH_MEMO) and taken from there when made before."""
+    lo, hi = box
+    n = sum(len(ns) for _, ns, _ in parts)
+    key = _search_key(parts, noise, start, lo, hi, flows, settings, budget) if flows else None
+    memo = _SEARCHES.get(key) if flows else None
+    cov0 = _Problem(parts, np.eye(n), free).model_cov(start, budget, noise) if memo is None else memo[0]
+    problem = _Problem(parts, cov0, free)
+    if not flows:
+        return problem, [start]
+    if memo is None:
+        grid, most, level = settings
+        limit = max(stats.chi2.ppf(1 - level, max(dof, 1)) * 4.0, 25.0)
+        starts = _search_starts(problem, ref, start, lo, hi, flows, grid, limit, most)
+        _remember(key, (cov0, [s[flows].copy() for s in starts]))
+        return problem, starts
+    starts = []
+    for found in memo[1]:
+        starts.append(start.copy())
+        starts[-1][flows] = found
+    return problem, starts
+
+
 def _parts(chains, measured, names):
     """[(chain, feature names, measured values)] and the block-diagonal noise covariance."""
     parts, blocks = [], []
@@ -383,24 +407,8 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
         start[:nq] = hold_flows
     # 1. global scan over the flow box (a search another fit already made is not made again: SEARCH_MEMO)
     search = hold_flows is None and not local and bool(free_flows)
-    key = _search_key(parts, noise, start, lo, hi, free_flows, (grid, most_basins, level), budget) if search else None
-    memo = _SEARCHES.get(key) if search else None
-    if memo is None:
-        cov0 = _Problem(parts, np.eye(len(all_names)), free).model_cov(start, budget, noise)
-    else:
-        cov0, found = memo
-    problem = _Problem(parts, cov0, free)
-    if search and memo is None:
-        limit = max(stats.chi2.ppf(1 - level, max(dof, 1)) * 4.0, 25.0)
-        starts = _search_starts(problem, ref, start, lo, hi, free_flows, grid, limit, most_basins)
-        _remember(key, (cov0, [s[free_flows].copy() for s in starts]))
-    elif search:
-        starts = []
-        for flows in found:
-            starts.append(start.copy())
-            starts[-1][free_flows] = flows
-    else:
-        starts = [start]
+    problem, starts = _weighted_starts(parts, noise, ref, start, (lo, hi), free, free_flows if search else [],
+                                       (grid, most_basins, level), budget, dof)
     # 2. refine each basin, re-weighting once with the budget at the refined point
     lm_options = dict(max_iter=SCREENING_ITER, cost_tol=SCREENING_GAIN) if screening else {}
     runs, iterations = [], 0
