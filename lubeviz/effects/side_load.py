@@ -73,6 +73,15 @@ class SideLoad(Effect):
                          loads=np.abs(bearing_static_loads(machine)[:, 1]),
                          indeterminate=not statically_determinate(machine, rotor))
 
+    def scan_nodes(self, rotor) -> tuple[int, ...]:
+        """On a shaft held at three or more places, every node: there a force and a couple share out over the
+        bearings otherwise at each node (a force between A and B, one between B and C and one at B load the fan's
+        films in patterns no force and couple at one node make up: 32-38 % of each left over), so where the load
+        acts is a place to find, as a second unbalance's is. On two supports () (a force and a couple at any node
+        load them alike)."""
+        held = {*rotor.bearing_nodes, *(int(s[0]) for s in rotor.supports)}
+        return tuple(range(1, rotor.n_nodes + 1)) if len(held) > 2 else ()
+
     def values(self) -> dict:
         v = super().values()
         if v["node"] is None:  # not given: "where it acts" is not a number to write back
