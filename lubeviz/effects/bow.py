@@ -82,8 +82,8 @@ class Bow(Effect):
     forcing = True
 
     node = param.Integer(None, allow_None=True, bounds=(1, None),
-                         doc="Node where the bow's amplitude is given (between the bearings); None: the node nearest "
-                             "midway between the first two bearings")
+                         doc="Node where the bow's amplitude is given (inside its span); None: the node nearest "
+                             "midway along the span")
     span = param.Integer(None, allow_None=True, bounds=(1, None),
                          doc="Where the shaft is bent: None, one sine between the outermost fluid-film bearings; k, "
                              "one sine between the k-th and (k+1)-th place the shaft is held (bearings and constant "

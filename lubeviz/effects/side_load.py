@@ -79,8 +79,9 @@ class SideLoad(Effect):
         films in patterns no force and couple at one node make up: 32-38 % of each left over), so where the load
         acts is a place to find, as a second unbalance's is. On two supports () (a force and a couple at any node
         load them alike)."""
-        held = {*rotor.bearing_nodes, *(int(s[0]) for s in rotor.supports)}
-        return tuple(range(1, rotor.n_nodes + 1)) if len(held) > 2 else ()
+        from .bow import support_nodes
+
+        return tuple(range(1, rotor.n_nodes + 1)) if len(support_nodes(rotor)) > 2 else ()
 
     def values(self) -> dict:
         v = super().values()

@@ -263,19 +263,21 @@ def _basins(cost: np.ndarray, limit: float, most: int) -> list[tuple[int, ...]]:
     return idx[:most] or [tuple(np.unravel_index(np.argmin(cost), cost.shape))]
 
 
-def _search_starts(problem, chain, start, lo, hi, flows, grid: int, margin: float, most: int) -> list:
-    """The global search's starts: the grid's basins (`_basins`) within `margin` of its best cost, the `most` best.
-    A coarse grid (3+ flows) is searched at its cells' centres too, where a narrow valley may pass between its points
-    (CENTRES)."""
+def _search_starts(problem, chain, start, lo, hi, flows, grid: int, margin: float, most: int,
+                   costs=None) -> tuple[list, list]:
+    """(the global search's starts, the lattices' costs): the grid's basins (`_basins`) within `margin` of its best
+    cost, the `most` best. A coarse grid (3+ flows) is searched at its cells' centres too, where a narrow valley may
+    pass between its points (CENTRES). `costs`: the lattices' costs a search with the same weights made before."""
     n = grid_size(len(flows), grid)
     lattices = [_grid_starts(chain, start, lo, hi, n, flows)]
     if n < grid:
         lattices.append(_grid_starts(chain, start, lo, hi, n, flows, centres=True))
-    costs = [problem.cost_many(pts) for pts in lattices]
+    if costs is None:
+        costs = [problem.cost_many(pts) for pts in lattices]
     limit = min(float(np.min(c)) for c in costs) + margin
     found = sorted(((float(c[ij]), i, ij) for i, c in enumerate(costs) for ij in _basins(c, limit, most)
                     if c[ij] <= limit), key=lambda t: t[0])
-    return [lattices[i][ij] for _, i, ij in found[:most]]
+    return [lattices[i][ij] for _, i, ij in found[:most]], costs
 
 
 # SEARCH_MEMO: the global search's starts and the weights it was made with, for the last fits. A diagnosis fits each
@@ -317,7 +319,8 @@ def _remember(key: str, value) -> None:
 
 def _weighted_starts(parts, noise, ref, start, box, free, flows, settings, budget, dof):
     """(the problem weighted with the model budget at `start`, the starts to refine): the global search's over the
-    `flows` in `box` (none: `start` alone), remembered (SEARCH_MEMO) and taken from there when made before."""
+    `flows` in `box` (none: `start` alone). The weights and the lattices' costs are remembered (SEARCH_MEMO) and taken
+    from there when made before; the basins are picked afresh, with this fit's own limit (its dof)."""
     lo, hi = box
     n = sum(len(ns) for _, ns, _ in parts)
     key = _search_key(parts, noise, start, lo, hi, flows, settings, budget) if flows else None
@@ -326,16 +329,12 @@ def _weighted_starts(parts, noise, ref, start, box, free, flows, settings, budge
     problem = _Problem(parts, cov0, free)
     if not flows:
         return problem, [start]
+    grid, most, level = settings
+    limit = max(stats.chi2.ppf(1 - level, max(dof, 1)) * 4.0, 25.0)
+    starts, costs = _search_starts(problem, ref, start, lo, hi, flows, grid, limit, most,
+                                   costs=None if memo is None else memo[1])
     if memo is None:
-        grid, most, level = settings
-        limit = max(stats.chi2.ppf(1 - level, max(dof, 1)) * 4.0, 25.0)
-        starts = _search_starts(problem, ref, start, lo, hi, flows, grid, limit, most)
-        _remember(key, (cov0, [s[flows].copy() for s in starts]))
-        return problem, starts
-    starts = []
-    for found in memo[1]:
-        starts.append(start.copy())
-        starts[-1][flows] = found
+        _remember(key, (cov0, costs))
     return problem, starts
 
 
