@@ -61,3 +61,28 @@ damping_ns_m = [[1.0e3, 0.0], [0.0, 1.0e3]]
     path = tmp_path / f"{name}.toml"
     path.write_text(text)
     return path
+
+
+def one_x_with_films(machine, truth, nodes, extra_force=None):
+    """The model's rotor (`rotor_from_machine`) at the machine's operating speed on the films of an independent
+    record's `truth` (its K, C per bearing): the 1X (x, y) at `nodes` under the machine's unbalance plus
+    `extra_force(rotor, omega)` (an effect's forcing, or None). The two implementations then share their films and
+    differ in their rotor and forcing alone."""
+    import numpy as np
+
+    from lubeviz.identify.forward.chain import machine_unbalance
+    from lubeviz.rotor.assembly import rotor_from_machine
+    from lubeviz.rotor.elements import X, Y, node_dofs
+    from lubeviz.rotor.response import dynamic_stiffness, unbalance_force
+
+    rotor = rotor_from_machine(machine)
+    w = 2 * np.pi * machine.operating_speed
+    D = dynamic_stiffness(rotor, w, rotor.K, rotor.C)
+    for k, n in enumerate(rotor.bearing_nodes):
+        d = node_dofs(n)[[X, Y]]
+        D[np.ix_(d, d)] += truth["K"][k] + 1j * w * truth["C"][k]
+    F = unbalance_force(rotor, w, machine_unbalance(machine))
+    if extra_force is not None:
+        F = F + extra_force(rotor, w)
+    x = np.linalg.solve(D, F)
+    return np.array([x[node_dofs(n)[[X, Y]]] for n in nodes])

@@ -15,20 +15,16 @@ import pytest
 
 from lubeviz.effects import Bow, bow_shape
 from lubeviz.errors import InputError
-from lubeviz.identify.forward.chain import machine_unbalance
 from lubeviz.model.files import load_machine
 from lubeviz.model.machine import MODELS_DIR
 from lubeviz.rotor.assembly import bearing_matrices, isotropic, rotor_from_machine
 from lubeviz.rotor.elements import X, Y, node_dofs
-from lubeviz.rotor.response import dynamic_stiffness, unbalance_force
+from lubeviz.rotor.response import dynamic_stiffness
 from lubeviz.verification.independent import IndependentSpec, steady_truth, thresholds_mlmin
 
+from tests.machines import one_x_with_films
+
 FAN = str(MODELS_DIR / "three_bearing_fan.toml")
-
-
-@pytest.fixture(scope="module")
-def fan():
-    return load_machine(FAN)
 
 
 def test_the_fan_s_bows_are_its_four_spans_and_the_paper_s_its_one(fan):
@@ -71,18 +67,9 @@ def test_a_bow_in_the_first_wheel_s_span_gives_the_independent_source_s_1x(fan):
     spec = IndependentSpec(speed_hz=fan.operating_speed, q_mlmin=qt, nodes=(7, 15), machine=FAN, effects=(text,))
     truth = steady_truth(spec)
     bare = steady_truth(IndependentSpec(speed_hz=fan.operating_speed, q_mlmin=qt, nodes=(7, 15), machine=FAN))
-    rotor = rotor_from_machine(fan)
-    w = 2 * np.pi * fan.operating_speed
-    D = dynamic_stiffness(rotor, w, rotor.K, rotor.C)
-    for k, n in enumerate(rotor.bearing_nodes):
-        d = node_dofs(n)[[X, Y]]
-        D[np.ix_(d, d)] += truth["K"][k] + 1j * w * truth["C"][k]
     bow = Bow(node=11, span=2, amplitude_um=40.0, phase_deg=70.0)
-    F = unbalance_force(rotor, w, machine_unbalance(fan))
     weight = bow.forcing_weights({}, ())[..., 0]
-    F = F + bow.forcing_shapes(rotor, w, fan)[0] * weight
-    x = np.linalg.solve(D, F)
-    ours = np.array([x[node_dofs(n)[[X, Y]]] for n in (7, 15)])
+    ours = one_x_with_films(fan, truth, (7, 15), lambda rotor, w: bow.forcing_shapes(rotor, w, fan)[0] * weight)
     theirs = truth["steady_true_xy_m"]
     np.testing.assert_allclose(ours, theirs, rtol=0, atol=5e-3 * np.abs(theirs).max())
     assert np.abs(bare["steady_true_xy_m"] - theirs).max() > 0.2 * np.abs(theirs).max()

@@ -4,35 +4,16 @@ and lean follow. Before session 48 it gave each film a load factor (the size onl
 mechanisms for one job. Checked against the independent source's own coupled statics on its split rotor with the
 same force (its films on an 80 x 40 mesh here)."""
 
-import warnings
-
 import numpy as np
 import pytest
 
 from lubeviz.effects import parse_effect
 from lubeviz.identify.forward.chain import ForwardChain
-from lubeviz.model.files import load_machine
 from lubeviz.units import MLMIN_PER_M3S
-from lubeviz.verification.independent import static_equilibrium, thresholds_mlmin
+from lubeviz.verification.independent import static_equilibrium
 
-FAN = "models/three_bearing_fan.toml"
-MESH = (80, 40)
+from tests.effects.conftest import FAN, MESH, quiet
 
-
-def quiet(fn, *args, **kw):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return fn(*args, **kw)
-
-
-@pytest.fixture(scope="module")
-def fan():
-    return load_machine(FAN)
-
-
-@pytest.fixture(scope="module")
-def qt(fan):
-    return quiet(thresholds_mlmin, fan.operating_speed, FAN)
 
 
 def test_on_three_supports_it_changes_the_load_vectors_and_on_two_a_factor(fan, machine):

@@ -6,8 +6,6 @@ of the assembled system. Statics on 3+ supports: the films' loads held where the
 films' yield in the load shift (size and lean); checked against the independent source, whose split rotor carries the
 changed support in its own statics and dynamics."""
 
-import warnings
-
 import numpy as np
 import pytest
 
@@ -17,16 +15,10 @@ from lubeviz.identify.forward.chain import ForwardChain
 from lubeviz.model.files import load_machine
 from lubeviz.rotor.assembly import rotor_from_machine
 from lubeviz.units import MLMIN_PER_M3S
-from lubeviz.verification.independent import static_equilibrium, thresholds_mlmin
+from lubeviz.verification.independent import static_equilibrium
 
-FAN = "models/three_bearing_fan.toml"
-MESH = (80, 40)  # the independent films' mesh here (tests/effects/test_misalignment.py)
+from tests.effects.conftest import FAN, MESH, quiet
 
-
-def quiet(fn, *args, **kw):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return fn(*args, **kw)
 
 
 def test_it_parses_places_over_the_supports_and_is_refused_without_one(machine):
@@ -42,16 +34,6 @@ def test_it_parses_places_over_the_supports_and_is_refused_without_one(machine):
     placed = parse_effect("support_stiffness").placements(n_bearings=3, n_planes=3, n_supports=1)
     assert [p.support for p in placed] == [1] and all(p.placeable(rotor_from_machine(fan)) for p in placed)
     assert not parse_effect("support_stiffness:support=2").placeable(rotor_from_machine(fan))
-
-
-@pytest.fixture(scope="module")
-def fan():
-    return load_machine(FAN)
-
-
-@pytest.fixture(scope="module")
-def qt(fan):
-    return quiet(thresholds_mlmin, fan.operating_speed, FAN)
 
 
 def test_the_chain_equals_a_direct_solve_and_the_declared_support_changes_nothing(fan, qt):

@@ -24,7 +24,7 @@ from lubeviz.rotor.statics import coupled_statics, gravity_load, support_reactio
 from lubeviz.verification.independent import (IndependentSpec, fine_node, make_record, split_rotor, static_equilibrium,
                                               steady_truth, thresholds_mlmin)
 
-from tests.machines import uniform_three_bearing_file
+from tests.machines import one_x_with_films, uniform_three_bearing_file
 
 MESH = (80, 40)
 FAN = str(MODELS_DIR / "three_bearing_fan.toml")
@@ -441,9 +441,6 @@ def test_a_roller_on_a_pedestal_is_built_alike_by_both_implementations(tmp_path)
     Measured at every bearing's Q_T: the pedestal sags and sheds the roller's load onto A (2038.7 -> 2129.4 N), the
     two statics within 0.3 N; the split rotor's 1X with this source's films against the model's rotor with the same
     films within 0.06 % (the pedestal moves the 1X at A by 19 %)."""
-    from lubeviz.identify.forward.chain import machine_unbalance
-    from lubeviz.rotor.elements import X, Y, node_dofs
-    from lubeviz.rotor.response import dynamic_stiffness, unbalance_force
     from lubeviz.verification.independent import IndependentSpec, steady_truth
 
     text = Path(FAN).read_text()
@@ -461,14 +458,7 @@ def test_a_roller_on_a_pedestal_is_built_alike_by_both_implementations(tmp_path)
     np.testing.assert_allclose(st.loads, cs.loads, rtol=0, atol=2e-4 * np.abs(cs.loads).max())
     np.testing.assert_allclose(st.support_forces, cs.support_forces, rtol=0, atol=1e-3 * np.abs(cs.loads).max())
     truth = steady_truth(IndependentSpec(speed_hz=m.operating_speed, q_mlmin=qt, nodes=(7, 15), machine=str(path)))
-    rotor = rotor_from_machine(m)
-    w = 2 * np.pi * m.operating_speed
-    D = dynamic_stiffness(rotor, w, rotor.K, rotor.C)
-    for k, n in enumerate(rotor.bearing_nodes):
-        d = node_dofs(n)[[X, Y]]
-        D[np.ix_(d, d)] += truth["K"][k] + 1j * w * truth["C"][k]
-    x = np.linalg.solve(D, unbalance_force(rotor, w, machine_unbalance(m)))
-    ours = np.array([x[node_dofs(n)[[X, Y]]] for n in (7, 15)])
+    ours = one_x_with_films(m, truth, (7, 15))
     theirs = truth["steady_true_xy_m"]
     np.testing.assert_allclose(ours, theirs, rtol=0, atol=2e-3 * np.abs(theirs).max())
     bare = steady_truth(IndependentSpec(speed_hz=m.operating_speed, q_mlmin=qt, nodes=(7, 15), machine=FAN))
