@@ -282,7 +282,7 @@ class MapsPage(RecordSourceWatch, pn.viewable.Viewer):
                 color="red", marker="x", size=14, line_width=3))
         nodes = r["model_nodes"]
         return hv.Overlay(layers).opts(
-            title=f"ε_T and the root curves, nodes {nodes[0]} and {nodes[1]} ({self.settings.mode} mode search)",
+            title=f"ε_T and the root curves, nodes {', '.join(str(n) for n in nodes)} ({self.settings.mode} mode search)",
             responsive=True, min_height=520, legend_position="right", xlim=(q1[0], q1[-1]), ylim=(q2[0], q2[-1]))
 
     def _feature_plots(self, r) -> list:

@@ -65,7 +65,7 @@ def bench_broken(machine_path=None, *, n: int = 112, seed: int = 2026, speed_hz:
         spec = IndependentSpec(speed_hz=speed_hz, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]), seed=5000 + i)
         clean = make_record(spec).record
         rec, expect = broken_record(clean.displacement.reshape(4, -1), clean.speed_hz, clean.sample_rate_hz, kind,
-                                    rng)
+                                    rng, nodes=clean.nodes)
         d = run_diagnosis([rec], machine).diagnosis
         rows.append({"kind": kind, "q_mlmin": q.tolist(), "seconds": d.seconds, "verdict": d.verdict,
                      **judge(d, expect, q)})

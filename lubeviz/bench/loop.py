@@ -5,7 +5,8 @@ linearization, another rotor mesh and damping, time integration, its own effects
 would, one record or one `set:` per call (`diagnose.pipeline.run_diagnosis`, what `lubeviz diagnose` runs).
 The cases (`draw_cases`, all from one seed):
 
-On the paper's machine (any other: its own speeds, parts and sizes, `_Scales`; each record two of its planes):
+On the paper's machine (any other: its own speeds, parts and sizes, `_Scales`; each record all of its planes or, half
+the time, two of them):
 
 - clean: speed 50-100 Hz, flows 30-180 % of each bearing's Q_T at that speed, a third with the static shaft
   position (the probes' DC gap);
@@ -205,7 +206,7 @@ def _effect_text(name: str, strength: str, rng, machine, sc: _Scales) -> str:
     if name == "pedestals":  # weak: the stiffer pedestal
         k = (2e8 + 8e7 - _split(rng, 8e7, 2e8, strength)) * sc.stiffness
         return f"pedestals:bearing={int(rng.integers(1, nb + 1))},mass_kg=50,stiffness_n_m={k:.4g},damping_ns_m=1e4"
-    if name == "probe_rotation":  # a record holds two planes
+    if name == "probe_rotation":  # on the first or second plane: every record holds those
         return (f"probe_rotation:plane={int(rng.integers(1, 3))},"
                 f"angle_deg={_sign(rng) * _split(rng, 3, 8, strength):.4g}")
     if name == "probe_gain":
@@ -238,8 +239,9 @@ def _out_text(group: str, rng, machine, sc: _Scales) -> str:
 
 
 def _planes(rng, sc: _Scales) -> list[int]:
-    """A record's two planes: the machine's two, or two of its planes drawn (in order along the shaft)."""
-    if len(sc.planes) <= 2:
+    """A record's planes: the machine's (2 or more), or half the time (a probe pair out of service) two of its
+    planes drawn, in order along the shaft."""
+    if len(sc.planes) <= 2 or rng.random() < 0.5:
         return list(sc.planes)
     pick = rng.choice(len(sc.planes), size=2, replace=False)
     return sorted(sc.planes[int(i)] for i in pick)

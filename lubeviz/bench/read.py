@@ -21,6 +21,7 @@ import numpy as np
 from ..signals.records import MAX_RECORD_BYTES, record_from_arrays, write_record
 
 SPEED_HZ, RATE_HZ = 75.0, 1.0e4
+NODES = (6, 20)  # the planes a synthetic record names (the reader's cost does not depend on them)
 CSV_BYTES_PER_ROW = 105  # 't,x1,y1,x2,y2' of shortest-repr floats, about
 NPZ_BYTES_PER_ROW = 5 * 8
 
@@ -57,7 +58,7 @@ def synthetic_large_record(n_samples: int, rng: np.random.Generator):
     w = 2 * math.pi * SPEED_HZ * t
     chans = [a * np.cos(w + p) + 1e-6 * rng.standard_normal(n_samples)
              for a, p in ((20e-6, 0.0), (18e-6, -1.5), (15e-6, 0.4), (14e-6, -1.2))]
-    return record_from_arrays(*chans, speed_hz=SPEED_HZ, sample_rate_hz=RATE_HZ)
+    return record_from_arrays(*chans, speed_hz=SPEED_HZ, nodes=NODES, sample_rate_hz=RATE_HZ)
 
 
 def write_large_record(path: Path, size_mb: float, rng: np.random.Generator) -> Path:

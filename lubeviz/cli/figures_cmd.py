@@ -101,8 +101,8 @@ def _meta(fid, fig) -> dict:
     meta = {"figure": fid, "title": fig["title"]}
     if "nodes" in fig:
         nodes = fig["nodes"]
-        meta["nodes"] = (", ".join(f"{k} {v[0]}, {v[1]}" for k, v in nodes.items()) if isinstance(nodes, dict)
-                         else f"{nodes[0]}, {nodes[1]}")
+        meta["nodes"] = (", ".join(f"{k} " + ", ".join(str(n) for n in v) for k, v in nodes.items())
+                         if isinstance(nodes, dict) else ", ".join(str(n) for n in nodes))
     if "q_threshold" in fig:
         meta["q_threshold_mlmin"] = ", ".join(f"{m3s_to_mlmin(q):.2f}" for q in fig["q_threshold"])
     if fid == "fig7":

@@ -439,7 +439,7 @@ def _record_section(record, measured_names) -> str:
             ("speed", f"{record.speed_hz:g} Hz ({60 * record.speed_hz:.0f} rpm)"),
             ("sampling", f"{record.sample_rate_hz:g} samples/s, {n} samples"),
             ("duration", f"{dur:.2f} s ({dur * record.speed_hz:.0f} revolutions)"),
-            ("planes", f"nodes {record.nodes[0]} and {record.nodes[1]}; probe angles "
+            ("planes", f"{record.n_planes} at nodes {', '.join(str(n) for n in record.nodes)}; probe angles "
                        + "; ".join(f"{a:g}°/{b:g}°" for a, b in record.probe_angles_deg)),
             ("static position", "recorded (shaft centreline)" if record.rest_position is not None else "not recorded"),
             ("features used", ", ".join(measured_names))]

@@ -43,9 +43,9 @@ _UNIT_SLIPS = (("m", "um"), ("um", "mils"), ("mm", "um"))  # (written in, declar
 _CHANNELS = ("x1", "y1", "x2", "y2")
 
 
-def broken_record(columns, speed_hz, rate_hz, kind: str, rng: np.random.Generator):
-    """The record of `columns` ((4, n) metres, x1 y1 x2 y2) broken as `kind`, and what a diagnosis should say
-    of it: {'wiring': fault} / {'finding': kind, 'text': ...} / {'pickup': Hz} / {} (clean)."""
+def broken_record(columns, speed_hz, rate_hz, kind: str, rng: np.random.Generator, *, nodes):
+    """The record of `columns` ((4, n) metres, x1 y1 x2 y2 at the planes' model `nodes`) broken as `kind`, and what
+    a diagnosis should say of it: {'wiring': fault} / {'finding': kind, 'text': ...} / {'pickup': Hz} / {} (clean)."""
     from ..signals.records import record_from_arrays
 
     cols, units, expect = np.array(columns, dtype=float), "m", {}
@@ -76,5 +76,5 @@ def broken_record(columns, speed_hz, rate_hz, kind: str, rng: np.random.Generato
         expect = {"pickup": f}
     elif kind != "none":
         raise ValueError(f"unknown break {kind!r}; expected one of {', '.join(KINDS)}")
-    rec = record_from_arrays(*cols, speed_hz=speed_hz, sample_rate_hz=rate_hz, units=units)
+    rec = record_from_arrays(*cols, speed_hz=speed_hz, nodes=nodes, sample_rate_hz=rate_hz, units=units)
     return dataclasses.replace(rec, source=f"{kind}.csv"), expect

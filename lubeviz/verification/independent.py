@@ -79,7 +79,9 @@ from ..units import MLMIN_PER_M3S
 SHAFT_DAMPING_BETA = 3e-5  # s; the model's is 2e-5
 GAP = 1.0e-3  # m, the probes' DC gap reading with the shaft at the bearing centre
 TRANSIENT_TOLERANCE = 1e-2  # warn when the transient left exceeds 1 % of the steady 1X
-X_Y = ((0.0, 90.0), (0.0, 90.0))
+X_Y = ((0.0, 90.0), (0.0, 90.0))  # two planes' probes along X and Y (per plane: `XY`)
+XY = (0.0, 90.0)
+MAX_RECORD_PLANES = 12  # as a record (lubeviz.signals.records.MAX_PLANES)
 
 
 def fine_node(node: int) -> int:
@@ -95,8 +97,9 @@ class IndependentSpec:
     bearing's flow in the model file's order (any machine, SPEC §8; one of the two forms). Given for a
     two-bearing machine, `q_mlmin` is folded into `q1_mlmin`, `q2_mlmin` (one spec, one form: equal specs
     and the same cached keys either way); for any other count `q1_mlmin`, `q2_mlmin` are None.
-    `flows_mlmin` is every bearing's flow in either case. `nodes`: the record's two planes (a record holds
-    two, whatever the machine's count of bearings or planes).
+    `flows_mlmin` is every bearing's flow in either case. `nodes`: the record's planes (2 or more, each a node
+    of the machine; None: the machine's measurement planes, SPEC §8). `probe_angles_deg`: one (a, b) pair per
+    plane (None: the machine's declared probes at those of its planes, X and Y elsewhere).
     `effects`: (name, {params}) pairs or 'NAME:key=value,...' strings (SPEC §7 names, see
     `lubeviz.verification.effects`; `bearing = both` means every fluid-film bearing). `snr_db=None`: no
     noise. `static`: keep the DC gap (SPEC §6 `static: absolute`). `total_s` is integrated from rest, the
@@ -106,8 +109,8 @@ class IndependentSpec:
     speed_hz: float
     q1_mlmin: float | None = None
     q2_mlmin: float | None = None
-    nodes: tuple[int, int] = (6, 20)
-    probe_angles_deg: tuple[tuple[float, float], tuple[float, float]] = X_Y
+    nodes: tuple[int, ...] | None = None
+    probe_angles_deg: tuple[tuple[float, float], ...] | None = None
     effects: tuple = ()
     snr_db: float | None = 12.0
     duration_s: float = 5.0
@@ -135,16 +138,23 @@ class IndependentSpec:
             if not math.isfinite(float(self.snr_db)):
                 raise InputError(f"IndependentSpec.snr_db = {self.snr_db!r}; expected a finite number or None")
             put("snr_db", float(self.snr_db))
-        if len(tuple(self.nodes)) != 2:
-            raise InputError(f"IndependentSpec.nodes = {self.nodes!r}; expected two node numbers")
-        put("nodes", tuple(int(n) for n in self.nodes))
+        planes = {p.node: tuple(float(a) for a in p.probe_angles_deg)
+                  for p in _machine(self.machine).measurement_planes}
+        nodes = tuple(planes) if self.nodes is None else tuple(self.nodes)
+        if not 2 <= len(nodes) <= MAX_RECORD_PLANES or len(set(nodes)) != len(nodes):
+            raise InputError(f"IndependentSpec.nodes = {self.nodes!r}; expected 2 to {MAX_RECORD_PLANES} different "
+                             "node numbers, one per plane")
+        put("nodes", tuple(int(n) for n in nodes))
+        given = self.probe_angles_deg
+        if given is None:
+            given = tuple(planes.get(n, XY) for n in self.nodes)
         try:
-            angles = tuple(tuple(float(a) for a in pair) for pair in self.probe_angles_deg)
+            angles = tuple(tuple(float(a) for a in pair) for pair in given)
         except (TypeError, ValueError):
             angles = ()
-        if len(angles) != 2 or any(len(p) != 2 for p in angles):
+        if len(angles) != len(self.nodes) or any(len(p) != 2 for p in angles):
             raise InputError(f"IndependentSpec.probe_angles_deg = {self.probe_angles_deg!r}; expected "
-                             "two (angle_a, angle_b) pairs in degrees")
+                             f"{len(self.nodes)} (angle_a, angle_b) pairs in degrees, one per plane")
         put("probe_angles_deg", angles)
         put("effects", normalize_effects(self.effects))
         put("static", bool(self.static))
@@ -767,7 +777,7 @@ def _truth(spec: IndependentSpec, prepared) -> dict:
     angles, gain = _probes(spec)
     u = np.stack([np.cos(angles), np.sin(angles)], axis=-1)  # (plane, probe, xy): where each probe points
     steady = gain * np.einsum("kpj,kj->kp", u, D)
-    xy = np.array([_resolve(steady[k], spec.probe_angles_deg[k]) for k in range(2)])  # as the probes say
+    xy = np.array([_resolve(steady[k], pair) for k, pair in enumerate(spec.probe_angles_deg)])  # as the probes say
     zf, zb = 0.5 * (xy[:, 0] + 1j * xy[:, 1]), np.conj(0.5 * (xy[:, 0] - 1j * xy[:, 1]))
     phi = 0.5 * (np.angle(zf) + np.angle(zb))
     phi = phi - np.pi * np.round(phi / np.pi)
@@ -831,9 +841,10 @@ def make_record(spec: IndependentSpec, *, set_name: str | None = None, use_cache
                       f"still {100 * residual:.2g} % of the steady 1X in the "
                       f"kept window (slowest mode decays at {-lam.real.max():.3g} 1/s); lengthen total_s",
                       stacklevel=2)
-    d = q[:4].reshape(2, 2, -1)
-    row = 4
-    for k in range(2):
+    n_planes = len(spec.nodes)
+    d = q[:2 * n_planes].reshape(n_planes, 2, -1)
+    row = 2 * n_planes
+    for k in range(n_planes):
         if ref[k] is not None:  # probes on a pedestal read the shaft relative to its housing
             d[k] -= q[row:row + 2]
             row += 2
@@ -850,7 +861,7 @@ def make_record(spec: IndependentSpec, *, set_name: str | None = None, use_cache
             "snr_db": "none" if spec.snr_db is None else f"{spec.snr_db:g}", "synthetic": "independent"}
     if spec.effects:
         meta["effects"] = "; ".join(spec.effects_text())
-    record = record_from_arrays(*readings.reshape(4, -1), speed_hz=spec.speed_hz,
+    record = record_from_arrays(*readings.reshape(2 * n_planes, -1), speed_hz=spec.speed_hz,
                                 sample_rate_hz=spec.sample_rate_hz, units="m", nodes=spec.nodes,
                                 probe_angles_deg=spec.probe_angles_deg, t0=keep_from * dt,
                                 machine=Path(spec.machine or DEFAULT_MACHINE).name, metadata=meta,
@@ -930,8 +941,8 @@ def clean_corpus(n: int, rng: np.random.Generator, *, machine: str | None = None
     the model's `flooded_thresholds` computation; every fluid-film bearing of the machine; a bearing whose supply
     the model file declares `known` is fed its `supply_mlmin`, a `flooded` one 120-180 % of its Q_T), the
     machine's planes or its `outside_nodes` (the paper's bearing centres 6, 20 or outside them 5, 21; of a machine
-    with more than two planes two drawn, a record holds two), the planes' probes or the other of X/Y and (45,
-    135), one seed. `spec_options` go to every IndependentSpec (e.g. total_s=6.0).
+    with more than two planes, all of them or, half the time, two drawn), the planes' probes or the other of X/Y
+    and (45, 135), one seed. `spec_options` go to every IndependentSpec (e.g. total_s=6.0).
 
     Part of that range is unstable or barely stable (the oil-whirl mode near 0.65 X: e.g. 90 Hz at
     0.5 Q_T grows; 75 Hz at 0.55 Q_T decays at only 0.2 1/s), where no steady record exists. With
@@ -949,9 +960,9 @@ def clean_corpus(n: int, rng: np.random.Generator, *, machine: str | None = None
     grid = corpus_speeds(m, speed_step_hz)
     planes = (tuple(m.center_nodes), tuple(m.outside_nodes) or tuple(m.center_nodes))
     declared = tuple(tuple(float(a) for a in p.probe_angles_deg) for p in m.measurement_planes)
-    if len(declared) != len(planes[0]) or all(a == X_Y[0] for a in declared):
-        declared = X_Y
-    other = ((45.0, 135.0),) * len(declared) if declared == X_Y else X_Y
+    if len(declared) != len(planes[0]):
+        declared = (XY,) * len(planes[0])
+    other = ((45.0, 135.0),) * len(declared) if all(a == XY for a in declared) else (XY,) * len(declared)
     probes = (declared, other)
     specs = []
     while len(specs) < int(n):
@@ -962,10 +973,10 @@ def clean_corpus(n: int, rng: np.random.Generator, *, machine: str | None = None
         nodes = planes[int(rng.integers(2))]
         angles = probes[int(rng.integers(2))]
         seed = int(rng.integers(0, 2**31 - 1))
-        if len(nodes) != 2:  # a record holds two planes: two of the machine's, drawn, in its order
-            if len(nodes) < 2:
-                raise InputError(f"clean_corpus: the machine {m.source or m.name} has {len(nodes)} measurement "
-                                 "plane(s); a record holds two ([[planes]])")
+        if len(nodes) < 2:
+            raise InputError(f"clean_corpus: the machine {m.source or m.name} has {len(nodes)} measurement "
+                             "plane(s); a record holds two at least ([[planes]])")
+        if len(nodes) > 2 and rng.random() < 0.5:  # every plane, or (a pair out of service) two of them, in order
             pick = sorted(int(i) for i in rng.choice(len(nodes), size=2, replace=False))
             angles = tuple(angles[i] for i in pick) if len(angles) == len(nodes) else angles
             nodes = tuple(nodes[i] for i in pick)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from lubeviz.cli.main import main
-from lubeviz.signals import read_record
+from tests.records import read_record
 from lubeviz.signals.records import write_record
 from lubeviz.verification import IndependentSpec, make_record, make_set, write_record_csv
 

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from lubeviz.cli.main import main
-from lubeviz.signals.records import record_from_arrays, write_record
+from lubeviz.signals.records import write_record
+from tests.records import record_from_arrays
 
 SPEED, RATE, N = 75.0, 2000.0, 2000  # 1 s, resolution 1 Hz
 

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from lubeviz.cli.main import main
-from lubeviz.signals import read_record, record_features
+from lubeviz.signals import record_features
+from tests.records import read_record
 
 
 def run(capsys, *argv):
@@ -104,7 +105,7 @@ def test_bad_coefficient_file_is_named(capsys, tmp_path):
 def test_every_example_machine_simulates_a_record_of_its_own_planes(capsys, tmp_path, name, flows, planes):
     """SPEC §8 item 6: the shipped machines run; the record holds the model file's planes and probe angles."""
     from lubeviz.model.machine import MODELS_DIR, load_machine
-    from lubeviz.signals.records import read_record
+    from tests.records import read_record
 
     path = MODELS_DIR / f"{name}.toml"
     out = tmp_path / "r.csv"

@@ -14,7 +14,8 @@ from lubeviz.identify.tables.cache import machine_tables
 from lubeviz.identify.forward.chain import ForwardChain
 from lubeviz.model.machine import DEFAULT_MACHINE, load_machine
 from lubeviz.model.oil import ISO_VG_NU100_CST, Oil, walther_nu_cst
-from lubeviz.signals.records import read_record, record_from_arrays, write_record
+from lubeviz.signals.records import write_record
+from tests.records import read_record, record_from_arrays
 from lubeviz.units import MLMIN_PER_M3S
 
 Q = np.array([420.0, 600.0]) / MLMIN_PER_M3S

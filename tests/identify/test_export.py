@@ -52,7 +52,7 @@ def test_angles_in_degrees_and_sigmas_with_the_model_budget(item):
     # the fit's sigma includes the model budget: above the record's noise alone, feature by feature
     from lubeviz.identify.forward.model import ALL_FEATURES
     from lubeviz.identify.forward.measured import measure
-    from lubeviz.signals.records import read_record
+    from tests.records import read_record
 
     names = list(item.result.features_names)
     noise = measure(read_record(SAMPLE), ALL_FEATURES).subset(names).std

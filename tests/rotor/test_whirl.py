@@ -108,7 +108,7 @@ def test_a_large_orbit_record_above_the_threshold_holds_the_whirl_s_sub_synchron
     probes' samples) finds a forward sub-synchronous line at the unstable mode's frequency; below it the
     record is the periodic orbit and holds none."""
     from lubeviz.signals.lines import present_lines
-    from lubeviz.signals.records import read_record_bytes
+    from tests.records import read_record_bytes
     from lubeviz.signals.synthesize import synthesize_record
 
     from lubeviz.model.machine import load_machine

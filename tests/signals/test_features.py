@@ -7,7 +7,8 @@ import pytest
 
 from lubeviz.errors import DataFormatError, InputError
 from lubeviz.rotor.directional import directional_components, forward_backward_ratio, orbit_angle
-from lubeviz.signals import add_noise, full_spectrum, noise_std, plane_features, record_features, record_from_arrays
+from lubeviz.signals import add_noise, full_spectrum, noise_std, plane_features, record_features
+from tests.records import record_from_arrays
 
 SPEED = 75.0
 OMEGA = 2 * math.pi * SPEED

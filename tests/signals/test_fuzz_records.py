@@ -28,7 +28,8 @@ import pytest
 import scipy.io
 
 from lubeviz.errors import DataFormatError
-from lubeviz.signals.records import read_record, record_from_arrays, write_record
+from lubeviz.signals.records import write_record
+from tests.records import read_record, record_from_arrays
 
 SPEED, RATE, N = 75.0, 2000.0, 400  # 15 revolutions
 SEED = 20261123

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from lubeviz.signals.lines import FALSE_ALARM, record_lines
-from lubeviz.signals.records import record_from_arrays
+from tests.records import record_from_arrays
 
 FS, SPEED = 10000.0, 75.0
 

@@ -3,6 +3,7 @@ DataFormatError naming the file and the field for every kind of bad input."""
 
 import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,10 +14,9 @@ from lubeviz.signals import records
 from lubeviz.signals.records import (
     Record,
     check_speed,
-    read_record,
-    record_from_arrays,
     write_record,
 )
+from tests.records import PAPER_NODES, read_record, record_from_arrays
 
 SPEED = 75.0
 RATE = 2000.0
@@ -111,7 +111,7 @@ def test_probe_readings_resolve_to_x_and_y(angles):
     xy = rng.normal(scale=2e-5, size=(2, 2, 500))
     a, b = np.radians(angles)
     probes = np.stack([[x * np.cos(a) + y * np.sin(a), x * np.cos(b) + y * np.sin(b)] for x, y in xy])
-    rec = Record(SPEED, RATE, probes, probe_angles_deg=(angles, angles))
+    rec = Record(SPEED, RATE, probes, nodes=PAPER_NODES, probe_angles_deg=(angles, angles))
     np.testing.assert_allclose(rec.xy(), xy, rtol=0, atol=1e-12 * np.abs(xy).max())
     z = rec.complex_signal(1)
     np.testing.assert_allclose(z, xy[1, 0] + 1j * xy[1, 1], rtol=0, atol=1e-12 * np.abs(xy).max())
@@ -512,7 +512,7 @@ def test_unknown_npz_and_mat_variables_warn(tmp_path):
 
 def test_uploaded_bytes_warn_under_the_upload_name(tmp_path):
     text = write_csv(tmp_path / "r.csv", {**META, "node_1": "5"}).read_text()
-    rec = records.read_record_bytes(text, "run 7.csv")
+    rec = records.read_record_bytes(text, "run 7.csv", default_nodes=PAPER_NODES)
     assert rec.warnings == ("run 7.csv: unknown key 'node_1' ignored; did you mean 'node1'?",)
 
 
@@ -621,7 +621,8 @@ def test_a_temperature_key_points_to_the_oil_temperature(tmp_path):
 
 def test_an_upload_named_longer_than_a_file_system_allows_is_read_under_its_name(tmp_path):
     """The bytes pass through a temporary file of the reader's own name; messages name the user's file."""
-    from lubeviz.signals.records import read_record_bytes, record_from_arrays, write_record
+    from lubeviz.signals.records import write_record
+    from tests.records import read_record_bytes, record_from_arrays
 
     t = np.arange(2000) / 2000.0
     rec = record_from_arrays(*(1e-5 * np.sin(2 * np.pi * 75.0 * t + p) for p in (0, 1, 2, 3)), speed_hz=75.0,
@@ -678,3 +679,33 @@ def test_a_three_plane_file_names_what_is_missing(tmp_path):
         read_record(path)
     path.write_text("\n".join(kept + ["# nodes: 6, 13, 20", ",".join(both + ["x3", "y3"])] + body) + "\n")
     assert read_record(path).nodes == (6, 13, 20)
+
+
+def test_a_record_names_its_planes_or_is_read_with_its_machine(tmp_path):
+    """No machine's nodes are assumed: a record that names none is refused unless read with a machine, whose
+    planes (any count) then stand in (SPEC §6, §8)."""
+    from lubeviz.model.machine import load_machine
+
+    path = write_csv(tmp_path / "r.csv", META)
+    with pytest.raises(DataFormatError, match=r"r\.csv: nodes: missing.*without a machine.*'nodes: n1, n2'"):
+        records.read_record(path)
+    assert records.read_record(path, **load_machine().record_defaults()).nodes == (6, 20)
+    with pytest.raises(DataFormatError, match="record: nodes: missing"):
+        Record(SPEED, RATE, np.full((2, 2, N), 1e-6) * np.arange(N))
+    with pytest.raises(TypeError, match="nodes"):
+        records.record_from_arrays(*np.ones((4, N)) * np.arange(N) * 1e-8, speed_hz=SPEED, sample_rate_hz=RATE)
+
+    fan = load_machine(Path(__file__).parents[2] / "models" / "three_bearing_fan.toml")
+    t = np.arange(4000) / 4000.0
+    six = [1e-5 * np.cos(2 * np.pi * 24.75 * t + 0.3 * k) for k in range(6)]
+    rec = records.record_from_arrays(*six, speed_hz=24.75, sample_rate_hz=4000.0, nodes=(7, 15, 23))
+    back = records.read_record(write_record(rec, tmp_path / "fan.csv"))
+    assert back.nodes == (7, 15, 23) and back.n_planes == 3
+    text = (tmp_path / "fan.csv").read_text()
+    bare = tmp_path / "bare.csv"  # the same record with its nodes line taken out: the fan's planes stand in
+    bare.write_text("\n".join(line for line in text.splitlines() if not line.lower().startswith("# nodes")))
+    with pytest.raises(DataFormatError, match="'nodes: n1, n2, n3'"):
+        records.read_record(bare)
+    assert records.read_record(bare, **fan.record_defaults()).nodes == (7, 15, 23)
+    with pytest.raises(DataFormatError, match="nodes: missing: the record has 3 planes and the machine 2"):
+        records.read_record(bare, **load_machine().record_defaults())

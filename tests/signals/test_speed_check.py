@@ -14,7 +14,8 @@ import pytest
 from lubeviz.errors import DataFormatError, InputError
 from lubeviz.identify.forward.measured import measure
 from lubeviz.model.machine import load_machine
-from lubeviz.signals.records import read_record, record_from_arrays, write_record
+from lubeviz.signals.records import write_record
+from tests.records import read_record, record_from_arrays
 from lubeviz.signals.speed_check import check_speed_label, spectrum_speed_check
 from lubeviz.signals.synthesize import synthesize_record
 from lubeviz.units import MLMIN_PER_M3S

@@ -15,11 +15,9 @@ from lubeviz.signals.records import (
     check_set,
     group_records,
     journal_static_position,
-    read_record,
-    read_set,
-    record_from_arrays,
     write_record,
 )
+from tests.records import read_record, read_set, record_from_arrays
 
 SPEED = 75.0
 RATE = 3000.0  # 40 samples per revolution

@@ -5,7 +5,8 @@ import pytest
 
 from lubeviz.errors import InputError
 from lubeviz.rotor.film_bearings import film_bearings, machine_response
-from lubeviz.signals import read_record, record_features, write_record
+from lubeviz.signals import record_features, write_record
+from tests.records import read_record
 from lubeviz.signals.synthesize import synthesize_record
 from lubeviz.units import MLMIN_PER_M3S
 

@@ -19,7 +19,7 @@ def test_the_benchs_mix_up_is_the_librarys(machine, fault):
     clean = simulate(chain, Q, snr_db=None, duration_s=0.2)
     mixed = simulate(chain.adding(parse_effect(f"wiring:fault={fault}")), Q, snr_db=None, duration_s=0.2)
     rec, expect = broken_record(clean.displacement.reshape(4, -1), 75.0, clean.sample_rate_hz, fault,
-                                np.random.default_rng(0))
+                                np.random.default_rng(0), nodes=clean.nodes)
     assert expect == {"wiring": fault}
     np.testing.assert_allclose(rec.displacement, mixed.displacement, atol=1e-12 * np.abs(clean.displacement).max())
 
@@ -29,6 +29,6 @@ def test_every_break_is_made_and_says_what_to_expect(machine):
     clean = simulate(chain, Q, snr_db=30.0, rng=np.random.default_rng(1), duration_s=0.5)
     for kind in KINDS:
         rec, expect = broken_record(clean.displacement.reshape(4, -1), 75.0, clean.sample_rate_hz, kind,
-                                    np.random.default_rng(2))
+                                    np.random.default_rng(2), nodes=clean.nodes)
         assert (expect == {}) == (kind == "none")
         assert rec.displacement.shape == clean.displacement.shape

@@ -11,40 +11,47 @@ import numpy as np
 
 from ...units import length_factor
 from .record import (
-    COLUMNS, DEFAULT_NODES, DEFAULT_PROBE_ANGLES_DEG, FREE_PREFIXES, FREE_TEXT_KEYS, INFO_KEYS,
+    COLUMNS, FREE_PREFIXES, MAX_PLANES, PROBE_ANGLES_XY_DEG, FREE_TEXT_KEYS, INFO_KEYS,
     META_KEYS, MIN_SAMPLES, Record, STATIC_ABSOLUTE, TIME_PRECISION, TIME_RTOL, _channel_means,
     _check_vibration, _column, _cos_sin_deg, _fail, _finite, _node, _plane_numbers, _positive, _probe_angles,
     _numbers, _rest_position, _text, channel_names,
 )
 
 
-def record_from_arrays(x1, y1, x2, y2, *, speed_hz: float, sample_rate_hz: float | None = None,
-                       t=None, units: str = "m", nodes=DEFAULT_NODES,
-                       probe_angles_deg=DEFAULT_PROBE_ANGLES_DEG, t0: float | None = None,
+def record_from_arrays(*channels, speed_hz: float, nodes, sample_rate_hz: float | None = None,
+                       t=None, units: str = "m",
+                       probe_angles_deg=PROBE_ANGLES_XY_DEG, t0: float | None = None,
                        machine: str | None = None, keyphasor=None,
                        metadata: Mapping[str, str] | None = None,
                        source: str | None = None, rest_position=None, static_offset=None,
                        set_name: str | None = None, oil_temperature_c: float | None = None) -> Record:
-    """A `Record` from probe readings in `units`, validated exactly as a file would be.
+    """A `Record` from probe readings x1, y1, ..., xP, yP in `units`, validated exactly as a file would be.
+
+    `nodes`: the P planes' model nodes (no default: a machine's planes are `Machine.record_defaults`).
 
     Give `sample_rate_hz` or a time array `t` (or both, then they must agree); `t0` (s) only
     without `t`. Record fields found in `metadata` (`set`, `static`, `rest_position`, ...) are read
     as a file's would be; one given both as an argument and in `metadata` is refused.
 
     Static shaft position (both in `units`, like the readings):
-    - `rest_position` alone (4 numbers X1, Y1, X2, Y2 or 2x2, along the probe directions): the
+    - `rest_position` alone (2P numbers X1, Y1, ..., XP, YP or P x 2, along the probe directions): the
       readings are absolute (they keep the DC gap), as in a `static: absolute` file.
-    - `static_offset` (2 planes x (X, Y), the journal's displacement from its rest position): the
+    - `static_offset` (P planes x (X, Y), the journal's displacement from its rest position): the
       readings are taken as the dynamic part; each channel's mean (as `Record` estimates it) is
       replaced by rest reading + the offset seen along that probe, so the record's `static_offset`
       equals the one given (to rounding). `rest_position` defaults to zero readings then.
     """
     where = str(source) if source is not None else "record"
-    if np.ndim(nodes) != 1 or len(nodes) != 2:
-        raise _fail(where, "nodes", f"{nodes!r}", "two node numbers (node1, node2)")
-    columns = {"x1": x1, "y1": y1, "x2": x2, "y2": y2, "t": t, "keyphasor": keyphasor}
+    n_planes = len(channels) // 2
+    if len(channels) % 2 or not 2 <= n_planes <= MAX_PLANES:
+        raise _fail(where, "channels", f"{len(channels)} arrays",
+                    f"x1, y1, ..., xP, yP: an even number, 2 <= P <= {MAX_PLANES} planes")
+    if nodes is None or np.ndim(nodes) != 1 or len(nodes) != n_planes:
+        raise _fail(where, "nodes", f"{nodes!r}", f"{n_planes} node numbers, one per plane")
+    columns = dict(zip(channel_names(n_planes), channels))
+    columns.update({"t": t, "keyphasor": keyphasor})
     meta = {"speed_hz": speed_hz, "sample_rate_hz": sample_rate_hz, "units": units,
-            "node1": nodes[0], "node2": nodes[1], "probe_angles_deg": probe_angles_deg,
+            "nodes": tuple(nodes), "probe_angles_deg": probe_angles_deg,
             "machine": machine, "t0_s": t0, "set": set_name, "rest_position": rest_position,
             "oil_temperature_c": oil_temperature_c,
             "static": None if rest_position is None else STATIC_ABSOLUTE}
@@ -59,13 +66,13 @@ def record_from_arrays(x1, y1, x2, y2, *, speed_hz: float, sample_rate_hz: float
         else:
             extra[key] = value
     if static_offset is not None and meta["rest_position"] is None:
-        meta["rest_position"], meta["static"] = np.zeros((2, 2)), STATIC_ABSOLUTE
+        meta["rest_position"], meta["static"] = np.zeros((n_planes, 2)), STATIC_ABSOLUTE
     columns = {k: _column(v, where, k) for k, v in columns.items() if v is not None}
     meta = {k: v for k, v in meta.items() if v is not None}
     if static_offset is not None:
         static_offset = _plane_numbers(static_offset, where, "static_offset",
-                                       "X1, Y1, X2, Y2 (2 planes x 2) in the record's units", 2)
-    return _assemble(columns, meta, extra, _Origin(where), DEFAULT_NODES, static_offset=static_offset)
+                                       f"X, Y of each plane ({n_planes} planes x 2) in the record's units", n_planes)
+    return _assemble(columns, meta, extra, _Origin(where), None, static_offset=static_offset)
 
 
 @dataclass(frozen=True)
@@ -135,8 +142,8 @@ def _assemble(columns: dict, meta: dict, extra: dict, origin: _Origin, default_n
     nodes = _nodes(meta, where, n_planes, default_nodes)
     angles = meta.get("probe_angles_deg")
     if angles is None:
-        defaults = DEFAULT_PROBE_ANGLES_DEG if default_probe_angles is None else default_probe_angles
-        angles = tuple(tuple(a) for a in defaults) if len(defaults) == n_planes else (0.0, 90.0)
+        defaults = default_probe_angles or ()
+        angles = tuple(tuple(a) for a in defaults) if len(defaults) == n_planes else PROBE_ANGLES_XY_DEG
     rest = _static_fields(meta, where, n_planes)
     # One (P, 2, n) array filled channel by channel; each column is let go once copied (peak memory of a
     # large record: the samples about once, not three times).
@@ -175,6 +182,12 @@ def _nodes(meta: dict, where: str, n_planes: int, default_nodes) -> tuple[int, .
                         f"{n_planes} node numbers, one per plane (columns x1 ... y{n_planes})")
         return tuple(_node(v, where, f"nodes ({k + 1})") for k, v in enumerate(values))
     named = [f"node{k + 1}" in meta for k in range(n_planes)]
+    if not any(named) and default_nodes is None:
+        listed = ", ".join(f"n{k + 1}" for k in range(n_planes)) if n_planes <= 3 else f"n1, ..., n{n_planes}"
+        raise _fail(where, "nodes", f"missing: the record does not name the model nodes of its {n_planes} planes"
+                    " and was read without a machine",
+                    f"'nodes: {listed}' in the record, or the record read with its machine's model file")
+    default_nodes = default_nodes or ()
     if not any(named) and len(default_nodes) != n_planes:
         raise _fail(where, "nodes", f"missing: the record has {n_planes} planes and the machine {len(default_nodes)}",
                     f"'nodes: n1, ..., n{n_planes}', the model node of each plane")

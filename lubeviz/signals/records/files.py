@@ -16,14 +16,15 @@ from .fields import _assemble, _time_spacing
 from .mat_format import _MATLAB_NAME, _read_mat
 from .npz_format import _read_npz, _write_npz
 from .record import (
-    DEFAULT_NODES, DEFAULT_PROBE_ANGLES_DEG, FORMATS, Record, STATIC_ABSOLUTE, TIME_PRECISION, _fail, channel_names,
+    FORMATS, Record, STATIC_ABSOLUTE, TIME_PRECISION, _fail, channel_names,
 )
 from . import record as _record  # its MAX_RECORD_BYTES read at call time
 
 
-def read_record(path, *, default_nodes=DEFAULT_NODES, default_probe_angles=None) -> Record:
+def read_record(path, *, default_nodes=None, default_probe_angles=None) -> Record:
     """Read a `.csv`, `.npz` or `.mat` record (SPEC §6); `default_nodes` and `default_probe_angles` (the machine's
-    measurement planes, `Machine.record_defaults`; None: X and Y) when the file names none."""
+    measurement planes, `Machine.record_defaults`) when the file names none. Without `default_nodes` a file that
+    names no nodes is refused (no machine's nodes are assumed); without angles the probes are taken along X, Y."""
     path = Path(path)
     where = str(path)
     suffix = _suffix(path)
@@ -49,7 +50,7 @@ def read_record(path, *, default_nodes=DEFAULT_NODES, default_probe_angles=None)
     return check_speed_label(record)
 
 
-def read_record_bytes(content, filename: str, *, default_nodes=DEFAULT_NODES, default_probe_angles=None) -> Record:
+def read_record_bytes(content, filename: str, *, default_nodes=None, default_probe_angles=None) -> Record:
     """Read a record uploaded as bytes (or text) under its original `filename` (its suffix gives the format).
 
     Messages name `filename`, not the temporary file the bytes pass through. The size limit is checked

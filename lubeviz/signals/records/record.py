@@ -49,10 +49,7 @@ SET_SPEED_RTOL = 1e-3  # two records of one set closer than this in speed are th
 STATIC_TOLERANCE = 0.05  # fraction of c a static position may lie beyond the clearance circle
 
 
-DEFAULT_NODES = (6, 20)  # the paper machine's bearing centres
-
-
-DEFAULT_PROBE_ANGLES_DEG = ((0.0, 90.0), (0.0, 90.0))  # probe a along +X, probe b along +Y
+PROBE_ANGLES_XY_DEG = (0.0, 90.0)  # a plane's probes when nothing says otherwise: a along +X, b along +Y
 
 
 FORMATS = (".csv", ".npz", ".mat")
@@ -107,19 +104,22 @@ def _fail(where: str, what: str, problem: str, expected: str | None = None) -> D
 
 
 class Record:
-    """One steady-speed measurement at two planes; SI inside (metres, seconds, rev/s)."""
+    """One steady-speed measurement at P planes; SI inside (metres, seconds, rev/s).
+
+    `nodes` has no default: a record names its planes' model nodes, or is read with its machine (whose planes
+    stand in, `Machine.record_defaults`). `probe_angles_deg` defaults to X and Y at every plane."""
 
     speed_hz: float  # shaft speed, rev/s
     sample_rate_hz: float  # samples per second, uniform sampling
-    displacement: np.ndarray  # (2 planes, 2 probes, n_samples) probe readings in metres, read-only
-    nodes: tuple[int, int] = DEFAULT_NODES  # model nodes of the two planes
-    probe_angles_deg: tuple[tuple[float, float], tuple[float, float]] = DEFAULT_PROBE_ANGLES_DEG
+    displacement: np.ndarray  # (P planes, 2 probes, n_samples) probe readings in metres, read-only
+    nodes: tuple[int, ...] | None = None  # model nodes of the P planes (required: see the class doc)
+    probe_angles_deg: tuple[tuple[float, float], ...] | None = None  # per plane; None: X and Y everywhere
     t0: float = 0.0  # time of the first sample, s
     machine: str | None = None  # model file name under models/ (a plain name, no folder)
     keyphasor: np.ndarray | None = None  # (n_samples,), as recorded (not scaled)
     metadata: Mapping[str, str] = field(default_factory=dict)  # other `key: value` pairs, read-only
     source: str | None = None  # the file it came from, for messages
-    # `static: absolute`: (2 planes, 2 probes) probe readings at rest (journal at the bottom of its
+    # `static: absolute`: (P planes, 2 probes) probe readings at rest (journal at the bottom of its
     # bearing), metres, along the probe directions; the displacement then keeps the DC gap. None:
     # the mean of each channel means nothing.
     rest_position: np.ndarray | None = None
@@ -129,7 +129,7 @@ class Record:
     oil_temperature_c: float | None = None
     warnings: tuple[str, ...] = ()  # what the reader ignored (unknown keys, columns), for the user
     units: str | None = None  # the units the file declared (m, mm, um, mils): named when amplitudes look off
-    # Derived when built (never passed): mean reading - rest reading resolved to X, Y (2 planes, 2) in
+    # Derived when built (never passed): mean reading - rest reading resolved to X, Y (P planes, 2) in
     # metres, and its standard error; None without `rest_position`.
     static_offset: np.ndarray | None = field(default=None, init=False, repr=False)
     static_offset_std: np.ndarray | None = field(default=None, init=False, repr=False)
@@ -171,11 +171,14 @@ class Record:
                         f" {self.duration:.6g} s = {self.revolutions:.3g} revolutions at"
                         f" {self.speed_hz:g} Hz", f"at least {MIN_REVOLUTIONS:g} revolutions")
 
+        n_planes = d.shape[0]
+        if self.nodes is None:
+            raise _fail(where, "nodes", "missing: the record does not name its planes' model nodes",
+                        f"{n_planes} node numbers, one per plane, or the record read with its machine")
         try:
             nodes = tuple(self.nodes)
         except TypeError:
             nodes = ()
-        n_planes = d.shape[0]
         if len(nodes) != n_planes:
             raise _fail(where, "nodes", f"{self.nodes!r}", f"{n_planes} node numbers, one per plane"
                         + (" (node1, node2)" if n_planes == 2 else f" (nodes: n1, ..., n{n_planes})"))
@@ -186,7 +189,8 @@ class Record:
                 raise _fail(where, f"node{k + 1}", f"{nodes[k]} is the same node as node{j + 1}",
                             "different model nodes, one per measurement plane")
         put("nodes", nodes)
-        put("probe_angles_deg", _probe_angles(self.probe_angles_deg, where, n_planes))
+        angles = PROBE_ANGLES_XY_DEG if self.probe_angles_deg is None else self.probe_angles_deg
+        put("probe_angles_deg", _probe_angles(angles, where, n_planes))
 
         if self.keyphasor is not None:
             kp = _numeric_array(self.keyphasor, where, "keyphasor")
@@ -325,7 +329,7 @@ def journal_static_position(record: Record, clearances, *,
     """(P planes, 2) journal centre X, Y relative to its bearing centre, metres (SPEC §6).
 
     `static_offset` + (0, -c_k): at rest the journal lies at the bottom of its bearing, (0, -c).
-    `clearances` are the true radial clearances c_k (m) of the bearings at the record's two planes
+    `clearances` are the true radial clearances c_k (m) of the bearings at the record's planes
     (meaningful at a bearing's centre plane). A point farther from the centre than
     c_k (1 + `tolerance`) + 3 standard errors cannot be a journal inside its bearing: refused.
     """

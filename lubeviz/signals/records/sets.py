@@ -7,13 +7,15 @@ from pathlib import Path
 
 from ...errors import DataFormatError
 from .files import _name, read_record
-from .record import DEFAULT_NODES, Record, SET_SPEED_RTOL, _fail
+from .record import Record, SET_SPEED_RTOL, _fail
 
 
-def read_set(paths, *, default_nodes=DEFAULT_NODES) -> list[Record]:
-    """The records of one `set:`, read and checked together (`check_set`), sorted by speed."""
+def read_set(paths, *, default_nodes=None, default_probe_angles=None) -> list[Record]:
+    """The records of one `set:`, read and checked together (`check_set`), sorted by speed; the keywords as
+    `read_record`'s (`Machine.record_defaults`)."""
     paths = [Path(p) for p in ([paths] if isinstance(paths, (str, Path)) else paths)]
-    return check_set([read_record(p, default_nodes=default_nodes) for p in paths])
+    return check_set([read_record(p, default_nodes=default_nodes, default_probe_angles=default_probe_angles)
+                      for p in paths])
 
 
 def check_set(records: Sequence[Record]) -> list[Record]:
