@@ -39,7 +39,7 @@ def register(sub) -> None:
     p = sub.add_parser("reproduce", help="the paper's 64-case protocol, Tables 4-8")
     add_common(p)
     p.add_argument("--location", choices=("center", "outside"), required=True,
-                   help="measurement planes: bearing centres (nodes 6, 20) or outside them (5, 21)")
+                   help="measurement planes: the bearing centres or the machine's outside nodes (the paper's 6, 20 or 5, 21)")
     p.add_argument("--mode", choices=("both", "paper", "best"), default="both")
     p.add_argument("--seed", type=int, default=2024, help="noise seed of the protocol")
     p.set_defaults(run=run_reproduce)

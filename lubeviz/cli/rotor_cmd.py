@@ -102,7 +102,7 @@ def register(sub) -> None:
     p.add_argument("--coefficients", metavar="FILE", default=None,
                    help="JSON bearing coefficients, bypassing the film model")
     p.add_argument("--speed-hz", type=finite_float, default=None, help="shaft speed (default: the machine's)")
-    p.add_argument("--nodes", type=str, default=None, help="output nodes (default: 5,6,20,21)")
+    p.add_argument("--nodes", type=str, default=None, help="output nodes (default: the machine's measurement planes, with its outside nodes if it declares any)")
     p.add_argument("--shaft-damping-beta", type=finite_float, default=None, metavar="B",
                    help="stiffness-proportional shaft damping (s), default from the machine file")
     p.set_defaults(run=run_response)

@@ -89,3 +89,13 @@ def test_held_effect_parameters_are_listed_with_units_in_the_text_the_csv_and_th
     assert {(r["quantity"], r["bearing_or_feature"], r["unit"]) for r in rows} == {
         ("effect_parameter_held", "probe_rotation.plane", ""), ("effect_parameter_held", "probe_rotation.angle_deg", "deg")}
     assert result_dict(held)["effects"] == {"probe_rotation": {"plane": 1, "angle_deg": 0.0}}
+
+
+def test_every_plane_s_static_position_is_written_in_micrometres():
+    """Static features of any plane (sx1 ... syP, SPEC §8), as of the paper's two, are micrometres in the CSV."""
+    from lubeviz.identify.forward.model import static_features
+    from lubeviz.identify.output.export import feature_unit
+
+    for name in static_features(3):
+        assert feature_unit(name) == ("um", 1e6) and feature_unit(f"60Hz:{name}") == ("um", 1e6)
+    assert feature_unit("zf3")[0] == "-" and feature_unit("phi3")[0] == "deg"

@@ -44,12 +44,10 @@ from ...rotor.elements import X, Y, node_dofs
 from ...rotor.response import dynamic_stiffness, machine_unbalance, unbalance_force
 from ...rotor import load_shift
 from ...rotor.statics import bearing_static_loads
-from .model import feature_plane, feature_vector, is_static, static_features
+from .model import feature_plane, feature_vector, is_static
 from ..tables.supply import CoefficientTable
 from ...units import MLMIN_PER_M3S
 
-STATIC_FEATURES = static_features(2)  # two planes' static journal offsets from the rest reading, m (SPEC §6)
-DEFAULT_PROBE_ANGLES = ((0.0, 90.0), (0.0, 90.0))  # two planes, X and Y (SPEC §6); any P: `ForwardChain`'s None
 
 
 def flow_names(n_bearings: int) -> tuple[str, ...]:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import re
 
 from ...units import MLMIN_PER_M3S
 from ..fit.result import verdict_over_interval
@@ -154,7 +155,7 @@ def feature_unit(name: str) -> tuple[str, float]:
     base = name.rsplit(":", 1)[-1]
     if base.startswith(("phi", "arg")):
         return "deg", 180.0 / math.pi
-    if base in ("sx1", "sy1", "sx2", "sy2"):  # the static position (identify.forward.chain.STATIC_FEATURES), m
+    if re.fullmatch(r"s[xy]\d+", base):  # a plane's static position (forward.chain.static_features), m
         return "um", 1e6
     return "-", 1.0
 
