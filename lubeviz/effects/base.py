@@ -37,6 +37,10 @@ class Effect(param.Parameterized):
     placement: ClassVar[tuple[str, ...]] = ()  # discrete parameters (which bearing/plane/channel/node)
     neutral: ClassVar[dict] = {}  # continuous values at which the effect changes nothing
     step: ClassVar[dict] = {}  # finite-difference step of each continuous parameter (its own unit)
+    # further values of a continuous parameter at which a fit's global search over the flows also looks (besides
+    # its start): a size the flows mimic from the start (hot oil as more oil) can leave the true size in another
+    # basin. Machine-relative values: override `search_values`.
+    search: ClassVar[dict] = {}
     diagnose_free: ClassVar[tuple[str, ...]] = ()  # what a diagnosis fits (the others held at defaults)
     diagnosed: ClassVar[bool] = True  # whether a diagnosis tries this effect (each placement)
     separated_by: ClassVar[str] = ""  # the measurement that tells this effect from look-alikes
@@ -73,6 +77,11 @@ class Effect(param.Parameterized):
         """The value of continuous parameter `pname` at which the machine is as declared (a fit's start
         when the parameter is None)."""
         return float(self.neutral.get(pname, 0.0))
+
+    def search_values(self, pname: str, machine) -> tuple[float, ...]:
+        """Values of continuous parameter `pname`, besides its start, where a fit's global search over the flows also
+        looks (`search`; default none)."""
+        return tuple(float(v) for v in self.search.get(pname, ()))
 
     # --- the stages' hooks: each declared here with "no change"; an effect overrides those of its stage ----
     # `values`: trial values of the free continuous parameters ({name: array of the batch `shape`}; see

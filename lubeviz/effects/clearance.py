@@ -8,6 +8,9 @@ from ..model.quantity import Quantity
 from .base import BEARING_CHOICES, check_bearing_choice, first_bearing, on_bearing, Effect, as_array, register
 
 
+WORN_SEARCH = 1.35  # x the declared clearance: where a fit's search also looks (a worn bearing)
+
+
 @register
 class Clearance(Effect):
     """Bearing `bearing` has radial clearance `clearance_um` instead of the declared one.
@@ -40,6 +43,9 @@ class Clearance(Effect):
 
     def declared(self, pname: str, machine) -> float:
         return machine.bearings[first_bearing(self.bearing)].clearance * 1e6
+
+    def search_values(self, pname: str, machine) -> tuple[float, ...]:
+        return (WORN_SEARCH * self.declared(pname, machine),)  # worn: a starved film mimics a larger clearance
 
 
     def bind(self, machine) -> "Clearance":

@@ -46,6 +46,13 @@ class Misalignment(Effect):
             return None
         return 1e-6 * np.stack([as_array(values, self, "dx_um", shape), as_array(values, self, "dy_um", shape)], -1)
 
+    def search_values(self, pname: str, machine) -> tuple[float, ...]:
+        """Up and down by a quarter of the bearing's clearance: a settled or grown bearing (vertical moves only)."""
+        if pname != "dy_um":
+            return ()
+        c = machine.bearings[int(self.bearing) - 1].clearance * 1e6
+        return (-0.25 * c, 0.25 * c)
+
     def bind(self, machine) -> "Misalignment":
         from ..errors import InputError
         from ..rotor.statics import statically_determinate

@@ -26,6 +26,7 @@ class ProbeGain(Effect):
     placement = ("channel",)
     neutral = {"gain": 1.0}
     step = {"gain": 1e-4}
+    search = {"gain": (0.88, 1.15)}
     diagnose_free = ("gain",)
     separated_by = "a probe calibration check, or a record at a second speed (a probe error does not move with the machine)"
 

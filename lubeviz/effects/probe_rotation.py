@@ -29,6 +29,7 @@ class ProbeRotation(Effect):
     placement = ("plane",)
     neutral = {"angle_deg": 0.0}
     step = {"angle_deg": 0.01}
+    search = {"angle_deg": (-6.0, 6.0)}
     diagnose_free = ("angle_deg",)
     separated_by = "checking the probes' mounting angles, or a record at a second speed (a probe error does not move with the machine)"
 

@@ -31,6 +31,7 @@ class SupportStiffness(Effect):
     placement = ("support",)
     neutral = {"factor": 1.0}
     step = {"factor": 1e-3}
+    search = {"factor": (0.5,)}  # worn loose
     diagnose_free = ("factor",)
     separated_by = ("a vibration measurement on the support's housing, or records at several speeds (a support's "
                     "stiffness does not change with speed, a film's does)")

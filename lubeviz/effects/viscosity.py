@@ -27,6 +27,7 @@ class Viscosity(Effect):
     placement = ("bearing",)
     neutral = {"factor": 1.0}
     step = {"factor": 1e-3}
+    search = {"factor": (0.7, 1.4)}  # oil 30 % thinner, 40 % thicker: the flows mimic either from 1
     diagnose_free = ("factor",)
     oil_viscosity = True
     separated_by = "the static shaft position, a record at a second speed, or an oil temperature reading"

@@ -319,8 +319,9 @@ def _remember(key: str, value) -> None:
 
 def _weighted_starts(parts, noise, ref, start, box, free, flows, settings, budget, dof):
     """(the problem weighted with the model budget at `start`, the starts to refine): the global search's over the
-    `flows` in `box` (none: `start` alone). The weights and the lattices' costs are remembered (SEARCH_MEMO) and taken
-    from there when made before; the basins are picked afresh, with this fit's own limit (its dof)."""
+    `flows` in `box` (none: `start` alone), and the best start of the same search with an effect parameter at each of
+    its further search values (`ForwardChain.search_variants`). The weights and the lattices' costs are remembered
+    (SEARCH_MEMO) and taken from there when made before; the basins are picked afresh, with this fit's own limit."""
     lo, hi = box
     n = sum(len(ns) for _, ns, _ in parts)
     key = _search_key(parts, noise, start, lo, hi, flows, settings, budget) if flows else None
@@ -335,7 +336,46 @@ def _weighted_starts(parts, noise, ref, start, box, free, flows, settings, budge
                                    costs=None if memo is None else memo[1])
     if memo is None:
         _remember(key, (cov0, costs))
+    best = min(float(np.min(c)) for c in costs)
+    for variant in ref.search_variants(start, free):  # an effect's size in another basin: its best start there
+        vkey = _search_key(parts, noise, variant, lo, hi, flows, settings, budget) + key
+        vmemo = _SEARCHES.get(vkey)
+        found, vcosts = _search_starts(problem, ref, variant, lo, hi, flows, grid, limit, 1,
+                                       costs=None if vmemo is None else vmemo[1])
+        if vmemo is None:
+            _remember(vkey, (None, vcosts))
+        if min(float(np.min(c)) for c in vcosts) <= best + limit:
+            starts = starts + found
     return problem, starts
+
+
+def _refine(problem, starts, box, scale, budget, noise, lm_options) -> tuple[list, int]:
+    """Each start refined by Levenberg-Marquardt, re-weighted once with the budget at the refined point and refined
+    again: ([(chi2, theta, r, J, status, path, problem)] best first, iterations)."""
+    lo, hi = box
+    runs, iterations = [], 0
+    for st in starts:
+        theta, r, J, it, status, path = _lm(problem, st, lo, hi, scale, **lm_options)
+        iterations += it
+        runs.append((float(r @ r), theta, status, path))
+    runs.sort(key=lambda t: t[0])
+    refined = []
+    for chi2_0, theta, status, path in runs:
+        prob = _Problem(problem.parts, problem.model_cov(theta, budget, noise), problem.free)
+        theta2, r, J, it, status, path2 = _lm(prob, theta, lo, hi, scale, **lm_options)
+        iterations += it
+        refined.append((float(r @ r), theta2, r, J, status, np.concatenate([path, path2[1:]]), prob))
+    refined.sort(key=lambda t: t[0])
+    return refined, iterations
+
+
+def _covariance(J, scale, chi2, dof, level) -> tuple[np.ndarray, float]:
+    """The free parameters' covariance from the Jacobian at the optimum, inflated by chi2 / dof when the model does
+    not explain the record; and that inflation."""
+    explained = dof == 0 or float(stats.chi2.sf(chi2, dof)) > level
+    inflation = 1.0 if explained else chi2 / dof
+    Js = J * scale  # scaled columns: flows (m^3/s) and e.g. a stiffness (N/m) differ by 1e15
+    return scale[:, None] * np.linalg.pinv(Js.T @ Js) * scale[None, :] * inflation, inflation
 
 
 def _parts(chains, measured, names):
@@ -410,26 +450,27 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
                                        (grid, most_basins, level), budget, dof)
     # 2. refine each basin, re-weighting once with the budget at the refined point
     lm_options = dict(max_iter=SCREENING_ITER, cost_tol=SCREENING_GAIN) if screening else {}
-    runs, iterations = [], 0
-    for st in starts:
-        theta, r, J, it, status, path = _lm(problem, st, lo, hi, scale, **lm_options)
+    refined, iterations = _refine(problem, starts, (lo, hi), scale, budget, noise, lm_options)
+    for _restart in range(PROFILE_RESTARTS + 1):
+        chi2, theta, r, J, status, path, prob = refined[0]
+        cov, inflation = _covariance(J, scale[free], chi2, dof, level)
+        better, ivals = [], {}
+        if intervals and hold_flows is None:  # 4. (below) profile intervals of the flows; a profile point that fits
+            # better than the optimum means the optimum is not the global one: refined from there, profiled again
+            ivals = {ref.names[k]: _profile(prob, theta, chi2, k, lo, hi, scale, math.sqrt(max(cov[j, j], 0.0)),
+                                            CHI2_95_1DOF * inflation, ref.q_threshold[k], lean=_lean(cov, free, k),
+                                            better=better)
+                     for j, k in enumerate(free) if k in free_flows}
+        if not better or _restart == PROFILE_RESTARTS:
+            break
+        more, it = _refine(problem, [min(better, key=lambda t: t[0])[1]], (lo, hi), scale, budget, noise, lm_options)
         iterations += it
-        runs.append((float(r @ r), theta, status, path))
-    runs.sort(key=lambda t: t[0])
-    refined = []
-    for chi2_0, theta, status, path in runs:
-        prob = _Problem(parts, problem.model_cov(theta, budget, noise), free)
-        theta2, r, J, it, status, path2 = _lm(prob, theta, lo, hi, scale, **lm_options)
-        iterations += it
-        refined.append((float(r @ r), theta2, r, J, status, np.concatenate([path, path2[1:]]), prob))
-    refined.sort(key=lambda t: t[0])
-    chi2, theta, r, J, status, path, prob = refined[0]
+        if more[0][0] >= chi2:  # re-weighted at its own point it fits no better: the optimum stands
+            break
+        refined = sorted(refined + more, key=lambda t: t[0])
     p = float(stats.chi2.sf(chi2, dof)) if dof > 0 else None
     explained = p is None or p > level
-    inflation = 1.0 if (explained or dof == 0) else chi2 / dof
     warnings = [_clipped_text(ref, k, known[k]) for k in clipped]
-    Js = J * scale[free]  # scaled columns: flows (m^3/s) and e.g. a stiffness (N/m) differ by 1e15
-    cov = scale[free][:, None] * np.linalg.pinv(Js.T @ Js) * scale[free][None, :] * inflation
     std = np.sqrt(np.maximum(np.diag(cov), 0.0))
     if not explained:
         warnings.append(f"the model does not explain the record (chi2 = {chi2:.1f} for {dof} dof, p = {p:.2g} "
@@ -444,16 +485,11 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     if alternatives:
         warnings.append(f"not unique: another fit passes as well at {flows_text(alternatives[0][0][:nq])}; "
                         "a record at another speed or the static shaft position would tell them apart")
-    # 4. profile intervals of the flows
-    ivals = {}
-    if intervals and hold_flows is None:
-        q_std = dict(zip(free, np.sqrt(np.maximum(np.diag(cov), 0.0))))
-        for k in free_flows:
-            ivals[ref.names[k]] = _profile(prob, theta, chi2, k, lo, hi, scale, q_std[k],
-                                           CHI2_95_1DOF * inflation, ref.q_threshold[k], lean=_lean(cov, free, k))
-            if ivals[ref.names[k]][1] is None:
-                warnings.append(f"Q{k + 1} is not bounded from above by this record (the film is flooded: "
-                                "more oil barely changes the vibration)")
+    # 4. the profile intervals of the flows (made above)
+    for k in free_flows:
+        if ref.names[k] in ivals and ivals[ref.names[k]][1] is None:
+            warnings.append(f"Q{k + 1} is not bounded from above by this record (the film is flooded: "
+                            "more oil barely changes the vibration)")
     fs = prob.difference(theta) + fm
     n = len(all_names)
     std, cov = std_within([ref.names[i] for i in free], theta[free], std, cov, ivals)
@@ -561,6 +597,8 @@ SURE_INSIDE = 0.5  # a profile point whose first start's refit is below this sha
 AS_PREDICTED = 0.25  # a profile point whose first refit (from the covariance's valley floor) rises within this
 # share of the covariance's parabola tries no other start: a stall lies above the floor and a bend or a lower branch
 # moves it off the parabola, so the other starts are tried exactly where the valley stops being the fit's quadratic
+BETTER_BY = 0.1  # a profile point this much below the optimum's chi2 shows the optimum is not the global one
+PROFILE_RESTARTS = 1  # then the fit is refined from that point and profiled again, at most this many times
 SAME_SEED = 1e-9  # profile starts closer than this (in each parameter's scale) are one start
 PROFILE_STEP = 1.0  # a profile's first step, in the fit's standard deviations: the next is 1.5 times as long, so
 # the interval's crossing (1.96 sigma where the profile is a parabola) lies between the first two points
@@ -600,7 +638,7 @@ def _crossing(a, da, b, db, threshold) -> float:
     return inside[0] if inside else chord
 
 
-def _profile(problem: _Problem, theta, chi2_min, k, lo, hi, scale, sigma, threshold, q_t, lean=None):
+def _profile(problem: _Problem, theta, chi2_min, k, lo, hi, scale, sigma, threshold, q_t, lean=None, better=None):
     """95 % profile-likelihood interval of parameter k: (low, high); None for a side open at the box edge.
 
     Walked out from the optimum in steps of about one standard deviation; at each step the other
@@ -644,6 +682,8 @@ def _profile(problem: _Problem, theta, chi2_min, k, lo, hi, scale, sigma, thresh
             t_new, r, *_ = _lm(sub, seed, lo, hi, scale, max_iter=25, step_tol=1e-6, cost_tol=PROFILE_COST_TOL)
             trials.append((float(r @ r), t_new))
         c, t_best = min(trials, key=lambda t: t[0])
+        if better is not None and c < chi2_min - BETTER_BY:
+            better.append((c, t_best.copy()))
         return c - chi2_min, t_best
 
     bounds = []

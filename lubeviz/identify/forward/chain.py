@@ -533,6 +533,21 @@ class ForwardChain:
             out.append(self._declared(e, p) if v is None else float(v))
         return np.array(out)
 
+    def search_variants(self, start: np.ndarray, free) -> list[np.ndarray]:
+        """`start` with one free effect parameter moved to each of its `Effect.search_values` (inside its bounds):
+        where the global search over the flows also looks."""
+        lo, hi = self.bounds()
+        out = []
+        for j, (e, p) in enumerate(self._slots):
+            i = self.n_flows + j
+            if i not in free:
+                continue
+            for v in e.search_values(p, self.machine):
+                if lo[i] <= v <= hi[i] and not math.isclose(v, start[i], rel_tol=1e-9, abs_tol=1e-12):
+                    out.append(start.copy())
+                    out[-1][i] = v
+        return out
+
     def _declared(self, effect, pname) -> float:
         return effect.declared(pname, self.machine)
 
