@@ -476,7 +476,8 @@ def judge(case: dict, d, q_mlmin) -> dict:
             "explained": bool(d.explained), "held": bool(held), "silent_wrong": bool(d.explained and not held),
             "flow_error_pct_before": (fit_flows(d.before) * MLMIN_PER_M3S / q * 100 - 100).tolist(),
             "flow_error_pct_after": (final / q * 100 - 100).tolist(),
-            "node": _node_row(case, d), "seconds": float(d.seconds), "verdict": d.verdict}
+            "node": _node_row(case, d), "seconds": float(d.seconds), "verdict": d.verdict,
+            "planes": len(case.get("nodes") or ())}
 
 
 # --- the figures ----------------------------------------------------------------------------------------------
@@ -579,6 +580,10 @@ def summarize(rows, seconds: float | None = None) -> dict:
         "by_kind": {k: sum(r["kind"] == k for r in rows) for k in KINDS},
         "outcomes": outcomes,
         "silent_wrong": sum(r["silent_wrong"] for r in ok),
+        # per count of planes a record holds (a machine with more than two: all, or two of them): silent wrong / ran
+        "silent_wrong_by_planes": {str(p): [sum(r["silent_wrong"] for r in ok if r.get("planes") == p),
+                                            sum(r.get("planes") == p for r in ok)]
+                                   for p in sorted({r.get("planes") for r in ok if r.get("planes")})},
         "diagnose_seconds_median": float(np.median(secs)) if secs else None,
         "diagnose_seconds_max": float(np.max(secs)) if secs else None,
         # a set's diagnosis over its records (the acceptance's time is a record's)
