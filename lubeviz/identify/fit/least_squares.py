@@ -319,9 +319,8 @@ def _remember(key: str, value) -> None:
 
 def _weighted_starts(parts, noise, ref, start, box, free, flows, settings, budget, dof):
     """(the problem weighted with the model budget at `start`, the starts to refine): the global search's over the
-    `flows` in `box` (none: `start` alone), and the best start of the same search with an effect parameter at each of
-    its further search values (`ForwardChain.search_variants`). The weights and the lattices' costs are remembered
-    (SEARCH_MEMO) and taken from there when made before; the basins are picked afresh, with this fit's own limit."""
+    `flows` in `box` (none: `start` alone). The weights and the lattices' costs are remembered (SEARCH_MEMO) and taken
+    from there when made before; the basins are picked afresh, with this fit's own limit (its dof)."""
     lo, hi = box
     n = sum(len(ns) for _, ns, _ in parts)
     key = _search_key(parts, noise, start, lo, hi, flows, settings, budget) if flows else None
@@ -336,17 +335,26 @@ def _weighted_starts(parts, noise, ref, start, box, free, flows, settings, budge
                                    costs=None if memo is None else memo[1])
     if memo is None:
         _remember(key, (cov0, costs))
-    best = min(float(np.min(c)) for c in costs)
-    for variant in ref.search_variants(start, free):  # an effect's size in another basin: its best start there
-        vkey = _search_key(parts, noise, variant, lo, hi, flows, settings, budget) + key
-        vmemo = _SEARCHES.get(vkey)
-        found, vcosts = _search_starts(problem, ref, variant, lo, hi, flows, grid, limit, 1,
-                                       costs=None if vmemo is None else vmemo[1])
-        if vmemo is None:
-            _remember(vkey, (None, vcosts))
-        if min(float(np.min(c)) for c in vcosts) <= best + limit:
-            starts = starts + found
     return problem, starts
+
+
+def _variant_starts(problem, parts, noise, ref, start, box, free, flows, settings, budget, dof) -> list:
+    """The best start of the global search with one effect parameter at each of its further search values
+    (`ForwardChain.search_variants`), weighted as `problem`; lattices remembered as `_weighted_starts`'s."""
+    lo, hi = box
+    grid, most, level = settings
+    limit = max(stats.chi2.ppf(1 - level, max(dof, 1)) * 4.0, 25.0)
+    key = _search_key(parts, noise, start, lo, hi, flows, settings, budget)
+    out = []
+    for variant in ref.search_variants(start, free):
+        vkey = _search_key(parts, noise, variant, lo, hi, flows, settings, budget) + key
+        memo = _SEARCHES.get(vkey)
+        found, costs = _search_starts(problem, ref, variant, lo, hi, flows, grid, limit, 1,
+                                      costs=None if memo is None else memo[1])
+        if memo is None:
+            _remember(vkey, (None, costs))
+        out += found
+    return out
 
 
 def _refine(problem, starts, box, scale, budget, noise, lm_options) -> tuple[list, int]:
@@ -451,6 +459,12 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     # 2. refine each basin, re-weighting once with the budget at the refined point
     lm_options = dict(max_iter=SCREENING_ITER, cost_tol=SCREENING_GAIN) if screening else {}
     refined, iterations = _refine(problem, starts, (lo, hi), scale, budget, noise, lm_options)
+    if search and dof > 0 and stats.chi2.sf(refined[0][0], dof) <= level:  # not explained from the effects' starts:
+        # their sizes searched in further basins too (a size the flows mimic from its start leaves the truth far)
+        more, it = _refine(problem, _variant_starts(problem, parts, noise, ref, start, (lo, hi), free, free_flows,
+                                                    (grid, most_basins, level), budget, dof),
+                           (lo, hi), scale, budget, noise, lm_options)
+        refined, iterations = sorted(refined + more, key=lambda t: t[0]), iterations + it
     for _restart in range(PROFILE_RESTARTS + 1):
         chi2, theta, r, J, status, path, prob = refined[0]
         cov, inflation = _covariance(J, scale[free], chi2, dof, level)
