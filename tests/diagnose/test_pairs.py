@@ -72,10 +72,14 @@ def test_hot_oil_and_a_turned_probe_get_intervals_that_hold(machine):
     assert d.set_intervals is not None and "does not pin the oil's viscosity" in d.verdict
     for (lo, hi), q in zip(d.set_intervals, Q):
         assert lo * MLMIN_PER_M3S <= q <= (np.inf if hi is None else hi * MLMIN_PER_M3S)
-    # the report's advice gives the same wider interval as the verdict, not the named effect's alone
+    # the report's advice gives the same wider interval as the verdict, not the named effect's alone (an ambiguity
+    # when a pair with the turned probe fits as well: `_pairs_after_effect`)
+    from lubeviz.diagnose.loop import interval_words
     from lubeviz.diagnose.report import report_html
 
-    assert "Other explanations fit as well" in report_html(d)
+    html = report_html(d)
+    assert ("Other explanations fit as well" in html or "Several explanations fit equally well" in html) \
+        and interval_words(d.set_intervals) in html
 
 
 def test_the_best_singles_are_paired_with_every_placement_of_the_other_effects(monkeypatch):
@@ -127,3 +131,26 @@ def test_an_ambiguity_s_flow_interval_stays_within_the_search_box():
     assert l1 == pytest.approx(q[0] * (1.01 - 1.96 * 0.02)) and h1 == pytest.approx(q[0] * (1.01 + 1.96 * 0.02))
     assert l2 == pytest.approx(lo[1]) and h2 is None
     assert "-" not in interval_words(((l1, h1), (l2, h2)))
+
+
+@pytest.mark.slow
+def test_a_named_effect_with_a_second_beside_it_that_fits_as_well_widens_the_flows():
+    """The fan loop's case 4 (session 48): oil 0.72 x as viscous with plane 1's probes turned 5 deg, planes at A and
+    B, no static position: 6 features for 3 flows. The turned probe alone explains it (chi2 7.6 for 2 dof) at flows
+    18 % low with intervals that miss them. Fitted beside it, thinner oil on every bearing (and other second effects)
+    fit as well at other flows: they join the ambiguity, and the flows' interval holds the truth."""
+    from lubeviz.diagnose.pipeline import run_diagnosis
+    from lubeviz.model.machine import MODELS_DIR, load_machine
+
+    fan = str(MODELS_DIR / "three_bearing_fan.toml")
+    q = (157.39099003855839, 165.89611388172173, 61.67724583387402)
+    spec = IndependentSpec(speed_hz=21.66185226589401, q_mlmin=q, seed=174740983, machine=fan, nodes=(7, 15),
+                           effects=("viscosity:factor=0.7222,bearing=both", "probe_rotation:plane=1,angle_deg=4.985"))
+    d = run_diagnosis([make_record(spec).record], load_machine(fan)).diagnosis
+    assert d.explained and d.added.label == "probe_rotation[plane=1]"
+    alone = [d.after.intervals[f"q{k + 1}"] for k in range(3)]
+    assert not all(lo * MLMIN_PER_M3S <= t <= hi * MLMIN_PER_M3S for (lo, hi), t in zip(alone, q))
+    assert "probe_rotation[plane=1] + viscosity[bearing=all]" in d.ambiguous
+    assert "But with a second effect beside it" in d.verdict
+    for (lo, hi), t in zip(d.set_intervals, q):
+        assert lo * MLMIN_PER_M3S <= t <= (np.inf if hi is None else hi * MLMIN_PER_M3S)
