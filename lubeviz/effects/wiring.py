@@ -2,43 +2,87 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import param
 
+from ..errors import InputError
 from .base import Effect, register
 
-# each fault as a permutation and signs of the four channels x1, y1, x2, y2 (probe a and b of each plane):
-# column i of the record holds sign[i] x channel source[i]
-FAULTS = {
-    "planes_swapped": ((2, 3, 0, 1), (1, 1, 1, 1)),  # the planes' columns (or the node numbers) exchanged
-    "x_y_swapped": ((1, 0, 3, 2), (1, 1, 1, 1)),  # every plane's two probes exchanged (column order y, x)
-    "x1_y1_swapped": ((1, 0, 2, 3), (1, 1, 1, 1)),
-    "x2_y2_swapped": ((0, 1, 3, 2), (1, 1, 1, 1)),
-    "x1_inverted": ((0, 1, 2, 3), (-1, 1, 1, 1)),  # one probe's polarity reversed (gap vs displacement)
-    "y1_inverted": ((0, 1, 2, 3), (1, -1, 1, 1)),
-    "x2_inverted": ((0, 1, 2, 3), (1, 1, -1, 1)),
-    "y2_inverted": ((0, 1, 2, 3), (1, 1, 1, -1)),
-    "plane1_inverted": ((0, 1, 2, 3), (-1, -1, 1, 1)),  # both probes of a plane reversed
-    "plane2_inverted": ((0, 1, 2, 3), (1, 1, -1, -1)),
-}
+# each fault as a permutation and signs of the 2P channels x1, y1, ..., xP, yP (probe a and b of each plane): column
+# i of the record holds sign[i] x channel source[i]. Two planes' faults keep the paper's names (FAULTS); a record of
+# P planes has every pair of planes exchanged (`planes{i}_{j}_swapped`; with two planes, `planes_swapped`), every
+# plane's probes exchanged at once (`x_y_swapped`) or one plane's (`x{k}_y{k}_swapped`), a probe's polarity reversed
+# (`x{k}_inverted`, `y{k}_inverted`) or both of a plane's (`plane{k}_inverted`): `fault_names(P)`.
+MAX_WIRED_PLANES = 12  # as a record (lubeviz.signals.records.MAX_PLANES)
 
 
-WORDS = {
-    "planes_swapped": "the two planes' columns (or their node numbers) exchanged",
-    "x_y_swapped": "every plane's two probes exchanged (columns in the order y, x)",
-    "x1_y1_swapped": "plane 1's two probes exchanged",
-    "x2_y2_swapped": "plane 2's two probes exchanged",
-    "x1_inverted": "probe x1's polarity reversed", "y1_inverted": "probe y1's polarity reversed",
-    "x2_inverted": "probe x2's polarity reversed", "y2_inverted": "probe y2's polarity reversed",
-    "plane1_inverted": "both probes of plane 1 reversed", "plane2_inverted": "both probes of plane 2 reversed",
-}
+def fault_names(n_planes: int) -> list[str]:
+    """Every mix-up of a record of `n_planes` planes, the two-plane names first in the paper's order."""
+    pairs = [(i, j) for i in range(1, n_planes + 1) for j in range(i + 1, n_planes + 1)]
+    out = ["planes_swapped" if n_planes == 2 else f"planes{i}_{j}_swapped" for i, j in pairs]
+    out.append("x_y_swapped")
+    out += [f"x{k}_y{k}_swapped" for k in range(1, n_planes + 1)]
+    out += [f"{a}{k}_inverted" for k in range(1, n_planes + 1) for a in "xy"]
+    out += [f"plane{k}_inverted" for k in range(1, n_planes + 1)]
+    return out
 
 
-def wiring_matrix(fault: str) -> np.ndarray:
-    """(4, 4) matrix W with record columns = W @ channels (x1, y1, x2, y2 as the probes read them)."""
-    source, sign = FAULTS[fault]
-    W = np.zeros((4, 4))
-    W[np.arange(4), source] = sign
+def fault_map(fault: str, n_planes: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """(source, sign) of `fault` on a record of `n_planes` planes; ValueError for a fault that record cannot have."""
+    n = 2 * n_planes
+    source, sign = list(range(n)), [1] * n
+    if fault not in fault_names(n_planes):
+        raise ValueError(f"wiring fault {fault!r}: a record of {n_planes} planes has "
+                         + ", ".join(fault_names(n_planes)))
+    if fault == "planes_swapped":
+        fault = "planes1_2_swapped"
+    if (m := re.fullmatch(r"planes(\d+)_(\d+)_swapped", fault)):
+        i, j = int(m[1]) - 1, int(m[2]) - 1
+        source[2 * i:2 * i + 2], source[2 * j:2 * j + 2] = [2 * j, 2 * j + 1], [2 * i, 2 * i + 1]
+    elif fault == "x_y_swapped":
+        source = [c ^ 1 for c in range(n)]
+    elif (m := re.fullmatch(r"x(\d+)_y\1_swapped", fault)):
+        k = int(m[1]) - 1
+        source[2 * k], source[2 * k + 1] = 2 * k + 1, 2 * k
+    elif (m := re.fullmatch(r"([xy])(\d+)_inverted", fault)):
+        sign[2 * (int(m[2]) - 1) + "xy".index(m[1])] = -1
+    elif (m := re.fullmatch(r"plane(\d+)_inverted", fault)):
+        k = int(m[1]) - 1
+        sign[2 * k] = sign[2 * k + 1] = -1
+    return tuple(source), tuple(sign)
+
+
+FAULTS = {name: fault_map(name, 2) for name in fault_names(2)}  # a two-plane record's (the paper's)
+
+
+def fault_words(fault: str) -> str:
+    """What `fault` means, in words."""
+    if fault == "planes_swapped":
+        return "the two planes' columns (or their node numbers) exchanged"
+    if (m := re.fullmatch(r"planes(\d+)_(\d+)_swapped", fault)):
+        return f"planes {m[1]} and {m[2]}'s columns (or their node numbers) exchanged"
+    if fault == "x_y_swapped":
+        return "every plane's two probes exchanged (columns in the order y, x)"
+    if (m := re.fullmatch(r"x(\d+)_y\1_swapped", fault)):
+        return f"plane {m[1]}'s two probes exchanged"
+    if (m := re.fullmatch(r"([xy]\d+)_inverted", fault)):
+        return f"probe {m[1]}'s polarity reversed"
+    if (m := re.fullmatch(r"plane(\d+)_inverted", fault)):
+        return f"both probes of plane {m[1]} reversed"
+    return fault
+
+
+WORDS = {name: fault_words(name) for name in fault_names(2)}
+
+
+def wiring_matrix(fault: str, n_planes: int = 2) -> np.ndarray:
+    """(2P, 2P) matrix W with record columns = W @ channels (x1, y1, ..., xP, yP as the probes read them)."""
+    source, sign = fault_map(fault, n_planes)
+    n = 2 * n_planes
+    W = np.zeros((n, n))
+    W[np.arange(n), source] = sign
     return W
 
 
@@ -61,27 +105,42 @@ class Wiring(Effect):
     placement = ("fault",)
     separated_by = "checking the channel map and the probes' polarity (a record of a known orbit, or a trial weight)"
 
-    fault = param.Selector(default="planes_swapped", objects=list(FAULTS),
-                           doc="The mix-up: planes exchanged, a plane's probes exchanged, or a probe's polarity reversed")
+    fault = param.Selector(default="planes_swapped", objects=fault_names(2), check_on_set=False,
+                           doc="The mix-up: planes exchanged, a plane's probes exchanged, or a probe's polarity reversed "
+                               "(two planes: these; any record: `fault_names(P)`)")
+
+    def __init__(self, **params):
+        super().__init__(**params)
+        planes = max([3, *(int(v) for v in re.findall(r"\d+", str(self.fault)))])
+        if self.fault not in fault_names(2) and self.fault not in fault_names(planes):  # no record has it (a record
+            # that lacks its planes refuses it when applied)
+            raise ValueError(f"wiring fault {self.fault!r}: expected one of {', '.join(fault_names(2))}, or for a "
+                             "record of P planes planes{i}_{j}_swapped, x{k}_y{k}_swapped, x{k}_inverted, "
+                             "y{k}_inverted, plane{k}_inverted") from None
 
     def rewire(self, d, static, probe_angles_deg):
-        """The readings `d` (..., 2 planes, [x, y]) and static offsets (..., 2, 2) as the mixed-up columns
+        """The readings `d` (..., P planes, [x, y]) and static offsets (..., P, 2) as the mixed-up columns
         resolve them with the declared probe angles."""
-        P = np.zeros((4, 4))
+        n = 2 * len(probe_angles_deg)
+        P = np.zeros((n, n))
         for k, (a, b) in enumerate(probe_angles_deg):
             ra, rb = np.radians(a), np.radians(b)
             P[2 * k:2 * k + 2, 2 * k:2 * k + 2] = [[np.cos(ra), np.sin(ra)], [np.cos(rb), np.sin(rb)]]
-        M = np.linalg.inv(P) @ wiring_matrix(self.fault) @ P
+        try:
+            W = wiring_matrix(self.fault, n // 2)
+        except ValueError as exc:
+            raise InputError(f"effect {self.label()}: {exc}") from None
+        M = np.linalg.inv(P) @ W @ P
 
         def apply(v):
-            flat = v.reshape(v.shape[:-2] + (4,))
+            flat = v.reshape(v.shape[:-2] + (n,))
             return np.einsum("ij,...j->...i", M, flat).reshape(v.shape)
 
         return apply(d), (None if static is None else apply(static))
 
     def placements(self, *, n_planes: int, n_bearings: int, n_supports: int = 0):
-        """Its mix-ups are those of two planes' four channels (SPEC §6 records): none on another machine's planes."""
-        return [self.copy(fault=f) for f in FAULTS] if n_planes == 2 else []
+        """Every mix-up of a record of `n_planes` planes (`fault_names`)."""
+        return [self.copy(fault=f) for f in fault_names(n_planes)]
 
     def summary(self) -> str:
-        return f"a measurement mix-up: {WORDS[self.fault]}"
+        return f"a measurement mix-up: {fault_words(self.fault)}"
