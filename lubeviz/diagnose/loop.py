@@ -627,7 +627,9 @@ def _pairs_after_effect(out: dict, chains, meas, best, tried, names, budget, lev
     PAIR_LOOK_ALIKES best other effects are fitted together with the winner; a pair that fits at least as well (chi2 no larger than the
     winner's, a degree of freedom left, no parameter at its bound) and puts a flow outside the winner's interval is a
     look-alike, as a single effect is for the plain model (`_look_alikes`): the flows' interval takes its in and the
-    pair joins the ambiguity. It is never named for it: the information criterion charges its parameters."""
+    pair joins the ambiguity. It is never named for it: the information criterion charges its parameters. A load moved
+    (a side load, a misaligned bearing) is no partner: at any size it trades with the flows, and its plausible size
+    is already carried (`_unpinned_after_effect`, LOAD_RANGE)."""
     if best.partners:  # a pair already: a third effect is not tried
         return
     after = out["after"]
@@ -635,7 +637,8 @@ def _pairs_after_effect(out: dict, chains, meas, best, tried, names, budget, lev
     partners, per = [], {}
     for c in tried:
         name = c.effect.effect_name
-        if c.fit is None or c.defect is not None or c.partners or name in own or per.get(name, 0) == PAIR_PLACEMENTS:
+        if c.fit is None or c.defect is not None or c.partners or name in own or per.get(name, 0) == PAIR_PLACEMENTS \
+                or c.effect.static_load:  # a load moved: its plausible range is the unpinned loads' (LOAD_RANGE)
             continue
         if name not in per and len(per) == PAIR_LOOK_ALIKES:
             continue
