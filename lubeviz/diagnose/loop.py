@@ -28,6 +28,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import stats
 
 from ..errors import LubevizError
 from ..identify.fit.least_squares import Z95, Fit, fit
@@ -52,6 +53,7 @@ PAIR_PARTNERS = 6  # ... among the best this many placements of the other effect
 PAIR_DOF = 2
 PAIR_LOOK_ALIKES = 4  # a named effect is fitted beside the best placements of this many other effects (look-alikes),
 PAIR_PLACEMENTS = 3  # ... this many of each (oil thinner on every bearing ranked below on one bearing alone)
+PAIR_ASKED = 0.95  # ... a look-alike when its chi2 is below the winner's by this likelihood-ratio quantile
 
 
 @dataclass(frozen=True)
@@ -624,12 +626,15 @@ def _pairs_after_effect(out: dict, chains, meas, best, tried, names, budget, lev
     """A named effect with a second one beside it: a record one effect explains is often explained as well by it and
     another at other flows (oil 28 % thinner with a turned probe, read as the probe alone with the flows 18 % low and
     intervals that missed them: the fan loop, session 48). The PAIR_PLACEMENTS best placements of each of the
-    PAIR_LOOK_ALIKES best other effects are fitted together with the winner; a pair that fits at least as well (chi2 no larger than the
-    winner's, a degree of freedom left, no parameter at its bound) and puts a flow outside the winner's interval is a
-    look-alike, as a single effect is for the plain model (`_look_alikes`): the flows' interval takes its in and the
-    pair joins the ambiguity. It is never named for it: the information criterion charges its parameters. A load moved
-    (a side load, a misaligned bearing) is no partner: at any size it trades with the flows, and its plausible size
-    is already carried (`_unpinned_after_effect`, LOAD_RANGE)."""
+    PAIR_LOOK_ALIKES best other effects are fitted together with the winner. A pair the record asks for (its chi2 below
+    the winner's by the likelihood ratio's PAIR_ASKED point for its added parameters, a degree of freedom left, no
+    parameter at its bound) that puts a flow outside the winner's interval is a look-alike: the flows' interval takes
+    its in and the pair joins the ambiguity. It is never named for it (the information criterion and PAIR_DOF decide
+    that). Fitting only as well is not enough here, unlike a single effect against the plain model (`_look_alikes`):
+    every pair holds its single effect, and a second effect of free size (a worn bearing beside a pedestal) trades
+    with the flows wherever the record leaves it unpinned. A load moved (a side load, a misaligned bearing) is no
+    partner: at any size it trades with the flows, and its plausible size is already carried
+    (`_unpinned_after_effect`, LOAD_RANGE)."""
     if best.partners:  # a pair already: a third effect is not tried
         return
     after = out["after"]
@@ -651,7 +656,8 @@ def _pairs_after_effect(out: dict, chains, meas, best, tried, names, budget, lev
                       names=names, budget=budget, level=level, intervals=False, screening=True)
         except LubevizError:
             continue
-        if res.dof < 1 or not res.chi2 <= after.chi2 or _at_bound(res) or not _outside(after, fit_flows(res)):
+        asks = stats.chi2.ppf(PAIR_ASKED, max(after.dof - res.dof, 1))  # the record asks for the second effect
+        if res.dof < 1 or not res.chi2 <= after.chi2 - asks or _at_bound(res) or not _outside(after, fit_flows(res)):
             continue
         pair = Candidate(label=f"{best.label} + {c.label}", effect=best.effect, partners=(c.effect,), fit=res)
         effects = [e for e, _ in fitted_effects(pair, res)]
