@@ -24,6 +24,7 @@ import param
 
 from ..errors import InputError
 
+SHOWN_CHOICES = 16  # a refused choice's message lists this many of the allowed ones (a wiring fault has 116)
 STAGES = ("bearings", "rotor", "probes", "response")  # response: replaces the linear response (large_orbit)
 
 
@@ -320,10 +321,9 @@ def _convert(cls, key: str, value: str, name: str):
         for obj in p.objects:
             if str(obj) == value:
                 return obj
-        if not p.check_on_set:  # objects are examples (a wiring fault of any count of planes): the class checks
-            return value
-        raise InputError(f"effect {name}: {key}={value!r}; expected one of "
-                         f"{', '.join(str(o) for o in p.objects)}")
+        shown = [str(o) for o in p.objects][:SHOWN_CHOICES]
+        more = f", ... ({len(p.objects)} in all)" if len(p.objects) > SHOWN_CHOICES else ""
+        raise InputError(f"effect {name}: {key}={value!r}; expected one of {', '.join(shown)}{more}")
     try:
         if isinstance(p, param.Integer):
             return int(value)

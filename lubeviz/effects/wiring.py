@@ -105,18 +105,10 @@ class Wiring(Effect):
     placement = ("fault",)
     separated_by = "checking the channel map and the probes' polarity (a record of a known orbit, or a trial weight)"
 
-    fault = param.Selector(default="planes_swapped", objects=fault_names(2), check_on_set=False,
+    fault = param.Selector(default="planes_swapped",
+                           objects=list(dict.fromkeys(n for p in range(2, MAX_WIRED_PLANES + 1) for n in fault_names(p))),
                            doc="The mix-up: planes exchanged, a plane's probes exchanged, or a probe's polarity reversed "
-                               "(two planes: these; any record: `fault_names(P)`)")
-
-    def __init__(self, **params):
-        super().__init__(**params)
-        planes = max([3, *(int(v) for v in re.findall(r"\d+", str(self.fault)))])
-        if self.fault not in fault_names(2) and self.fault not in fault_names(planes):  # no record has it (a record
-            # that lacks its planes refuses it when applied)
-            raise ValueError(f"wiring fault {self.fault!r}: expected one of {', '.join(fault_names(2))}, or for a "
-                             "record of P planes planes{i}_{j}_swapped, x{k}_y{k}_swapped, x{k}_inverted, "
-                             "y{k}_inverted, plane{k}_inverted") from None
+                               "(a record of P planes has `fault_names(P)`)")
 
     def rewire(self, d, static, probe_angles_deg):
         """The readings `d` (..., P planes, [x, y]) and static offsets (..., P, 2) as the mixed-up columns
@@ -137,6 +129,13 @@ class Wiring(Effect):
             return np.einsum("ij,...j->...i", M, flat).reshape(v.shape)
 
         return apply(d), (None if static is None else apply(static))
+
+    def demo(self, machine) -> "Wiring":
+        """On the pages: the mix-ups of the machine's own planes to choose from, the first of them shown."""
+        names = fault_names(max(2, len(machine.measurement_planes)))
+        new = self.copy(fault=self.fault if self.fault in names else names[0])
+        new.param.fault.objects = names
+        return new.bind(machine)
 
     def placements(self, *, n_planes: int, n_bearings: int, n_supports: int = 0):
         """Every mix-up of a record of `n_planes` planes (`fault_names`)."""

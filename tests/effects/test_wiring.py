@@ -82,13 +82,18 @@ def test_a_record_of_three_planes_has_its_own_mix_ups(fault):
 
 
 def test_a_diagnosis_tries_every_mix_up_of_the_record_s_planes():
+    from lubeviz.effects.wiring import fault_names
     from lubeviz.errors import InputError
+    from lubeviz.model.machine import MODELS_DIR, load_machine
 
     three = [e.fault for e in EFFECTS["wiring"]().placements(n_bearings=3, n_planes=3)]
     assert len(three) == len(set(three)) == 3 + 1 + 3 + 6 + 3 and "planes2_3_swapped" in three
     assert "planes_swapped" not in three  # two planes' name for their one pair
-    with pytest.raises(InputError, match="wiring fault 'planes_sawpped'"):
+    with pytest.raises(InputError, match=r"fault='planes_sawpped'; expected one of planes_swapped, .*\(116 in all\)"):
         parse_effect("wiring:fault=planes_sawpped")
+    fan = load_machine(MODELS_DIR / "three_bearing_fan.toml")  # the pages offer the machine's own planes' mix-ups
+    assert EFFECTS["wiring"]().demo(fan).param.fault.objects == fault_names(3)
+    assert EFFECTS["wiring"]().demo(load_machine()).param.fault.objects == fault_names(2) == list(FAULTS)
     chain = ForwardChain(*_paper_chain_args())
     with pytest.raises(InputError, match="a record of 2 planes has"):
         chain.adding(parse_effect("wiring:fault=x3_inverted")).output(Q)
