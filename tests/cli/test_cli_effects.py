@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from lubeviz.cli.main import main
-from tests.records import read_record
 from lubeviz.signals.records import write_record
 from lubeviz.verification import IndependentSpec, make_record, make_set, write_record_csv
+from tests.records import read_record
 
 
 def run(capsys, *argv):

@@ -12,9 +12,9 @@ import pytest
 
 from lubeviz.diagnose import diagnosis_dict, run_diagnosis
 from lubeviz.identify.batch import identify_record
-from tests.records import record_from_arrays
 from lubeviz.units import MLMIN_PER_M3S
 from lubeviz.verification import IndependentSpec, make_record
+from tests.records import record_from_arrays
 
 pytestmark = pytest.mark.slow
 

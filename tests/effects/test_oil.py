@@ -15,8 +15,8 @@ from lubeviz.identify.forward.chain import ForwardChain
 from lubeviz.model.machine import DEFAULT_MACHINE, load_machine
 from lubeviz.model.oil import ISO_VG_NU100_CST, Oil, walther_nu_cst
 from lubeviz.signals.records import write_record
-from tests.records import read_record, record_from_arrays
 from lubeviz.units import MLMIN_PER_M3S
+from tests.records import read_record, record_from_arrays
 
 Q = np.array([420.0, 600.0]) / MLMIN_PER_M3S
 FEATURES = ("fb1", "fb2", "phi1", "phi2", "log_zf_ratio", "arg_zf_ratio")

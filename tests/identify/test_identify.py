@@ -14,8 +14,8 @@ from lubeviz.identify.forward.measured import measure
 from lubeviz.identify.paper.newton import identify
 from lubeviz.identify.fit.settings import IdentificationSettings
 from lubeviz.rotor import machine_unbalance, rotor_from_machine, unbalance_response
-from tests.records import read_record, record_from_arrays
 from lubeviz.units import MLMIN_PER_M3S
+from tests.records import read_record, record_from_arrays
 
 
 @pytest.fixture(scope="session")

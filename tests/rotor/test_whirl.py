@@ -107,11 +107,10 @@ def test_a_large_orbit_record_above_the_threshold_holds_the_whirl_s_sub_synchron
     the record is the whirl's onset, and the record's own line search (`signals.lines`, a spectrum of the
     probes' samples) finds a forward sub-synchronous line at the unstable mode's frequency; below it the
     record is the periodic orbit and holds none."""
-    from lubeviz.signals.lines import present_lines
-    from tests.records import read_record_bytes
-    from lubeviz.signals.synthesize import synthesize_record
-
     from lubeviz.model.machine import load_machine
+    from lubeviz.signals.lines import present_lines
+    from lubeviz.signals.synthesize import synthesize_record
+    from tests.records import read_record_bytes
 
     _, rotor, _ = coarse
     m = load_machine()  # as the fixture's, with the tenth of the unbalance in the machine itself

@@ -15,10 +15,10 @@ from lubeviz.errors import DataFormatError, InputError
 from lubeviz.identify.forward.measured import measure
 from lubeviz.model.machine import load_machine
 from lubeviz.signals.records import write_record
-from tests.records import read_record, record_from_arrays
 from lubeviz.signals.speed_check import check_speed_label, spectrum_speed_check
 from lubeviz.signals.synthesize import synthesize_record
 from lubeviz.units import MLMIN_PER_M3S
+from tests.records import read_record, record_from_arrays
 
 FLOWS = (450 / MLMIN_PER_M3S, 600 / MLMIN_PER_M3S)
 

@@ -6,9 +6,9 @@ import pytest
 from lubeviz.errors import InputError
 from lubeviz.rotor.film_bearings import film_bearings, machine_response
 from lubeviz.signals import record_features, write_record
-from tests.records import read_record
 from lubeviz.signals.synthesize import synthesize_record
 from lubeviz.units import MLMIN_PER_M3S
+from tests.records import read_record
 
 FLOWS = (450 / MLMIN_PER_M3S, 600 / MLMIN_PER_M3S)
 

@@ -13,10 +13,10 @@ import pytest
 from lubeviz.errors import InputError
 from lubeviz.rotor.film_bearings import machine_response
 from lubeviz.signals.features import record_features
-from tests.records import read_record
 from lubeviz.verification import (IndependentSpec, clean_corpus, make_record, make_set, max_growth_rate, parse_effect,
                                   steady_truth, write_record_csv)
 from lubeviz.units import MLMIN_PER_M3S
+from tests.records import read_record
 
 SPEED = 75.0
 Q = 545.0  # ml/min, ~Q_T at 75 Hz
