@@ -74,9 +74,6 @@ def fault_words(fault: str) -> str:
     return fault
 
 
-WORDS = {name: fault_words(name) for name in fault_names(2)}
-
-
 def wiring_matrix(fault: str, n_planes: int = 2) -> np.ndarray:
     """(2P, 2P) matrix W with record columns = W @ channels (x1, y1, ..., xP, yP as the probes read them)."""
     source, sign = fault_map(fault, n_planes)
