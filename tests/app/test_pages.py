@@ -70,7 +70,7 @@ def test_rotor_page_draws_orbit_spectrum_and_responds_during_a_long_job(app_page
 
 def test_maps_page_draws_error_map_and_search(app_page, screenshot):
     open_tab(app_page, "Maps")
-    wait_for_plot_title(app_page, "ε_T and the root curves, nodes 6 and 20", timeout_ms=SLOW_MS)
+    wait_for_plot_title(app_page, "ε_T and the root curves, nodes 6, 20", timeout_ms=SLOW_MS)
     expect(app_page.locator(".lubeviz-maps-summary")).to_contain_text("Identified", timeout=SLOW_MS)
     wait_for_plot_title(app_page, "fb1 over Q1 × Q2", timeout_ms=SLOW_MS)
     screenshot(app_page, "maps")

@@ -50,7 +50,7 @@ def _rotor(page):
 
 
 def _maps(page):
-    wait_for_plot_title(page, "ε_T and the root curves, nodes 6 and 20", timeout_ms=SLOW_MS)
+    wait_for_plot_title(page, "ε_T and the root curves, nodes 6, 20", timeout_ms=SLOW_MS)
     expect(page.locator(".lubeviz-maps-summary")).to_contain_text("Identified", timeout=SLOW_MS)
     wait_for_plot_title(page, "fb1 over Q1 × Q2", timeout_ms=SLOW_MS)
 
