@@ -58,14 +58,51 @@ def test_the_scan_keeps_the_best_basin_when_a_warm_start_strays():
     good = {1: 5.0, 2: 4.0, 3: 2.0, 4: 6.0}
 
     def fit_one(e, start, screening=True):
-        calls.append((e.node, None if start is None else float(start[0])))
-        if e.node == 3 and start is not None and start[0] == 2:
-            return C(3, 500.0, 3)  # from node 2's answer the fit strays
+        tags = None if start is None else tuple(float(row[0]) for row in np.atleast_2d(start))
+        calls.append((e.node, tags))
+        if e.node == 3 and tags == (2.0,):
+            return C(3, 500.0, 3)  # from node 2's answer (its only start) the fit strays
         return C(e.node, good[e.node], e.node)
 
     best, profile = NodeSweep([Fake(n) for n in (1, 2, 3, 4)], fit_one).run()
     assert best.effect.node == 3 and profile.chi2 == (5.0, 4.0, 2.0, 6.0)
-    assert (3, 4.0) in calls and (3, None) in calls  # from node 4's side, and from its own starts
+    assert (3, (2.0,)) in calls  # first from node 2's side, the only one fitted then
+    assert (3, (4.0,)) in calls and (3, None) in calls  # from node 4's side, and from its own starts
+
+
+def test_a_node_starts_from_its_neighbours_on_both_sides_and_its_own_screening_answer():
+    """The full pass over every node starts each from its nearest fitted neighbour on each side and from its own and
+    its neighbours' screening answers: `fit` refines the one the model fits best (a force's size carried one node on
+    can sit far down a flat valley)."""
+    class Fake:
+        def __init__(self, node):
+            self.node, self.effect_name = node, "side_load"
+
+        def label(self):
+            return f"side_load[node={self.node}]"
+
+    class C:
+        def __init__(self, node, chi2, tag):
+            self.effect, self.fit = Fake(node), type("F", (), {"chi2": chi2, "values": np.array([tag])})()
+            self.aic = chi2
+
+    calls = []
+
+    def fit_one(e, start, screening=True):
+        tags = None if start is None else tuple(sorted(float(row[0]) for row in np.atleast_2d(start)))
+        calls.append((e.node, screening, tags))
+        return C(e.node, 1.0 + e.node, 100 * screening + e.node)
+
+    sweep = NodeSweep([Fake(n) for n in (1, 2, 3, 4, 5)], fit_one)
+    sweep.run(2)  # screening at nodes 1, 3, 5
+    sweep.run(1, screening=False)
+    full = {}
+    for n, s, t in calls:
+        if not s:
+            full.setdefault(n, t)  # each node's first full fit
+    assert full[1] == (101.0,)  # the best screening node first, from its own screening answer
+    assert full[2] == (1.0, 101.0, 103.0)  # node 1's full answer; nodes 1 and 3's screening ones
+    assert full[3] == (2.0, 103.0)  # node 2's full answer, its own screening one (node 4 has none)
 
 
 @pytest.mark.slow

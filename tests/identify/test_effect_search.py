@@ -67,3 +67,16 @@ def test_a_profile_point_below_the_optimum_restarts_the_fit(viscous, monkeypatch
     once = _fit(viscous, start=start)
     assert res.chi2 < once.chi2 - LS.BETTER_BY and _holds(res) and not _holds(once)
     assert abs(res.values[-1] - 1.289) < abs(once.values[-1] - 1.289)
+
+
+def test_of_several_starts_the_one_the_model_fits_best_is_refined(viscous):
+    """`fit(start=rows)`: the rows are costed with the model's weights and the best one refined (a node scan's
+    neighbours' answers); the free parameters alone (a fit's `values`) are a start too."""
+    far = np.array([200.3 / MLMIN_PER_M3S, 153.3 / MLMIN_PER_M3S, 119.0 / MLMIN_PER_M3S, 1.576])  # a poorer basin
+    good = _fit(viscous, intervals=False).values
+    alone = _fit(viscous, start=good, intervals=False)
+    for rows in ([far, good], [good, far]):
+        both = _fit(viscous, start=np.array(rows), intervals=False)
+        assert both.chi2 == pytest.approx(alone.chi2, rel=1e-9)
+        np.testing.assert_allclose(both.values, alone.values, rtol=1e-9)
+    assert _fit(viscous, start=far, intervals=False).chi2 > alone.chi2 + 1.0  # refined alone it stays there

@@ -415,7 +415,9 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     the same effects): the parameters are shared, the residuals stacked, the model budget's terms
     correlated across the speeds. `names`: the features to use (default all the record holds).
     `start`: a parameter vector to refine from instead of the global search (a local model, e.g. the
-    large-orbit correction round of `orbit_fit`, that holds only near its own point).
+    large-orbit correction round of `orbit_fit`, that holds only near its own point; every parameter of the chain,
+    or the free ones only: a `Fit`'s `values`), or several (rows): the one the model fits best there is refined (a
+    node scan's neighbours' answers and the node's own screening one).
     `screening`: a fit that only ranks (a diagnosis's candidates, refined with intervals once chosen): each
     Levenberg-Marquardt run stops once a step lowers chi2 by less than SCREENING_GAIN or after SCREENING_ITER
     steps, instead of crawling along a valley where the parameters are ill-determined (a forcing effect's phase
@@ -449,13 +451,24 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
         raise InputError(f"{n_free} free parameters {tuple(ref.names[i] for i in free)} for {len(all_names)} "
                          "features: the record cannot determine them; hold some (give their values)")
     local = start is not None
-    start = ref.start() if start is None else np.array(start, dtype=float)
+    starts_given = np.atleast_2d(np.array(ref.start() if start is None else start, dtype=float))
+    if starts_given.shape[1] == n_free < ref.n_params:  # the free parameters only (a fit's `values`): the held ones
+        full = np.tile(ref.start(), (len(starts_given), 1))  # (a known supply) put back
+        full[:, free] = starts_given
+        starts_given = full
     if hold_flows is not None:
-        start[:nq] = hold_flows
+        starts_given[:, :nq] = hold_flows
+    start = starts_given[0]
     # 1. global scan over the flow box (a search another fit already made is not made again: SEARCH_MEMO)
     search = hold_flows is None and not local and bool(free_flows)
     problem, starts = _weighted_starts(parts, noise, ref, start, (lo, hi), free, free_flows if search else [],
                                        (grid, most_basins, level), budget, dof)
+    if len(starts_given) > 1:  # several starts given: the one the weighted model fits best is refined, weighted there
+        pick = int(np.argmin(problem.cost_many(starts_given)))
+        start = starts_given[pick]
+        if pick:
+            problem, starts = _weighted_starts(parts, noise, ref, start, (lo, hi), free, [],
+                                               (grid, most_basins, level), budget, dof)
     # 2. refine each basin, re-weighting once with the budget at the refined point
     lm_options = dict(max_iter=SCREENING_ITER, cost_tol=SCREENING_GAIN) if screening else {}
     refined, iterations = _refine(problem, starts, (lo, hi), scale, budget, noise, lm_options)
