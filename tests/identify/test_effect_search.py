@@ -80,3 +80,23 @@ def test_of_several_starts_the_one_the_model_fits_best_is_refined(viscous):
         assert both.chi2 == pytest.approx(alone.chi2, rel=1e-9)
         np.testing.assert_allclose(both.values, alone.values, rtol=1e-9)
     assert _fit(viscous, start=far, intervals=False).chi2 > alone.chi2 + 1.0  # refined alone it stays there
+
+
+def test_a_screening_fit_that_cannot_pass_stops_once_its_steps_gain_little(viscous, monkeypatch):
+    """A screening fit (what a diagnosis ranks with) still `HOPELESS` times above the test's limit stops once a step
+    lowers its chi2 by less than `HOPELESS_GAIN` of it: the planes swapped on this record cannot be made to fit. The
+    true effect's screening fit never comes near that floor and is the same either way."""
+    import math
+
+    from scipy import stats
+
+    floor = LS.HOPELESS
+    swapped = _fit(viscous, "wiring:fault=planes_swapped", screening=True, intervals=False)
+    true = _fit(viscous, screening=True, intervals=False)
+    monkeypatch.setattr(LS, "HOPELESS", math.inf)
+    crawled = _fit(viscous, "wiring:fault=planes_swapped", screening=True, intervals=False)
+    again = _fit(viscous, screening=True, intervals=False)
+    limit = stats.chi2.ppf(0.99, swapped.dof)
+    assert crawled.chi2 > floor * limit and swapped.chi2 > floor * limit  # measured 1.2e5 and 1.0e4 against 185
+    assert swapped.iterations < 0.5 * crawled.iterations  # 8 against 44
+    assert again.chi2 == true.chi2 and again.iterations == true.iterations and true.explained
