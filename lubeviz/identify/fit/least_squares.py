@@ -323,6 +323,19 @@ def _remember(key: str, value) -> None:
         _SEARCHES[key] = value
 
 
+def _given_starts(ref, start, free, hold_flows) -> np.ndarray:
+    """`fit`'s `start` as rows of every parameter of the chain: its own start when None; a row of the free parameters
+    only (a fit's `values`) with the held ones (a known supply) put back; the held flows (`hold_flows`) set."""
+    rows = np.atleast_2d(np.array(ref.start() if start is None else start, dtype=float))
+    if rows.shape[1] == free.size < ref.n_params:
+        full = np.tile(ref.start(), (len(rows), 1))
+        full[:, free] = rows
+        rows = full
+    if hold_flows is not None:
+        rows[:, :ref.n_flows] = hold_flows
+    return rows
+
+
 def _weighted_starts(parts, noise, ref, start, box, free, flows, settings, budget, dof):
     """(the problem weighted with the model budget at `start`, the starts to refine): the global search's over the
     `flows` in `box` (none: `start` alone). The weights and the lattices' costs are remembered (SEARCH_MEMO) and taken
@@ -457,13 +470,7 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
         raise InputError(f"{n_free} free parameters {tuple(ref.names[i] for i in free)} for {len(all_names)} "
                          "features: the record cannot determine them; hold some (give their values)")
     local = start is not None
-    starts_given = np.atleast_2d(np.array(ref.start() if start is None else start, dtype=float))
-    if starts_given.shape[1] == n_free < ref.n_params:  # the free parameters only (a fit's `values`): the held ones
-        full = np.tile(ref.start(), (len(starts_given), 1))  # (a known supply) put back
-        full[:, free] = starts_given
-        starts_given = full
-    if hold_flows is not None:
-        starts_given[:, :nq] = hold_flows
+    starts_given = _given_starts(ref, start, free, hold_flows)
     start = starts_given[0]
     # 1. global scan over the flow box (a search another fit already made is not made again: SEARCH_MEMO)
     search = hold_flows is None and not local and bool(free_flows)
