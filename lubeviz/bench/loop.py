@@ -541,6 +541,10 @@ def rates(rows) -> dict:
         "coverage_all": _rate(r["held"] for r in ok),
         "library_right_first_or_in_set": _rate(library_right(r) for r in effects),
         "library_right_first": _rate(r["right_first"] for r in effects),
+        # neither named nor in a set, the record explained by the plain model with flows that hold: the effect at this
+        # size does not show at the record's planes (a loose roller with no plane beside it)
+        "library_unseen_and_held": _rate(not library_right(r) and r["outcome"] == "explained" and r["held"]
+                                         for r in effects),
         # bearing, plane or channel as well (a node is judged by the scan, below)
         "library_right_placement_included": _rate(library_right(r) and r["placement_right"] is not False
                                                   for r in effects),
@@ -592,6 +596,13 @@ def summarize(rows, seconds: float | None = None) -> dict:
         "diagnose_seconds_per_record_max": float(np.max(per)) if per else None,
         "case_seconds_median": float(np.median([r["case_seconds"] for r in rows])) if rows else None,
         "redrawn": sum(bool(r["redraws"]) for r in rows),
+        # per library effect: [named first or in the set, neither but explained with flows that hold, cases]
+        "library_by_effect": {g: [sum(r["right_first"] or r["right_in_set"] for r in ok if r["kind"] == "effect"
+                                      and r["group"] == g),
+                                  sum(not (r["right_first"] or r["right_in_set"]) and r["outcome"] == "explained"
+                                      and r["held"] for r in ok if r["kind"] == "effect" and r["group"] == g),
+                                  sum(r["kind"] == "effect" and r["group"] == g for r in ok)]
+                              for g in sorted({r["group"] for r in ok if r["kind"] == "effect"})},
         "failed_cases": [{"id": r["id"], "kind": r["kind"], "truth": r["truth"]["specs"], "failed": r["failed"]}
                          for r in rows if r["failed"]],
     }

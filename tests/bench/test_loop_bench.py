@@ -198,6 +198,26 @@ def test_a_pair_is_right_only_with_both_names_and_a_single_confident_name_counts
     assert (r["pairs_never_single_confident"]["k"], r["pairs_never_single_confident"]["n"]) == (2, 3)
 
 
+def test_an_effect_the_record_does_not_show_is_counted_apart_when_its_flows_hold():
+    """An effect case explained by the plain model with flows that hold is neither right nor silent: counted as unseen
+    (a loose roller far from every plane), per effect beside the named ones; with a flow missed it stays silent."""
+    from lubeviz.bench.loop import summarize
+
+    case = {"kind": "effect", "group": "support_stiffness", "truth": ["support_stiffness"],
+            "effects": ["support_stiffness:support=1,factor=0.6"]}
+    unseen = judge(case, _diagnosis("explained", q=(503.0, 500.0)), [500.0, 500.0])
+    missed = judge(case, _diagnosis("explained", q=(520.0, 500.0)), [500.0, 500.0])
+    named = judge(case, _diagnosis("effect added", added="support_stiffness[support=1]"), [500.0, 500.0])
+    rows = [dict(r, id=k, kind="effect", group="support_stiffness", failed=None, node=None, seconds=1.0,
+                 case_seconds=1.0, speeds_hz=[25.0], redraws=0, static=False, q_mlmin=[500.0, 500.0],
+                 truth={"effects": case["truth"], "specs": case["effects"]})
+            for k, r in enumerate((unseen, missed, named), start=1)]
+    r = rates(rows)
+    assert (r["library_unseen_and_held"]["k"], r["library_unseen_and_held"]["n"]) == (1, 3)
+    assert (r["library_right_first_or_in_set"]["k"], r["silent_wrong_all"]["k"]) == (1, 1)
+    assert summarize(rows)["summary"]["library_by_effect"] == {"support_stiffness": [1, 1, 3]}
+
+
 def test_the_placement_is_judged_for_bearings_planes_and_channels():
     case = {"truth": ["clearance"], "effects": ["clearance:bearing=2,clearance_um=150"]}
     wrong = judge(case, _diagnosis("effect added", added="clearance[bearing=1]"), [500.0, 500.0])
