@@ -39,21 +39,27 @@ def test_every_node_where_an_effect_can_act_is_scanned(machine):
     assert abs(z[mid - 1] - 0.5 * (z1 + z2)) <= 0.5 * max(np.diff(z))
 
 
+class _Fake:
+    """An effect at a node, as a node scan sees it."""
+
+    def __init__(self, node, name="unbalance2"):
+        self.node, self.effect_name = node, name
+
+    def label(self):
+        return f"{self.effect_name}[node={self.node}]"
+
+
+class _C:
+    """A candidate's fit at a node: its chi2, and `tag` as its answer (what a warm start carries)."""
+
+    def __init__(self, node, chi2, tag, name="unbalance2"):
+        self.effect, self.fit = _Fake(node, name), type("F", (), {"chi2": chi2, "values": np.array([tag])})()
+        self.aic = chi2
+
+
 def test_the_scan_keeps_the_best_basin_when_a_warm_start_strays():
     """A node whose warm start from one side strays into a poor basin is caught by the sweep from the other side;
     the best node is fitted again from its own starts."""
-    class Fake:
-        def __init__(self, node):
-            self.node, self.effect_name = node, "unbalance2"
-
-        def label(self):
-            return f"unbalance2[node={self.node}]"
-
-    class C:
-        def __init__(self, node, chi2, tag):
-            self.effect, self.fit = Fake(node), type("F", (), {"chi2": chi2, "values": np.array([tag])})()
-            self.aic = chi2
-
     calls = []
     good = {1: 5.0, 2: 4.0, 3: 2.0, 4: 6.0}
 
@@ -61,10 +67,10 @@ def test_the_scan_keeps_the_best_basin_when_a_warm_start_strays():
         tags = None if start is None else tuple(float(row[0]) for row in np.atleast_2d(start))
         calls.append((e.node, tags))
         if e.node == 3 and tags == (2.0,):
-            return C(3, 500.0, 3)  # from node 2's answer (its only start) the fit strays
-        return C(e.node, good[e.node], e.node)
+            return _C(3, 500.0, 3)  # from node 2's answer (its only start) the fit strays
+        return _C(e.node, good[e.node], e.node)
 
-    best, profile = NodeSweep([Fake(n) for n in (1, 2, 3, 4)], fit_one).run()
+    best, profile = NodeSweep([_Fake(n) for n in (1, 2, 3, 4)], fit_one).run()
     assert best.effect.node == 3 and profile.chi2 == (5.0, 4.0, 2.0, 6.0)
     assert (3, (2.0,)) in calls  # first from node 2's side, the only one fitted then
     assert (3, (4.0,)) in calls and (3, None) in calls  # from node 4's side, and from its own starts
@@ -74,26 +80,14 @@ def test_a_node_starts_from_its_neighbours_on_both_sides_and_its_own_screening_a
     """The full pass over every node starts each from its nearest fitted neighbour on each side and from its own and
     its neighbours' screening answers: `fit` refines the one the model fits best (a force's size carried one node on
     can sit far down a flat valley)."""
-    class Fake:
-        def __init__(self, node):
-            self.node, self.effect_name = node, "side_load"
-
-        def label(self):
-            return f"side_load[node={self.node}]"
-
-    class C:
-        def __init__(self, node, chi2, tag):
-            self.effect, self.fit = Fake(node), type("F", (), {"chi2": chi2, "values": np.array([tag])})()
-            self.aic = chi2
-
     calls = []
 
     def fit_one(e, start, screening=True):
         tags = None if start is None else tuple(sorted(float(row[0]) for row in np.atleast_2d(start)))
         calls.append((e.node, screening, tags))
-        return C(e.node, 1.0 + e.node, 100 * screening + e.node)
+        return _C(e.node, 1.0 + e.node, 100 * screening + e.node, "side_load")
 
-    sweep = NodeSweep([Fake(n) for n in (1, 2, 3, 4, 5)], fit_one)
+    sweep = NodeSweep([_Fake(n, "side_load") for n in (1, 2, 3, 4, 5)], fit_one)
     sweep.run(2)  # screening at nodes 1, 3, 5
     sweep.run(1, screening=False)
     full = {}
