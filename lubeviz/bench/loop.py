@@ -86,7 +86,7 @@ THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NU
 ROW_KEYS = ("id", "kind", "group", "strength", "truth", "speeds_hz", "q_mlmin", "static", "seed", "redraws",
             "outcome", "added", "ambiguous", "named", "right_first", "right_in_set", "placement_right", "explained",
             "held", "silent_wrong", "flow_error_pct_before", "flow_error_pct_after", "node", "seconds",
-            "case_seconds", "verdict", "failed", "warnings")
+            "case_seconds", "verdict", "failed", "warnings", "truth_dof")
 
 
 # --- the cases ------------------------------------------------------------------------------------------------
@@ -477,7 +477,16 @@ def judge(case: dict, d, q_mlmin) -> dict:
             "flow_error_pct_before": (fit_flows(d.before) * MLMIN_PER_M3S / q * 100 - 100).tolist(),
             "flow_error_pct_after": (final / q * 100 - 100).tolist(),
             "node": _node_row(case, d), "seconds": float(d.seconds), "verdict": d.verdict,
-            "planes": len(case.get("nodes") or ())}
+            "planes": len(case.get("nodes") or ()), "truth_dof": truth_dof(case, d)}
+
+
+def truth_dof(case: dict, d) -> int:
+    """The degrees of freedom the record(s) leave with the true library effects fitted beside the flows: the plain
+    fit's, less each true effect's parameters a diagnosis frees (`Effect.diagnose_free`). A pair is named only with
+    PAIR_DOF of them left (`diagnose.loop`): below that the record cannot tell it from any other pair."""
+    from ..effects import EFFECTS
+
+    return int(d.before.dof) - sum(len(EFFECTS[name].diagnose_free) for name in case["truth"] if name in EFFECTS)
 
 
 # --- the figures ----------------------------------------------------------------------------------------------
@@ -518,6 +527,8 @@ def confusion(rows) -> dict:
 
 def rates(rows) -> dict:
     """The acceptance list of issue 36 as rates over the rows that ran (failed rows are counted in the summary)."""
+    from ..diagnose.loop import PAIR_DOF
+
     ok = [r for r in rows if not r["failed"]]
     kind = {k: [r for r in ok if r["kind"] == k] for k in KINDS}
     effects = kind["effect"]
@@ -553,6 +564,10 @@ def rates(rows) -> dict:
         "node_truth_among_fitting": _rate(r["node"]["truth_fits"] for r in placed),
         "side_load_named_or_in_set_and_held": _rate(library_right(r) and r["held"] for r in side),
         "pairs_right": _rate(r["right_in_set"] for r in kind["pair"]),
+        # over the pairs whose records hold enough features to name them (`truth_dof`, PAIR_DOF): one record of two
+        # planes without the DC gap has 6 features, so two flows and a pair of 1 + 2 parameters leave 1
+        "pairs_right_where_determinable": _rate(r["right_in_set"] for r in kind["pair"]
+                                                if (r.get("truth_dof") or 0) >= PAIR_DOF),
         "pairs_never_single_confident": _rate(not (r["outcome"] == "effect added" and r["named"] is not None
                                                    and "+" not in r["named"]) for r in kind["pair"]),
         "hot_oil_sets_named_within_2pct": _rate(r["right_first"] and within(r, 2.0) for r in hot),

@@ -34,6 +34,7 @@ from ..errors import LubevizError
 from ..identify.fit.least_squares import Z95, Fit, fit
 from ..identify.fit.result import lubrication_verdict, union_interval
 from ..identify.forward.chain import bearing_changes
+from .pairs import screen
 from .scan import SCREEN_STRIDE, NodeSweep
 from ..progress import ProgressFn, silent
 from ..units import MLMIN_PER_M3S
@@ -47,6 +48,7 @@ PAIR_FROM = 4  # pairs are tried among this many of the best single candidates (
 # gain on y1 when the best probe gain alone was on x1: the pair was never tried, issue 36 bench)
 PAIR_LEAD = 2
 PAIR_PARTNERS = 6  # ... among the best this many placements of the other effects (a set's pair fits cost 3 records)
+PAIR_LINEAR = 6  # ... and this many more that the linear screen over every pair of singles ranks best (`pairs.screen`)
 # a pair is named only with this many degrees of freedom left: one record at one speed (6 features) minus two flows
 # and a pair of 2 + 2 parameters leaves none, and with one left almost any pair fits it (measured: a worn bearing 2
 # with a probe's gain error named as "a second unbalance + bearing 1 at 84 um", flows 64 % off, chi2 0.4 for 1 dof)
@@ -244,7 +246,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         tried.append(_fit_orbit(chains[0], meas[0], orbit, names, budget, level, progress))
     tried.sort(key=lambda c: c.aic)
     if not before.explained and not any(c.passes for c in tried):
-        tried += _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progress)
+        tried += _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progress, before=before)
         tried.sort(key=lambda c: c.aic)
     passing = [c for c in tried if c.passes]
     best, after, refused = (None, None, []) if before.explained else _refine(chains, meas, passing, names, budget,
@@ -256,7 +258,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         out = _added_outcome(chains, before, best, after, passing, ambiguity_aic)
         if best.defect is None:
             _unpinned_after_effect(out, chains, meas, best, passing, names, budget, level)
-            _pairs_after_effect(out, chains, meas, best, tried, names, budget, level)
+            _pairs_after_effect(out, chains, meas, best, tried, names, budget, level, before)
     else:
         out = _unexplained_outcome(before, tried, refused)
     added = out["added"]
@@ -371,10 +373,10 @@ def _placements(e, rotor, n_planes: int) -> list:
     return e.placements(**counts)
 
 
-def _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progress=silent) -> list:
-    """Pairs of the best PAIR_FROM single candidates (different effects; not large orbits), and of the best
-    PAIR_LEAD with the best PAIR_PARTNERS placements of the other effects, fitted together from their single fits'
-    values; returned (to join the ranking) only when the best passes and beats every single by more than
+def _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progress=silent, before=None) -> list:
+    """Pairs of the best PAIR_FROM single candidates (different effects; not large orbits), of the best
+    PAIR_LEAD with the best PAIR_PARTNERS placements of the other effects, and the PAIR_LINEAR others the linear
+    screen over every pair of singles ranks best (`pairs.screen`, from the plain fit `before`), fitted together; returned (to join the ranking) only when the best passes and beats every single by more than
     `ambiguity_aic`: a pair has more freedom, and is named only when the record asks for it."""
     import itertools
 
@@ -396,6 +398,7 @@ def _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progres
             if key not in labels:
                 labels.add(key)
                 pairs.append((lead, c))
+    pairs += screen(chains, meas, names, before, usable, dof_min=PAIR_DOF, most=PAIR_LINEAR, skip=labels)
     found = []
     for n, (a, b) in enumerate(pairs, start=1):
         label = f"{a.label} + {b.label}"
@@ -622,7 +625,7 @@ def _unpinned_after_effect(out: dict, chains, meas, best, passing, names, budget
                        f"To pin {'them' if len(free) > 1 else 'it'}: {_pinned_by(free)}.")
 
 
-def _pairs_after_effect(out: dict, chains, meas, best, tried, names, budget, level) -> None:
+def _pairs_after_effect(out: dict, chains, meas, best, tried, names, budget, level, before=None) -> None:
     """A named effect with a second one beside it: a record one effect explains is often explained as well by it and
     another at other flows (oil 28 % thinner with a turned probe, read as the probe alone with the flows 18 % low and
     intervals that missed them: the fan loop, session 48). The PAIR_PLACEMENTS best placements of each of the
@@ -630,7 +633,9 @@ def _pairs_after_effect(out: dict, chains, meas, best, tried, names, budget, lev
     the winner's by the likelihood ratio's PAIR_ASKED point for its added parameters, a degree of freedom left, no
     parameter at its bound) that puts a flow outside the winner's interval is a look-alike: the flows' interval takes
     its in and the pair joins the ambiguity. It is never named for it (the information criterion and PAIR_DOF decide
-    that). Fitting only as well is not enough here, unlike a single effect against the plain model (`_look_alikes`):
+    that). The PAIR_LINEAR other singles the linear screen ranks best beside the winner (`pairs.screen`, from the plain
+    fit `before`) are fitted with it too (a gain on y1 beside a worn bearing when three other gains rank above it
+    alone: the fan loop's case 9, session 51). Fitting only as well is not enough here, unlike a single effect against the plain model (`_look_alikes`):
     every pair holds its single effect, and a second effect of free size (a worn bearing beside a pedestal) trades
     with the flows wherever the record leaves it unpinned. A load moved (a side load, a misaligned bearing) is no
     partner: at any size it trades with the flows, and its plausible size is already carried
@@ -649,6 +654,10 @@ def _pairs_after_effect(out: dict, chains, meas, best, tried, names, budget, lev
             continue
         per[name] = per.get(name, 0) + 1
         partners.append(c)
+    others = [c for c in tried if c.fit is not None and c.defect is None and not c.partners and c not in partners
+              and c.effect.effect_name not in own and not c.effect.static_load]
+    partners += [b for _a, b in screen(chains, meas, names, before, others, dof_min=1, most=PAIR_LINEAR, lead=best,
+                                       gain_min=0.5 * stats.chi2.ppf(PAIR_ASKED, 1))]
     found = []
     for c in partners:
         try:

@@ -157,15 +157,15 @@ def test_a_stopped_run_goes_on_from_its_rows_file(tmp_path):
 
 # --- the judging (fast, on stand-in diagnoses) ------------------------------------------------------------------
 
-def _fit(q_mlmin, half_width_pct):
+def _fit(q_mlmin, half_width_pct, dof=4):
     q = np.asarray(q_mlmin) / MLMIN_PER_M3S
     w = half_width_pct / 100
-    return SimpleNamespace(values=np.concatenate([q, [1.0]]),
+    return SimpleNamespace(values=np.concatenate([q, [1.0]]), dof=dof,
                            intervals={f"q{k + 1}": (q[k] * (1 - w), q[k] * (1 + w)) for k in range(2)})
 
 
-def _diagnosis(outcome, *, added=None, ambiguous=(), explained=True, q=(500.0, 500.0), width=1.0):
-    f = _fit(q, width)
+def _diagnosis(outcome, *, added=None, ambiguous=(), explained=True, q=(500.0, 500.0), width=1.0, dof=4):
+    f = _fit(q, width, dof)
     return SimpleNamespace(before=f, final=f, added=None if added is None else SimpleNamespace(label=added),
                            ambiguous=tuple(ambiguous), explained=explained, outcome=outcome, set_intervals=None,
                            scans=(), seconds=1.0, verdict="...")
@@ -196,6 +196,22 @@ def test_a_pair_is_right_only_with_both_names_and_a_single_confident_name_counts
     r = rates(rows)
     assert (r["pairs_right"]["k"], r["pairs_right"]["n"]) == (2, 3)
     assert (r["pairs_never_single_confident"]["k"], r["pairs_never_single_confident"]["n"]) == (2, 3)
+
+
+def test_a_pair_the_record_cannot_determine_is_counted_apart():
+    """Two flows and a second unbalance (ratio, phase) with a gain: 2 + 3 parameters. One record of two planes without
+    the DC gap (6 features, the plain fit's dof 4) leaves 1 for the pair, below PAIR_DOF; with the DC gap (dof 8), 5."""
+    from lubeviz.diagnose.loop import PAIR_DOF
+
+    case = {"kind": "pair", "truth": ["unbalance2", "probe_gain"],
+            "effects": ["unbalance2:node=10,ratio=0.3,phase_deg=40", "probe_gain:channel=x1,gain=1.1"]}
+    thin = judge(case, _diagnosis("unexplained", explained=False, dof=4), [500.0, 500.0])
+    rich = judge(case, _diagnosis("effect added", added="unbalance2[node=10]+probe_gain[channel=x1]", dof=8),
+                 [500.0, 500.0])
+    assert (thin["truth_dof"], rich["truth_dof"]) == (1, 5) and thin["truth_dof"] < PAIR_DOF <= rich["truth_dof"]
+    r = rates([dict(x, kind="pair", failed=None, node=None) for x in (thin, rich)])
+    assert (r["pairs_right"]["k"], r["pairs_right"]["n"]) == (1, 2)
+    assert (r["pairs_right_where_determinable"]["k"], r["pairs_right_where_determinable"]["n"]) == (1, 1)
 
 
 def test_an_effect_the_record_does_not_show_is_counted_apart_when_its_flows_hold():

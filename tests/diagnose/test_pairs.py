@@ -154,3 +154,29 @@ def test_a_named_effect_with_a_second_beside_it_that_fits_as_well_widens_the_flo
     assert "But with a second effect beside it" in d.verdict
     for (lo, hi), t in zip(d.set_intervals, q):
         assert lo * MLMIN_PER_M3S <= t <= (np.inf if hi is None else hi * MLMIN_PER_M3S)
+
+
+def test_a_pair_whose_members_rank_low_alone_is_found_by_the_linear_screen():
+    """The paper's loop, case 45 (session 51): plane 2's probes turned 7.6 deg and bearing 2 worn to 161 um, at 66 Hz
+    with the static position. Alone they leave chi2 783 and 793 (8th and 10th of the singles), so the pairs among
+    the best singles never held both and the record ended "unexplained". Together they fit it (chi2 1.6 for 6 dof):
+    the linear screen over every pair of singles (`pairs.screen`) puts them among the pairs fitted, and the pair is
+    named with its sizes."""
+    from lubeviz.diagnose.pipeline import run_diagnosis
+    from lubeviz.model.machine import load_machine
+
+    q = (489.31581440683226, 586.3991009160032)
+    spec = IndependentSpec(speed_hz=66.11489370842371, q1_mlmin=q[0], q2_mlmin=q[1], static=True, seed=1187919728,
+                           effects=("probe_rotation:plane=2,angle_deg=-7.623", "clearance:bearing=2,clearance_um=161.2"))
+    d = run_diagnosis([make_record(spec).record], load_machine(None)).diagnosis
+    singles = [c for c in d.candidates if not c.partners and c.fit is not None]
+    ranks = {c.label: n for n, c in enumerate(singles)}
+    assert ranks["probe_rotation[plane=2]"] >= loop.PAIR_FROM and ranks["clearance[bearing=2]"] >= loop.PAIR_FROM
+    assert d.outcome == "effect added" and not d.ambiguous
+    assert {e.label() for e in d.added.effects} == {"probe_rotation[plane=2]", "clearance[bearing=2]"}
+    values = d.added.parameters()
+    assert values["angle_deg"] == pytest.approx(-7.623, abs=3 * values["angle_deg_std"] + 0.3)
+    assert values["clearance_um"] == pytest.approx(161.2, abs=3 * values["clearance_um_std"] + 2.0)
+    for k, t in enumerate(q):
+        lo, hi = d.after.intervals[f"q{k + 1}"]
+        assert lo * MLMIN_PER_M3S <= t <= (np.inf if hi is None else hi * MLMIN_PER_M3S)
