@@ -98,5 +98,7 @@ def test_a_screening_fit_that_cannot_pass_stops_once_its_steps_gain_little(visco
     again = _fit(viscous, screening=True, intervals=False)
     limit = stats.chi2.ppf(0.99, swapped.dof)
     assert crawled.chi2 > floor * limit and swapped.chi2 > floor * limit  # measured 1.2e5 and 1.0e4 against 185
-    assert swapped.iterations < 0.5 * crawled.iterations  # 8 against 44
+    # it stops within a few steps (2 since session 51, where a step the linear model promises less than SCREENING_GAIN
+    # is not taken; the hopeless stop alone made it 8 against 44 before), and never later than without that stop
+    assert swapped.iterations <= crawled.iterations and swapped.iterations < 0.25 * LS.SCREENING_ITER
     assert again.chi2 == true.chi2 and again.iterations == true.iterations and true.explained

@@ -197,6 +197,11 @@ def _lm(problem: _Problem, theta0, lo, hi, scale, max_iter=100, step_tol=1e-7, c
             du = -np.linalg.solve(A + lam * np.diag(np.diag(A) + 1e-12), g)
             new = theta.copy()
             new[free] = np.clip(theta[free] + du * s, lo[free], hi[free])
+            taken = (new[free] - theta[free]) / s
+            if np.all(np.abs(taken) < step_tol) or -(2.0 * g @ taken + taken @ A @ taken) < cost_tol:
+                # the step (a damped one after rejections) would move nothing, or the linear model promises less
+                # than the cost a step must gain: converged here, without evaluating it
+                return theta, r, J, it, 0, np.array(path)
             r_new, J_new = problem.residual_jacobian(new)
             cost_new = r_new @ r_new
             if cost_new <= cost:
