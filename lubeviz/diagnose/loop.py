@@ -376,8 +376,10 @@ def _placements(e, rotor, n_planes: int) -> list:
 def _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progress=silent, before=None) -> list:
     """Pairs of the best PAIR_FROM single candidates (different effects; not large orbits), of the best
     PAIR_LEAD with the best PAIR_PARTNERS placements of the other effects, and the PAIR_LINEAR others the linear
-    screen over every pair of singles ranks best (`pairs.screen`, from the plain fit `before`), fitted together; returned (to join the ranking) only when the best passes and beats every single by more than
-    `ambiguity_aic`: a pair has more freedom, and is named only when the record asks for it."""
+    screen over every pair of singles ranks best (`pairs.screen`, from the plain fit `before`), fitted together;
+    returned (to join the ranking) only when the best passes with PAIR_DOF degrees of freedom left and beats every
+    single by more than `ambiguity_aic`: a pair has more freedom, and is named only when the record asks for it. With
+    it come the pairs within `ambiguity_aic` of it, those the record cannot name among them (`rivals`)."""
     import itertools
 
     usable = [c for c in tried if c.fit is not None and c.defect is None and not c.partners]
@@ -399,6 +401,25 @@ def _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progres
                 labels.add(key)
                 pairs.append((lead, c))
     pairs += screen(chains, meas, names, before, usable, dof_min=PAIR_DOF, most=PAIR_LINEAR, skip=labels)
+    found = _fit_pairs(chains, meas, pairs, names, budget, level, progress)
+    best_single = min((c.aic for c in tried), default=math.inf)
+    good = sorted((c for c in found if c.passes and c.aic < best_single - ambiguity_aic
+                   and c.fit.dof >= PAIR_DOF and not _at_bound(c.fit)), key=lambda c: c.aic)
+    if not good:
+        return []
+    # a pair the record cannot name (a degree of freedom left, fewer than PAIR_DOF) that fits as well is a rival all
+    # the same: a second unbalance and a turned probe (3 parameters, 1 dof left on one record of two planes) read as
+    # a turned probe and a worn bearing, Q2 53 % off (the paper's loop, case 53, session 51)
+    labels |= {frozenset((a.label, b.label)) for a, b in pairs}
+    found += _fit_pairs(chains, meas, screen(chains, meas, names, before, usable, dof_min=1, most=PAIR_LINEAR,
+                                             skip=labels, dof_max=PAIR_DOF - 1), names, budget, level, progress)
+    rivals = [c for c in found if c.passes and 1 <= c.fit.dof < PAIR_DOF and not _at_bound(c.fit)]
+    # every pair within `ambiguity_aic` of the best: several pairs that fit are an ambiguity, not a name
+    return sorted((c for c in good + rivals if c.aic - good[0].aic < ambiguity_aic), key=lambda c: c.aic)
+
+
+def _fit_pairs(chains, meas, pairs, names, budget, level, progress=silent) -> list:
+    """Each pair (a, b) of single candidates fitted together (a screening fit): a Candidate of the pair."""
     found = []
     for n, (a, b) in enumerate(pairs, start=1):
         label = f"{a.label} + {b.label}"
@@ -413,11 +434,7 @@ def _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progres
         pair = Candidate(label=label, effect=ea, partners=(eb,), fit=res)
         (ea, _), (eb, _) = fitted_effects(pair, res)
         found.append(Candidate(label=label, effect=ea, partners=(eb,), fit=res))
-    best_single = min((c.aic for c in tried), default=math.inf)
-    good = sorted((c for c in found if c.passes and c.aic < best_single - ambiguity_aic
-                   and c.fit.dof >= PAIR_DOF and not _at_bound(c.fit)), key=lambda c: c.aic)
-    # every pair within `ambiguity_aic` of the best: several pairs that fit are an ambiguity, not a name
-    return [c for c in good if c.aic - good[0].aic < ambiguity_aic] if good else []
+    return found
 
 
 def _at_bound(f: Fit) -> bool:

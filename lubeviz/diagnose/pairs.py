@@ -98,9 +98,9 @@ def _columns(chains, meas, names, plain: _Directions, cand) -> np.ndarray | None
 
 
 def screen(chains, meas, names, before, singles, *, dof_min: int, most: int, skip=frozenset(), lead=None,
-           gain_min: float = 0.0) -> list:
+           gain_min: float = 0.0, dof_max: int | None = None) -> list:
     """The `most` pairs (a, b) of `singles` (fitted single candidates of different effects) the linear picture
-    says fit best, each leaving at least `dof_min` degrees of freedom, best first; pairs whose labels are in `skip`
+    says fit best, each leaving at least `dof_min` degrees of freedom (and at most `dof_max`), best first; pairs whose labels are in `skip`
     (frozensets) are left out. With `lead` (a fitted single candidate), only pairs (lead, b) of b in `singles` that
     lower the lead's own chi2 in that picture by at least `gain_min`."""
     if before is None or getattr(before, "features_sigma", None) is None:
@@ -118,7 +118,7 @@ def screen(chains, meas, names, before, singles, *, dof_min: int, most: int, ski
             if a.effect.effect_name == b.effect.effect_name or frozenset((a.label, b.label)) in skip:
                 continue
             k = len(a.fit.values) + len(b.fit.values) - plain.flows.shape[1]  # the pair's free parameters
-            if n - k < dof_min:
+            if n - k < dof_min or (dof_max is not None and n - k > dof_max):
                 continue
             left = _left(plain, np.column_stack([A, B]))
             if lead is None or alone - left >= gain_min:

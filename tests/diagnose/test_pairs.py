@@ -180,3 +180,27 @@ def test_a_pair_whose_members_rank_low_alone_is_found_by_the_linear_screen():
     for k, t in enumerate(q):
         lo, hi = d.after.intervals[f"q{k + 1}"]
         assert lo * MLMIN_PER_M3S <= t <= (np.inf if hi is None else hi * MLMIN_PER_M3S)
+
+
+@pytest.mark.parametrize("rival_dof, returned", [(PAIR_DOF - 1, 2), (0, 1)])
+def test_a_pair_the_record_cannot_name_that_fits_as_well_makes_the_named_pair_an_ambiguity(monkeypatch, rival_dof,
+                                                                                           returned):
+    """The paper's loop, case 53 (session 51): a second unbalance with a turned probe (3 parameters, 1 dof left on one
+    record of two planes) was read as a turned probe and a worn bearing (2 dof left, named), Q2 53 % off. A pair
+    with a degree of freedom left but fewer than PAIR_DOF is never named, and it is a rival of the pair that is: when
+    it fits as well, the pair becomes an ambiguity. With none left it says nothing (any pair fits)."""
+    singles = [_single("viscosity:bearing=both", 40.0), _single("probe_rotation:plane=1", 41.0),
+               _single("probe_gain:channel=x1", 42.0)]
+    fits = iter([_fit(1.0, PAIR_DOF), _fit(0.5, rival_dof), _fit(30.0, PAIR_DOF)])  # (v, r), (v, g), (r, g)
+    monkeypatch.setattr(loop, "fit", lambda *a, **k: next(fits))
+    chain = types.SimpleNamespace(adding=lambda *e: None)
+    got = _try_pairs([chain], [None], singles, None, None, 0.01, AMBIGUITY_AIC)
+    assert len(got) == returned
+    assert any(c.fit.dof >= PAIR_DOF for c in got)  # never the rival alone
+
+
+def test_a_pair_the_record_cannot_name_is_never_returned_alone(monkeypatch):
+    singles = [_single("viscosity:bearing=both", 40.0), _single("probe_rotation:plane=1", 41.0)]
+    monkeypatch.setattr(loop, "fit", lambda *a, **k: _fit(0.5, PAIR_DOF - 1))
+    chain = types.SimpleNamespace(adding=lambda *e: None)
+    assert _try_pairs([chain], [None], singles, None, None, 0.01, AMBIGUITY_AIC) == []
