@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import LubevizError
+from ..identify.fit.least_squares import feature_parts
 from ..identify.forward.model import wrap_difference
 
 
@@ -35,9 +36,8 @@ class _Directions:
 
 
 def _parts(chains, meas, names):
-    from ..identify.fit.least_squares import _parts as parts
-
-    return parts(chains, meas, names)[0]
+    """[(chain, feature names, measured values)] of each record, as a fit takes them."""
+    return feature_parts(chains, meas, names)[0]
 
 
 def _point(chain, values) -> tuple[np.ndarray, np.ndarray]:

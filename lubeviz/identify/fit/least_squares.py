@@ -410,7 +410,7 @@ def _covariance(J, scale, chi2, dof, level) -> tuple[np.ndarray, float]:
     return scale[:, None] * np.linalg.pinv(Js.T @ Js) * scale[None, :] * inflation, inflation
 
 
-def _parts(chains, measured, names):
+def feature_parts(chains, measured, names):
     """[(chain, feature names, measured values)] and the block-diagonal noise covariance."""
     parts, blocks = [], []
     for chain, meas in zip(chains, measured):
@@ -456,7 +456,7 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     if any(c.names != ref.names for c in chains):
         raise InputError("the records of one set must be fitted with the same effects")
     budget = budget or ModelBudget()
-    parts, noise = _parts(chains, meas_list, names)
+    parts, noise = feature_parts(chains, meas_list, names)
     all_names = tuple(n for _, ns, _ in parts for n in ns)
     fm = np.concatenate([f for _, _, f in parts])
     ev0 = [c.evaluations for c in chains]
@@ -604,7 +604,7 @@ def sandwich_cov(chain, measured, theta, *, names: Sequence[str] | None = None, 
     error is the larger `budget` (a term left out of the weights, e.g. one whose size is uncertain itself):
     A V A^T, A = (J^T W^-1 J)^-1 J^T W^-1 with W and V the noise + each budget's covariance at `theta` and J
     the features' Jacobian there (the sandwich estimator). Linear in the model's error, so it holds near theta."""
-    parts, noise = _parts([chain], [measured], names)
+    parts, noise = feature_parts([chain], [measured], names)
     free = np.arange(chain.n_params)
     probe = _Problem(parts, np.eye(noise.shape[0]), free)
     W = probe.model_cov(theta, weights, noise)

@@ -64,11 +64,11 @@ def pair_grid(chain, pair: tuple[int, int], held, *, n: int = 41, lower: float =
 def chi2_grid(chain, measured, points, *, names: Sequence[str] | None = None, budget=None, at=None) -> np.ndarray:
     """The fit's chi^2 at each parameter vector of `points` (..., n_params): the measured features' noise and
     the model budget evaluated once at `at` (default the chain's start)."""
-    from .least_squares import _parts, _Problem
+    from .least_squares import _Problem, feature_parts
 
     chains = list(chain) if isinstance(chain, (list, tuple)) else [chain]
     meas = list(measured) if isinstance(measured, (list, tuple)) else [measured]
-    parts, noise = _parts(chains, meas, names)
+    parts, noise = feature_parts(chains, meas, names)
     ref = chains[0]
     at = ref.start() if at is None else np.asarray(at, dtype=float)
     free = np.arange(ref.n_params)
