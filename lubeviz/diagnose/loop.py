@@ -245,8 +245,10 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
     if orbit_tried:
         tried.append(_fit_orbit(chains[0], meas[0], orbit, names, budget, level, progress))
     tried.sort(key=lambda c: c.aic)
+    unnamed = []
     if not before.explained and not any(c.passes for c in tried):
-        tried += _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progress, before=before)
+        tried += _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progress, before=before,
+                            unnamed=unnamed)
         tried.sort(key=lambda c: c.aic)
     passing = [c for c in tried if c.passes]
     best, after, refused = (None, None, []) if before.explained else _refine(chains, meas, passing, names, budget,
@@ -261,6 +263,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
             _pairs_after_effect(out, chains, meas, best, tried, names, budget, level, before)
     else:
         out = _unexplained_outcome(before, tried, refused)
+        out["verdict"] += _unnamed_pair_words(before, unnamed, len(chains))
     added = out["added"]
     # an ambiguity's members change the machine differently: the flows are judged against the declared bearings
     named = added is not None and added.defect is None and not out["ambiguous"]
@@ -373,13 +376,15 @@ def _placements(e, rotor, n_planes: int) -> list:
     return e.placements(**counts)
 
 
-def _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progress=silent, before=None) -> list:
+def _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progress=silent, before=None,
+               unnamed: list | None = None) -> list:
     """Pairs of the best PAIR_FROM single candidates (different effects; not large orbits), of the best
     PAIR_LEAD with the best PAIR_PARTNERS placements of the other effects, and the PAIR_LINEAR others the linear
     screen over every pair of singles ranks best (`pairs.screen`, from the plain fit `before`), fitted together;
     returned (to join the ranking) only when the best passes with PAIR_DOF degrees of freedom left and beats every
     single by more than `ambiguity_aic`: a pair has more freedom, and is named only when the record asks for it. With
-    it come the pairs within `ambiguity_aic` of it, those the record cannot name among them (`rivals`)."""
+    it come the pairs within `ambiguity_aic` of it, those the record cannot name among them (`rivals`). `unnamed`, when
+    given, receives every pair that passes with too few degrees of freedom to be named (for the verdict's words)."""
     import itertools
 
     usable = [c for c in tried if c.fit is not None and c.defect is None and not c.partners]
@@ -405,17 +410,40 @@ def _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progres
     best_single = min((c.aic for c in tried), default=math.inf)
     good = sorted((c for c in found if c.passes and c.aic < best_single - ambiguity_aic
                    and c.fit.dof >= PAIR_DOF and not _at_bound(c.fit)), key=lambda c: c.aic)
-    if not good:
-        return []
     # a pair the record cannot name (a degree of freedom left, fewer than PAIR_DOF) that fits as well is a rival all
     # the same: a second unbalance and a turned probe (3 parameters, 1 dof left on one record of two planes) read as
     # a turned probe and a worn bearing, Q2 53 % off (the paper's loop, case 53, session 51)
-    labels |= {frozenset((a.label, b.label)) for a, b in pairs}
-    found += _fit_pairs(chains, meas, screen(chains, meas, names, before, usable, dof_min=1, most=PAIR_LINEAR,
-                                             skip=labels, dof_max=PAIR_DOF - 1), names, budget, level, progress)
-    rivals = [c for c in found if c.passes and 1 <= c.fit.dof < PAIR_DOF and not _at_bound(c.fit)]
+    if good or unnamed is not None:
+        labels |= {frozenset((a.label, b.label)) for a, b in pairs}
+        found += _fit_pairs(chains, meas, screen(chains, meas, names, before, usable, dof_min=1, most=PAIR_LINEAR,
+                                                 skip=labels, dof_max=PAIR_DOF - 1), names, budget, level, progress)
+    rivals = sorted((c for c in found if c.passes and 1 <= c.fit.dof < PAIR_DOF and not _at_bound(c.fit)),
+                    key=lambda c: c.aic)
+    if unnamed is not None:
+        unnamed.extend(rivals)
+    if not good:
+        return []
     # every pair within `ambiguity_aic` of the best: several pairs that fit are an ambiguity, not a name
     return sorted((c for c in good + rivals if c.aic - good[0].aic < ambiguity_aic), key=lambda c: c.aic)
+
+
+def _unnamed_pair_words(before: Fit, unnamed, records: int = 1) -> str:
+    """For an unexplained record: the pairs that fit it but leave too few degrees of freedom to be named
+    (`_try_pairs`' `unnamed`), and, on a record too thin for a pair of 3 parameters, what would add features."""
+    k = len(before.values)
+    n = before.dof + k
+    words = ""
+    if unnamed:
+        c = unnamed[0]
+        words += (f" Two effects at once fit it: {c.label} (chi2 {c.fit.chi2:.1f} for {c.fit.dof} dof), but with so "
+                  f"few degrees of freedom left almost any pair fits, so none is named.")
+    if unnamed or before.dof - 3 < PAIR_DOF:
+        held = "This record holds" if records == 1 else f"These {records} records hold"
+        words += (f" {held} {n} features for {k} unknown flows: a pair of effects with 3 parameters or "
+                  f"more (a 1X force beside another effect) leaves fewer than {PAIR_DOF} degrees of freedom to test "
+                  "it. The static shaft position (the probes' DC gap) or records at a second speed add the features "
+                  "that would.")
+    return words
 
 
 def _fit_pairs(chains, meas, pairs, names, budget, level, progress=silent) -> list:

@@ -204,3 +204,23 @@ def test_a_pair_the_record_cannot_name_is_never_returned_alone(monkeypatch):
     monkeypatch.setattr(loop, "fit", lambda *a, **k: _fit(0.5, PAIR_DOF - 1))
     chain = types.SimpleNamespace(adding=lambda *e: None)
     assert _try_pairs([chain], [None], singles, None, None, 0.01, AMBIGUITY_AIC) == []
+
+
+def test_an_unexplained_record_is_told_which_pair_fits_it_and_what_would_name_one(monkeypatch):
+    """No pair can be named (each leaves 1 dof): none is returned, but the pairs that pass come back in `unnamed`, and
+    the verdict's words name the best and say what adds the features: one record of two planes without the DC gap
+    (6 features, 2 flows) cannot test a pair of 3 parameters, one with it (10 features) can."""
+    from lubeviz.diagnose.loop import _unnamed_pair_words
+
+    singles = [_single("unbalance2:node=10", 40.0), _single("probe_gain:channel=x1", 41.0)]
+    monkeypatch.setattr(loop, "fit", lambda *a, **k: _fit(0.3, PAIR_DOF - 1))
+    chain = types.SimpleNamespace(adding=lambda *e: None)
+    unnamed = []
+    assert _try_pairs([chain], [None], singles, None, None, 0.01, AMBIGUITY_AIC, unnamed=unnamed) == []
+    assert len(unnamed) == 1 and unnamed[0].label == "unbalance2:node=10 + probe_gain:channel=x1"
+    thin = types.SimpleNamespace(values=np.zeros(2), dof=4)
+    words = _unnamed_pair_words(thin, unnamed)
+    assert "Two effects at once fit it: unbalance2:node=10 + probe_gain:channel=x1 (chi2 0.3 for 1 dof)" in words
+    assert "This record holds 6 features for 2 unknown flows" in words and "DC gap" in words
+    assert _unnamed_pair_words(types.SimpleNamespace(values=np.zeros(2), dof=8), []) == ""
+    assert "These 3 records hold 6 features" in _unnamed_pair_words(thin, [], records=3)
