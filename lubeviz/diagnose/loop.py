@@ -672,19 +672,19 @@ def _unpinned_after_effect(out: dict, chains, meas, best, passing, names, budget
 
 def _pairs_after_effect(out: dict, chains, meas, best, tried, names, budget, level, before=None) -> None:
     """A named effect with a second one beside it: a record one effect explains is often explained as well by it and
-    another at other flows (oil 28 % thinner with a turned probe, read as the probe alone with the flows 18 % low and
-    intervals that missed them: the fan loop, session 48). The PAIR_PLACEMENTS best placements of each of the
-    PAIR_LOOK_ALIKES best other effects are fitted together with the winner. A pair the record asks for (its chi2 below
-    the winner's by the likelihood ratio's PAIR_ASKED point for its added parameters, a degree of freedom left, no
-    parameter at its bound) that puts a flow outside the winner's interval is a look-alike: the flows' interval takes
-    its in and the pair joins the ambiguity. It is never named for it (the information criterion and PAIR_DOF decide
-    that). The PAIR_LINEAR other singles the linear screen ranks best beside the winner (`pairs.screen`, from the plain
-    fit `before`) are fitted with it too (a gain on y1 beside a worn bearing when three other gains rank above it
-    alone: the fan loop's case 9, session 51). Fitting only as well is not enough here, unlike a single effect against the plain model (`_look_alikes`):
-    every pair holds its single effect, and a second effect of free size (a worn bearing beside a pedestal) trades
-    with the flows wherever the record leaves it unpinned. A load moved (a side load, a misaligned bearing) is no
-    partner: at any size it trades with the flows, and its plausible size is already carried
-    (`_unpinned_after_effect`, LOAD_RANGE)."""
+    another at other flows (oil 28 % thinner with a turned probe, read as the probe alone with the flows 18 % low
+    and intervals that missed them: the fan loop, session 48). The PAIR_PLACEMENTS best placements of each of the
+    PAIR_LOOK_ALIKES best other effects are fitted together with the winner. A pair the record asks for (its chi2
+    below the winner's by the likelihood ratio's PAIR_ASKED point for its added parameters, a degree of freedom
+    left, no parameter at its bound) that puts a flow outside the winner's interval is a look-alike: the flows'
+    interval takes its in and the pair joins the ambiguity. It is never named for it (the information criterion and
+    PAIR_DOF decide that). The PAIR_LINEAR other singles the linear screen ranks best beside the winner
+    (`pairs.screen`, from the plain fit `before`) are fitted with it too (a gain on y1 beside a worn bearing when
+    three other gains rank above it alone: the fan loop's case 9, session 51). Fitting only as well is not enough
+    here, unlike a single effect against the plain model (`_look_alikes`): every pair holds its single effect, and a
+    second effect of free size (a worn bearing beside a pedestal) trades with the flows wherever the record leaves
+    it unpinned. A load moved (a side load, a misaligned bearing) is no partner: at any size it trades with the
+    flows, and its plausible size is already carried (`_unpinned_after_effect`, LOAD_RANGE)."""
     if best.partners:  # a pair already: a third effect is not tried
         return
     after = out["after"]

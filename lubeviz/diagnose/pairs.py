@@ -99,10 +99,10 @@ def _columns(chains, meas, names, plain: _Directions, cand) -> np.ndarray | None
 
 def screen(chains, meas, names, before, singles, *, dof_min: int, most: int, skip=frozenset(), lead=None,
            gain_min: float = 0.0, dof_max: int | None = None) -> list:
-    """The `most` pairs (a, b) of `singles` (fitted single candidates of different effects) the linear picture
-    says fit best, each leaving at least `dof_min` degrees of freedom (and at most `dof_max`), best first; pairs whose labels are in `skip`
-    (frozensets) are left out. With `lead` (a fitted single candidate), only pairs (lead, b) of b in `singles` that
-    lower the lead's own chi2 in that picture by at least `gain_min`."""
+    """The `most` pairs (a, b) of `singles` (fitted single candidates of different effects) the linear picture says fit
+    best, each leaving at least `dof_min` degrees of freedom (and at most `dof_max`), best first; pairs whose labels
+    are in `skip` (frozensets) are left out. With `lead` (a fitted single candidate), only pairs (lead, b) of b in
+    `singles` that lower the lead's own chi2 in that picture by at least `gain_min`."""
     if before is None or getattr(before, "features_sigma", None) is None:
         return []
     plain = _plain(chains, meas, names, before)

@@ -166,8 +166,9 @@ def test_a_pair_whose_members_rank_low_alone_is_found_by_the_linear_screen():
     from lubeviz.model.machine import load_machine
 
     q = (489.31581440683226, 586.3991009160032)
+    effects = ("probe_rotation:plane=2,angle_deg=-7.623", "clearance:bearing=2,clearance_um=161.2")
     spec = IndependentSpec(speed_hz=66.11489370842371, q1_mlmin=q[0], q2_mlmin=q[1], static=True, seed=1187919728,
-                           effects=("probe_rotation:plane=2,angle_deg=-7.623", "clearance:bearing=2,clearance_um=161.2"))
+                           effects=effects)
     d = run_diagnosis([make_record(spec).record], load_machine(None)).diagnosis
     singles = [c for c in d.candidates if not c.partners and c.fit is not None]
     ranks = {c.label: n for n, c in enumerate(singles)}
