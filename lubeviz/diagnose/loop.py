@@ -405,7 +405,8 @@ def _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progres
             if key not in labels:
                 labels.add(key)
                 pairs.append((lead, c))
-    pairs += screen(chains, meas, names, before, usable, dof_min=PAIR_DOF, most=PAIR_LINEAR, skip=labels)
+    ranked = screen(chains, meas, names, before, usable, dof_min=1, skip=labels)
+    pairs += [(a, b) for a, b, dof in ranked if dof >= PAIR_DOF][:PAIR_LINEAR]
     found = _fit_pairs(chains, meas, pairs, names, budget, level, progress)
     best_single = min((c.aic for c in tried), default=math.inf)
     good = sorted((c for c in found if c.passes and c.aic < best_single - ambiguity_aic
@@ -414,9 +415,8 @@ def _try_pairs(chains, meas, tried, names, budget, level, ambiguity_aic, progres
     # the same: a second unbalance and a turned probe (3 parameters, 1 dof left on one record of two planes) read as
     # a turned probe and a worn bearing, Q2 53 % off (the paper's loop, case 53, session 51)
     if good or unnamed is not None:
-        labels |= {frozenset((a.label, b.label)) for a, b in pairs}
-        found += _fit_pairs(chains, meas, screen(chains, meas, names, before, usable, dof_min=1, most=PAIR_LINEAR,
-                                                 skip=labels, dof_max=PAIR_DOF - 1), names, budget, level, progress)
+        found += _fit_pairs(chains, meas, [(a, b) for a, b, dof in ranked if dof < PAIR_DOF][:PAIR_LINEAR], names,
+                            budget, level, progress)
     rivals = sorted((c for c in found if c.passes and 1 <= c.fit.dof < PAIR_DOF and not _at_bound(c.fit)),
                     key=lambda c: c.aic)
     if unnamed is not None:
@@ -701,8 +701,8 @@ def _pairs_after_effect(out: dict, chains, meas, best, tried, names, budget, lev
         partners.append(c)
     others = [c for c in tried if c.fit is not None and c.defect is None and not c.partners and c not in partners
               and c.effect.effect_name not in own and not c.effect.static_load]
-    partners += [b for _a, b in screen(chains, meas, names, before, others, dof_min=1, most=PAIR_LINEAR, lead=best,
-                                       gain_min=0.5 * stats.chi2.ppf(PAIR_ASKED, 1))]
+    partners += [b for _a, b, _dof in screen(chains, meas, names, before, others, dof_min=1, lead=best,
+                                             gain_min=0.5 * stats.chi2.ppf(PAIR_ASKED, 1))[:PAIR_LINEAR]]
     found = []
     for c in partners:
         try:

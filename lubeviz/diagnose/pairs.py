@@ -49,24 +49,24 @@ def _point(chain, values) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _jacobian(chains, meas, names, values):
-    """(features, Jacobian over the free parameters, names) stacked over the set's records at `values`."""
+    """(features, Jacobian over the free parameters, names, free indices, the whole parameter vector, the measured
+    features) stacked over the set's records at `values`."""
     theta, free = _point(chains[0], values)
-    gs, Js, ns = [], [], []
-    for chain, use, _fm in _parts(chains, meas, names):
+    gs, Js, ns, fms = [], [], [], []
+    for chain, use, fm in _parts(chains, meas, names):
         g, J = chain.jacobian(theta, use, free=free)
         gs.append(g)
         Js.append(J)
         ns += list(use)
-    return np.concatenate(gs), np.concatenate(Js), tuple(ns), free
+        fms.append(fm)
+    return np.concatenate(gs), np.concatenate(Js), tuple(ns), free, theta, np.concatenate(fms)
 
 
 def _plain(chains, meas, names, before) -> _Directions:
-    g, J, use, free = _jacobian(chains, meas, names, before.values)
-    fm = np.concatenate([f for _c, _n, f in _parts(chains, meas, names)])
+    g, J, use, free, theta, fm = _jacobian(chains, meas, names, before.values)
     sigma = np.asarray(before.features_sigma, dtype=float)
     nq = chains[0].n_flows
     flows = np.array([j for j, i in enumerate(free) if i < nq], dtype=int)
-    theta, _ = _point(chains[0], before.values)
     return _Directions(sigma=sigma, residual=wrap_difference(fm - g, use) / sigma, flows=J[:, flows] / sigma[:, None],
                        features=g, theta=theta[:nq], free_flows=free[flows])
 
@@ -75,11 +75,10 @@ def _columns(chains, meas, names, plain: _Directions, cand) -> np.ndarray | None
     """The whitened directions a single candidate's effect adds (k columns for its k parameters), or None."""
     chains_c = [c.adding(*(e.candidate() for e in cand.effects)) for c in chains]
     try:
-        g, J, use, free = _jacobian(chains_c, meas, names, cand.fit.values)
+        g, J, use, free, theta, _fm = _jacobian(chains_c, meas, names, cand.fit.values)
     except LubevizError:
         return None
     nq = chains[0].n_flows
-    theta, _ = _point(chains_c[0], cand.fit.values)
     dq = (theta[:nq] - plain.theta)[plain.free_flows]
     secant = wrap_difference(g - plain.features, use) / plain.sigma - plain.flows @ dq
     own = J[:, [j for j, i in enumerate(free) if i >= nq]] / plain.sigma[:, None]
@@ -97,12 +96,12 @@ def _columns(chains, meas, names, plain: _Directions, cand) -> np.ndarray | None
     return np.column_stack(cols)
 
 
-def screen(chains, meas, names, before, singles, *, dof_min: int, most: int, skip=frozenset(), lead=None,
-           gain_min: float = 0.0, dof_max: int | None = None) -> list:
-    """The `most` pairs (a, b) of `singles` (fitted single candidates of different effects) the linear picture says fit
-    best, each leaving at least `dof_min` degrees of freedom (and at most `dof_max`), best first; pairs whose labels
-    are in `skip` (frozensets) are left out. With `lead` (a fitted single candidate), only pairs (lead, b) of b in
-    `singles` that lower the lead's own chi2 in that picture by at least `gain_min`."""
+def screen(chains, meas, names, before, singles, *, dof_min: int, skip=frozenset(), lead=None,
+           gain_min: float = 0.0) -> list:
+    """[(a, b, dof)]: the pairs of `singles` (fitted single candidates of different effects) that leave at least
+    `dof_min` degrees of freedom, best first by the chi2 the linear picture leaves; pairs whose labels are in `skip`
+    (frozensets) are left out. With `lead` (a fitted single candidate), only pairs (lead, b) of b in `singles` that
+    lower the lead's own chi2 in that picture by at least `gain_min`."""
     if before is None or getattr(before, "features_sigma", None) is None:
         return []
     plain = _plain(chains, meas, names, before)
@@ -117,14 +116,14 @@ def screen(chains, meas, names, before, singles, *, dof_min: int, most: int, ski
         for b, B in cols[i + 1:]:
             if a.effect.effect_name == b.effect.effect_name or frozenset((a.label, b.label)) in skip:
                 continue
-            k = len(a.fit.values) + len(b.fit.values) - plain.flows.shape[1]  # the pair's free parameters
-            if n - k < dof_min or (dof_max is not None and n - k > dof_max):
+            dof = n - (len(a.fit.values) + len(b.fit.values) - plain.flows.shape[1])  # less the pair's parameters
+            if dof < dof_min:
                 continue
             left = _left(plain, np.column_stack([A, B]))
             if lead is None or alone - left >= gain_min:
-                ranked.append((left, a, b))
+                ranked.append((left, a, b, dof))
     ranked.sort(key=lambda t: t[0])
-    return [(a, b) for _, a, b in ranked[:most]]
+    return [(a, b, dof) for _, a, b, dof in ranked]
 
 
 def _left(plain: _Directions, A) -> float:
