@@ -341,8 +341,8 @@ def _convert(cls, key: str, value: str, name: str):
 
 def as_array(values: dict, effect: Effect, pname: str, shape) -> np.ndarray:
     """A continuous parameter as an array broadcast to the batch `shape` (its value, or the trial values)."""
-    v = values.get(pname, getattr(effect, pname))
-    return np.broadcast_to(np.asarray(v, dtype=float), shape)
+    v = np.asarray(values[pname] if pname in values else getattr(effect, pname), dtype=float)  # (a param read
+    return v if v.shape == tuple(shape) else np.broadcast_to(v, shape)  # and numpy's broadcast_to cost microseconds)
 
 
 EFFECTS = Registry()  # the library: every registered effect, by SPEC §7 name

@@ -132,11 +132,13 @@ class _Problem:
         self.parts = parts  # [(chain, names, measured values)]
         self.free = np.asarray(free)
         self.L = np.linalg.cholesky(cov_total)
+        # whitening by L^-1 (triangular, made once): a solve with L per step cost more than the step's algebra
+        self.W = np.linalg.inv(self.L)
         self.names = tuple(n for _, names, _ in parts for n in names)
 
     def with_free(self, free) -> "_Problem":
         new = object.__new__(_Problem)
-        new.parts, new.L, new.names, new.free = self.parts, self.L, self.names, np.asarray(free)
+        new.parts, new.L, new.W, new.names, new.free = self.parts, self.L, self.W, self.names, np.asarray(free)
         return new
 
     def residual_jacobian(self, theta):
@@ -145,7 +147,7 @@ class _Problem:
             g, J = chain.jacobian(theta, names, free=self.free)
             ds.append(wrap_difference(g - fm, names))
             Js.append(J)
-        return np.linalg.solve(self.L, np.concatenate(ds)), np.linalg.solve(self.L, np.concatenate(Js))
+        return self.W @ np.concatenate(ds), self.W @ np.concatenate(Js)
 
     def difference(self, thetas):
         return np.concatenate([wrap_difference(chain.features(thetas, names) - fm, names)
@@ -153,7 +155,7 @@ class _Problem:
 
     def cost_many(self, thetas):
         d = self.difference(thetas)
-        w = np.linalg.solve(self.L, np.moveaxis(d, -1, 0).reshape(d.shape[-1], -1))
+        w = self.W @ np.moveaxis(d, -1, 0).reshape(d.shape[-1], -1)
         return np.sum(w**2, axis=0).reshape(d.shape[:-1])
 
     def model_cov(self, theta, budget, noise):

@@ -45,6 +45,7 @@ from ...rotor.response import dynamic_stiffness, machine_unbalance, unbalance_fo
 from ...rotor import load_shift
 from ...rotor.statics import bearing_static_loads
 from .model import feature_plane, feature_vector, is_static
+from .shifted import packed_stacks, shifted_states
 from ..tables.supply import CoefficientTable
 from ...units import MLMIN_PER_M3S
 
@@ -80,7 +81,7 @@ class BearingSource:
     """
 
     def __init__(self, machine, index: int, omega: float, table: CoefficientTable | None = None, *,
-                 load=None, progress: ProgressFn = silent):
+                 load=None, progress: ProgressFn = silent, frame=None):
         self.bearing = machine.bearings[index]
         self.index = index
         self.omega = float(omega)
@@ -90,8 +91,9 @@ class BearingSource:
         self._views: dict = {_HELD_KEY: self._held}
         from ..tables.cache import film_frame
 
-        # the bearing seen from the frame where its load is vertical, that load, the map back (None: vertical)
-        self._seen, self._seen_load, self._turn = film_frame(self.bearing, self.load)
+        # the bearing seen from the frame where its load is vertical, that load, the map back (None: vertical);
+        # `frame`: those of a source of the same bearing and load (`ForwardChain.with_effects`)
+        self._seen, self._seen_load, self._turn = film_frame(self.bearing, self.load) if frame is None else frame
         if table is not None:
             self._views[self._key(1.0, self.bearing.clearance)] = table
 
@@ -315,6 +317,26 @@ def bearing_changes(effects, k: int, declared_clearance: float, values=lambda e:
     return BearingChange(factor, clearance, load)
 
 
+def _rows(a, shape, tail) -> np.ndarray:
+    """`a` broadcast to `shape` + `tail`, as rows (-1,) + `tail` (numpy's broadcast_to only when `a` is smaller: it
+    costs ~7 us a call)."""
+    a = np.asarray(a, dtype=float)
+    full = tuple(shape) + tuple(tail)
+    return (a if a.shape == full else np.broadcast_to(a, full)).reshape((-1,) + tuple(tail))
+
+
+@functools.lru_cache(maxsize=256)
+def _static_where(names: tuple) -> tuple:
+    """((name, 0-based plane, 0 for x or 1 for y), ...) of the static features among `names`."""
+    return tuple((n, feature_plane(n)[1] - 1, 0 if n[1] == "x" else 1) for n in names if is_static(n))
+
+
+@functools.lru_cache(maxsize=256)
+def _dynamic(names: tuple) -> tuple:
+    """The 1X invariants among feature `names` (the others are static positions)."""
+    return tuple(n for n in names if not is_static(n))
+
+
 # --- the chain -----------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
@@ -379,7 +401,8 @@ class ForwardChain:
 
     def __init__(self, machine, speed_hz: float, nodes: Sequence[int] | None = None, effects=(), *,
                  probe_angles_deg=None, tables: Sequence[CoefficientTable] | None = None,
-                 rotor=None, shaft_damping_beta: float | None = None, loads=None, progress: ProgressFn = silent):
+                 rotor=None, shaft_damping_beta: float | None = None, loads=None, progress: ProgressFn = silent,
+                 _like: "ForwardChain | None" = None):
         self.machine = machine
         self.speed_hz = float(speed_hz)
         if not (math.isfinite(self.speed_hz) and self.speed_hz > 0):
@@ -427,15 +450,20 @@ class ForwardChain:
             raise InputError(f"one coefficient table per fluid-film bearing expected ({len(machine.bearings)}), "
                              f"got {len(tables)}")
         self.loads = bearing_static_loads(machine) if loads is None else np.asarray(loads, dtype=float)
-        self.sources = [BearingSource(machine, k, self.omega, t, load=self.loads[k], progress=progress)
-                        for k, t in enumerate(tables)]
+        # `_like`: a chain of the same machine, speed, rotor and loads (`with_effects`), whose bearings' frames and
+        # load shift this one shares (a diagnosis makes ~200 chains: ~2 ms each was theirs)
+        frames = [None] * len(tables) if _like is None else [(s._seen, s._seen_load, s._turn) for s in _like.sources]
+        self.sources = [BearingSource(machine, k, self.omega, t, load=self.loads[k], progress=progress, frame=fr)
+                        for k, (t, fr) in enumerate(zip(tables, frames))]
         from ...rotor.load_shift import LoadShift
         from ...rotor.statics import statically_determinate
 
         self._shift = None
         self._packed = None  # the bearings' stacked slices for `forward.shifted` (`_compiled_states`)
         self._packed_held = None  # what the sources held when they were packed
-        if not statically_determinate(machine, self.rotor):  # 3+ supports: the loads follow the journals (flows)
+        if _like is not None:
+            self._shift = _like._shift
+        elif not statically_determinate(machine, self.rotor):  # 3+ supports: the loads follow the journals (flows)
             from ...rotor.statics import coupled_statics
 
             self._shift = LoadShift(self.rotor, [s.bearing.node for s in self.sources], self.loads,
@@ -465,7 +493,7 @@ class ForwardChain:
         rotors of other shaft damping the model budget built: `with_rotor`)."""
         new = ForwardChain(self.machine, self.speed_hz, self.nodes, effects, probe_angles_deg=self.probe_angles_deg,
                            tables=[s.nominal for s in self.sources], rotor=self.rotor, loads=self.loads,
-                           progress=self.sources[0].progress)
+                           progress=self.sources[0].progress, _like=self)
         for s_new, s_old in zip(new.sources, self.sources):
             s_new.share_views(s_old._views)
         new._damped_rotors = self._damped_rotors
@@ -646,7 +674,7 @@ class ForwardChain:
         for e in self.effects:
             d = e.static_load_change(self._values(theta, e), shape)
             if d is not None:
-                out = (np.broadcast_to(self.loads, shape + self.loads.shape) if out is None else out) + d
+                out = (self.loads if out is None else out) + d
         return out
 
     def bearing_offsets(self, theta, shape=()):
@@ -704,25 +732,24 @@ class ForwardChain:
         (`BearingSource.load_slices`) and the loop run again; a point still not served (a Sommerfeld number off the
         grid at the declared load, from an effect) goes through `_numpy_states`, whose views say why. None when a
         bearing has no slices in memory."""
-        from .shifted import packed_stacks, shifted_states
-
         n = self.n_flows
         declared = self._declared_clearances
 
-        size = int(np.prod(shape)) if shape else 1
+        size = math.prod(shape)
 
-        def columns(field, default=None):
-            vals = [default[k] if default is not None and getattr(ch, field) is None else getattr(ch, field)
-                    for k, ch in enumerate(changes)]
-            if all(np.ndim(v) == 0 for v in vals):  # one bearing for all points (no effect changes it per point)
-                return np.broadcast_to(np.array(vals, dtype=float), (size, n))
+        def columns(i, default=None):  # field i of every bearing's change, (points, N)
+            vals = [default[k] if default is not None and ch[i] is None else ch[i] for k, ch in enumerate(changes)]
+            if all(isinstance(v, float) or np.ndim(v) == 0 for v in vals):  # one bearing for all points
+                out = np.empty((size, n))  # (numpy's broadcast_to costs ~7 us a call)
+                out[:] = vals
+                return out
             cols = [np.broadcast_to(np.asarray(v, dtype=float), shape) for v in vals]
             return np.stack(cols, axis=-1).reshape(-1, n)
 
-        q = np.broadcast_to(theta[..., :n], shape + (n,)).reshape(-1, n)
+        q = theta[..., :n].reshape(-1, n)  # theta is (shape, params)
         reference = self._shift.reference if offsets is None else \
             (self._shift.reference - np.broadcast_to(offsets, shape + (n, 2))).reshape(-1, n, 2)
-        f, c, lf = columns("viscosity_factor"), columns("clearance", declared), columns("load_factor")
+        f, c, lf = columns(0), columns(1, declared), columns(2)  # viscosity factor, clearance, load factor
         for attempt in range(3):
             packed = self._packed
             held = tuple((src._held, src._held.table, len(src._held.table.slices) if src._held.table else -1)
@@ -737,10 +764,10 @@ class ForwardChain:
                 angles = [0.0 if src._turn is None else float(_lean(src.load)) for src in self.sources]
                 packed = self._packed = packed_stacks(stacks, angles)
             self._packed_held = tuple((src._held, src._held.table, len(src._held.table.slices))
-                                      for src in self.sources)
+                                      for src in self.sources) if stacks is not packed.stacks else held
             out, factors, loads, served, missed = shifted_states(
                 packed, q, f, c, lf, self._shift.k_s, reference, self._shift.loads, load_shift.STEPS,
-                None if target is None else np.broadcast_to(target, shape + (n, 2)).reshape(-1, n, 2))
+                None if target is None else _rows(target, shape, (n, 2)))
             if served.all() or attempt == 2:
                 break
             # the slices a point missed: loaded (or built) for each bearing at once, and the loop run again
@@ -764,9 +791,10 @@ class ForwardChain:
             loads[bad] = sub_loads
         out = out.reshape(shape + (n, 10))
         factors = factors.reshape(shape + (n,))
-        states = [(ch._replace(load_factor=ch.load_factor * factors[..., k]),
-                   (out[..., k, 0:4].reshape(shape + (2, 2)), out[..., k, 4:8].reshape(shape + (2, 2)),
-                    out[..., k, 8:10])) for k, ch in enumerate(changes)]
+        K, C = out[..., 0:4].reshape(shape + (n, 2, 2)), out[..., 4:8].reshape(shape + (n, 2, 2))
+        states = [(ch._replace(load_factor=ch.load_factor * factors[..., k]), (K[..., k, :, :], C[..., k, :, :],
+                                                                               out[..., k, 8:10]))
+                  for k, ch in enumerate(changes)]
         return states, loads.reshape(shape + (n, 2))
 
     # --- reference solve --------------------------------------------------------------------------
@@ -793,6 +821,7 @@ class ForwardChain:
             h = rotor.housing("support", j)
             pairs.append((node_dofs(rotor.supports[j][0])[[X, Y]], None if h is None else np.array(h.dofs)))
         self._U = np.concatenate([p for p, _ in pairs])
+        self._eye_U = np.eye(self._U.size)
         out = np.concatenate([node_dofs(n)[[X, Y]] for n in self.nodes])
         nf = len(shapes)
         nu = self._U.size  # 2 (N + changed supports)
@@ -866,7 +895,7 @@ class ForwardChain:
             extra = np.zeros(np.broadcast_shapes(dB.shape[:-2], np.shape(dB_extra)[:-2]) + (nu, nu), dtype=complex)
             extra[..., :2 * nb, :2 * nb] = dB_extra
             dB = dB + extra
-        A = np.eye(nu) + dB @ self._W
+        A = self._eye_U + dB @ self._W
         c = np.linalg.solve(A, (dB @ x0_U[..., None]))[..., 0]
         x_out = x0_out - np.einsum("ij,...j->...i", self._Z_out, c)
         x_U = x0_U - np.einsum("ij,...j->...i", self._W, c)
@@ -896,27 +925,29 @@ class ForwardChain:
         for e in self.effects:  # then the columns as the record holds them (a mixed-up measurement)
             if e.stage == "probes":
                 d, static = e.rewire(d, static, self.probe_angles_deg)
-        self.evaluations += int(np.prod(shape)) if shape else 1
+        self.evaluations += math.prod(shape)
         return ChainOutput(x=d[..., 0], y=d[..., 1], static=static if self.static_planes else None)
 
     def features(self, theta, names: Sequence[str], dB_extra=None) -> np.ndarray:
         """Features (last axis, `names` order): the 1X invariants and the static offsets (m)."""
         out = self.output(theta, dB_extra)
         names = tuple(names)
-        dyn = [n for n in names if not is_static(n)]
-        g = {}
+        dyn = _dynamic(names)
+        if len(dyn) == len(names):  # 1X invariants only
+            return feature_vector(out.x, out.y, names)
+        where = _static_where(names)
+        for n, k, _ in where:
+            if k >= self.n_planes:
+                raise InputError(f"feature {n}: the chain has {self.n_planes} planes")
+            if out.static is None or k not in self.static_planes:
+                raise InputError(f"feature {n}: plane {k + 1} (node {self.nodes[k]}) is not at a bearing "
+                                 "centre, where the static position is measured")
+        g = np.empty(out.x.shape[:-1] + (len(names),))
         if dyn:
-            g.update(zip(dyn, np.moveaxis(feature_vector(out.x, out.y, dyn), -1, 0)))
-        for n in names:
-            if is_static(n):
-                k, j = feature_plane(n)[1] - 1, (0 if n[1] == "x" else 1)
-                if k >= self.n_planes:
-                    raise InputError(f"feature {n}: the chain has {self.n_planes} planes")
-                if out.static is None or k not in self.static_planes:
-                    raise InputError(f"feature {n}: plane {k + 1} (node {self.nodes[k]}) is not at a bearing "
-                                     "centre, where the static position is measured")
-                g[n] = out.static[..., k, j]
-        return np.stack([g[n] for n in names], axis=-1)
+            g[..., [names.index(n) for n in dyn]] = feature_vector(out.x, out.y, dyn)
+        for n, k, j in where:
+            g[..., names.index(n)] = out.static[..., k, j]
+        return g
 
     def direct_output(self, theta) -> ChainOutput:
         """The same readings from a direct solve of the assembled system (no Woodbury): the check."""

@@ -112,20 +112,30 @@ def feature_vector(x: np.ndarray, y: np.ndarray, names: Sequence[str] = PAPER_FE
     """Features (last axis, in `names` order) of responses with planes on the last axis of x, y (any number of
     planes: `plane_features`)."""
     zf, zb = directional_components(np.asarray(x), np.asarray(y))
-    n_planes = zf.shape[-1]
+    plan = _feature_plan(tuple(names), zf.shape[-1])
     with np.errstate(divide="ignore", invalid="ignore"):
         fb = np.abs(zf) / np.abs(zb)
         ratio = zf / zf[..., :1]
     phi = orbit_angle(zf, zb)
+    out = np.empty(zf.shape[:-1] + (len(plan),))
+    for j, (kind, p) in enumerate(plan):
+        out[..., j] = (fb[..., p] if kind == "fb" else phi[..., p] if kind == "phi"
+                       else np.log(np.abs(ratio[..., p])) if kind == "log_zf_ratio" else np.angle(ratio[..., p]))
+    return out
+
+
+@functools.lru_cache(maxsize=256)
+def _feature_plan(names: tuple, n_planes: int) -> tuple:
+    """((kind, 0-based plane), ...) of the 1X features `names` at a response of `n_planes` planes (a fit asks for
+    the same names thousands of times)."""
     out = []
     for n in names:
         kind, p = feature_plane(n)
         if kind in ("sx", "sy") or p > n_planes:
             raise InputError(f"unknown feature {n!r} for a response at {n_planes} planes; expected some of "
                              f"{plane_features(n_planes)}")
-        out.append({"fb": fb, "phi": phi}[kind][..., p - 1] if kind in ("fb", "phi")
-                   else (np.log(np.abs(ratio[..., p - 1])) if kind == "log_zf_ratio" else np.angle(ratio[..., p - 1])))
-    return np.stack(out, axis=-1)
+        out.append((kind, p - 1))
+    return tuple(out)
 
 
 def wrap_difference(d: np.ndarray, names: Sequence[str]) -> np.ndarray:
