@@ -1,0 +1,73 @@
+"""A tour of every page in a real browser asks no outside host for anything (a plant's network is often closed) and
+logs no console error (issue 38's acceptance: fonts and scripts served by the app; "cannot find a view for Legend"
+72-89 times a session on the Rotor page)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from urllib.parse import urlparse
+
+import pytest
+from playwright.sync_api import expect
+
+from tests.app.harness import open_tab, wait_for_plot_title, wait_for_plots
+
+pytestmark = pytest.mark.browser
+
+REPO = Path(__file__).resolve().parents[2]
+SAMPLE = REPO / "assets" / "sample_record.csv"
+SLOW_MS = 300_000
+LOCAL = {"127.0.0.1", "localhost", ""}
+
+
+@pytest.fixture(scope="module")
+def tour(browser, app_server):
+    """(outside requests [(url, resource type)], console errors) over a tour of every page: the start page, the
+    Bearing, Rotor and Maps pages drawn, the sample record identified on Identify, the Diagnose page shown."""
+    context = browser.new_context(viewport={"width": 1400, "height": 900})
+    page = context.new_page()
+    outside, errors = [], []
+
+    def request(req):
+        url = urlparse(req.url)
+        if url.scheme in ("http", "https", "ws", "wss") and url.hostname not in LOCAL:
+            outside.append((req.url, req.resource_type))
+
+    page.on("request", request)
+    page.on("console", lambda msg: errors.append(msg.text) if msg.type == "error" else None)
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    page.goto(app_server + "/app")
+    expect(page.locator(".lubeviz-start")).to_contain_text("Where to start", timeout=SLOW_MS)
+    open_tab(page, "Bearing")
+    wait_for_plot_title(page, "Pressure p(α, z) at Q = ", timeout_ms=SLOW_MS)
+    open_tab(page, "Rotor")
+    wait_for_plot_title(page, "Full spectrum at node 6", timeout_ms=SLOW_MS)
+    wait_for_plots(page, count=4, timeout_ms=SLOW_MS)
+    open_tab(page, "Maps")
+    wait_for_plot_title(page, "fb1 over Q1 × Q2", timeout_ms=SLOW_MS)
+    open_tab(page, "Identify")
+    page.locator(".lubeviz-upload input[type=file]").set_input_files(str(SAMPLE))
+    expect(page.locator(".lubeviz-record-info")).to_contain_text("sample_record.csv", timeout=SLOW_MS)
+    page.get_by_role("button", name="Identify the supply flows").click()
+    expect(page.locator(".lubeviz-result")).to_contain_text(re.compile(r"Q1 = \d"), timeout=SLOW_MS)
+    open_tab(page, "Diagnose")
+    page.wait_for_timeout(2_000)  # what the page draws when shown
+    context.close()
+    return outside, errors
+
+
+def test_no_page_asks_an_outside_host_for_a_font_or_a_script(tour):
+    # Panel's Fast design asked fonts.googleapis.com for Open Sans on every page load (`shell._offline`)
+    outside, _ = tour
+    asked = sorted({url for url, kind in outside if kind in ("font", "script") or "font" in url})
+    assert asked == []
+
+
+@pytest.mark.xfail(strict=True, reason="not yet (session 52): Panel's markdown.css and loading.css from cdn.holoviz.org "
+                   "on the Rotor and Maps pages, and ~70 console errors a tour, most 'cannot find a view for Legend' "
+                   "(the legends moved out of the frame by `plotting.outside_legend`'s hook at every frame)")
+def test_no_page_asks_an_outside_host_for_anything_or_logs_a_console_error(tour):
+    outside, errors = tour
+    assert sorted({url for url, _ in outside}) == []
+    assert errors == []
