@@ -63,13 +63,19 @@ SET_CONDITIONS = (("hot oil", "viscosity:factor=0.8", (60.0, 75.0, 90.0), (0.5, 
 
 
 def set_conditions(sc) -> tuple:
-    """SET_CONDITIONS on a machine: the speeds over its operating speed as the paper's over 75 Hz, the worn
-    clearance over bearing 1's as the paper's 165 over 120 um (the paper's machine: SET_CONDITIONS themselves)."""
+    """SET_CONDITIONS on a machine: the speeds over its operating speed as the paper's over 75 Hz, drawn closer to it
+    where they would leave the speed range the cases are drawn over (`_Scales.speeds`, within the model file's: the
+    pump's 90 / 75 of 59.5 Hz is past its 65 Hz); the worn clearance over bearing 1's as the paper's 165 over 120 um
+    (the paper's machine: SET_CONDITIONS themselves)."""
+    lo, hi = sc.speeds
     out = []
     for group, text, speeds, flows in SET_CONDITIONS:
         if text.startswith("clearance:"):
             text = f"clearance:bearing=1,clearance_um={sc.worn_um:.4g}"
-        out.append((group, text, tuple(sc.op * v / 75.0 for v in speeds), flows))
+        scaled = [sc.op * v / 75.0 for v in speeds]
+        k = min([1.0] + [(hi - sc.op) / (v - sc.op) for v in scaled if v > hi]
+                + [(sc.op - lo) / (sc.op - v) for v in scaled if v < lo])
+        out.append((group, text, tuple(sc.op + k * (v - sc.op) for v in scaled), flows))
     return tuple(out)
 PAIRS = (("viscosity", "probe_rotation"), ("clearance", "probe_gain"), ("side_load", "viscosity"),
          ("unbalance2", "probe_gain"), ("pedestals", "viscosity"), ("clearance", "unbalance2"),

@@ -92,6 +92,25 @@ def test_sets_are_three_speeds_of_hot_oil_or_a_worn_bearing(cases):
     assert {c["effects"][0] for c in sets if c["group"] == "hot oil"} == {"viscosity:factor=0.8"}
 
 
+def test_a_set_s_speeds_stay_within_the_machine_s_speed_range():
+    """The pump runs at 59.5 Hz and is declared up to 65 Hz: the paper's hot-oil set (60, 75, 90 Hz over 75) would
+    put its third record at 71.4 Hz, past the model file's range (every such case failed, session 52). Its speeds are
+    drawn closer to the operating speed, evenly, and stay in order; the paper's and the fan's are as before."""
+    from lubeviz.bench.loop import _scales, set_conditions
+    from lubeviz.model.machine import MODELS_DIR
+
+    for name in ("overhung_pump.toml", "three_bearing_fan.toml", "paper_machine.toml"):
+        sc = _scales(str(MODELS_DIR / name))
+        for group, _, speeds, _ in set_conditions(sc):
+            assert sc.speeds[0] - 1e-9 <= min(speeds) and max(speeds) <= sc.speeds[1] + 1e-9, (name, group, speeds)
+            assert list(speeds) == sorted(speeds) and len(set(speeds)) == 3
+            assert min(speeds) < sc.op <= max(speeds)
+    pump = _scales(str(MODELS_DIR / "overhung_pump.toml"))
+    hot = next(s for g, _, s, _ in set_conditions(pump) if g == "hot oil")
+    assert max(hot) == pytest.approx(65.0) and hot[1] == pytest.approx(59.5)
+    assert hot[1] - hot[0] == pytest.approx(hot[2] - hot[1])  # the paper's even steps, shorter
+
+
 def test_another_machine_draws_over_its_own_parts_speeds_and_sizes():
     """The fan (three bearings, three planes, 24.75 Hz, declared up to 30 Hz): every bearing's flow, all three planes
     or two of them per record, its speeds (16.5-30 Hz; sets at 0.8, 1, 1.2 of its speed), its bearings by number, a worn
