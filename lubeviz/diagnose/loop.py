@@ -497,10 +497,12 @@ def _refine(chains, meas, passing, names, budget, level):
     screening's. (winner or None, its refined fit, [(candidate, refined fit) refused])."""
     refused = []
     for cand in passing[:REFITS]:
-        refit = cand.fit if cand.defect is not None else fit(
-            [c.adding(*(e.candidate() for e in cand.effects)) for c in chains], meas, names=names, budget=budget,
-            level=level,
-            start=cand.fit.values)
+        try:
+            refit = cand.fit if cand.defect is not None else fit(
+                [c.adding(*(e.candidate() for e in cand.effects)) for c in chains], meas, names=names, budget=budget,
+                level=level, start=cand.fit.values)
+        except LubevizError:  # its intervals reach where the model cannot go: never named on its screening fit
+            continue
         if refit.explained:
             return cand, refit, refused
         refused.append((cand, refit))

@@ -109,3 +109,31 @@ def test_a_load_shifted_off_the_tables_grid_holds_its_film_at_the_grid_s_edge():
     for (_, state), (_, state_ref) in zip(got, reference):
         for a, b in zip(state, state_ref):
             np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * np.abs(b).max())
+
+
+def test_on_two_supports_a_load_change_off_the_grid_holds_its_film_at_the_grid_s_edge():
+    """The pump (two supports) at 62.9 Hz: its bearing 1 runs at S 8.2, so a side load's couple that lifts 39 % of its
+    load off takes it past the grid's top (13.4). A diagnosis of the pump's loop stopped there with an error (case
+    134, session 52). Now the film is held at the edge, as on three supports: past it, bearing 1's state no longer
+    follows the couple, while bearing 2's still does; before it, both follow."""
+    from lubeviz.identify.tables.dimensionless import sommerfeld_nodes, sommerfeld_number
+
+    m = load_machine(MODELS_DIR / "overhung_pump.toml")
+    base = ForwardChain(m, 62.9)
+    src = base.sources[0]
+    edge = sommerfeld_number(src._seen, src._seen_load, base.omega) / sommerfeld_nodes()[-1]  # bearing 1's load factor
+    assert 0.5 < edge < 0.7
+    chain = base.adding(parse_effect("side_load:force_n=0,moment_nm=0").candidate())
+    i = chain.names.index("side_load.moment_nm")
+    theta = np.tile(chain.start(), (4, 1))
+    theta[:, i] = [-40.0, -55.0, -70.0, -80.0]
+    lf = np.array([chain.bearing_changes(0, t).load_factor for t in theta])
+    assert lf[0] > lf[1] > edge > lf[2] > lf[3]  # the couple's own load factors on bearing 1
+    states = chain.bearing_states(theta, (4,))
+    (c1, (K1, C1, p1)), (c2, (K2, C2, _)) = states
+    np.testing.assert_allclose(c1.load_factor[2:], edge, rtol=1e-6)  # held at the edge
+    np.testing.assert_array_equal(K1[2], K1[3])
+    np.testing.assert_array_equal(C1[2], C1[3])
+    assert not np.allclose(K1[0], K1[1], rtol=1e-6)  # on the grid: it follows
+    assert not np.allclose(K2[2], K2[3], rtol=1e-6)  # bearing 2 still follows the couple
+    assert np.all(np.isfinite(chain.features(theta, chain.dynamic_features)))
