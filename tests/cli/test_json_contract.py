@@ -263,6 +263,7 @@ DIAGNOSE = {
     "q1_interval_set_mlmin": ["number"],
     "q2_interval_set_mlmin": ["number"],
     "node_scans": "list",  # issue 36: each effect that acts at a node, fitted at every node (none of them tried here)
+    "asked_for": "null|dict",  # the plain model passed, but one candidate lowered chi2 beyond chance (session 52)
     "file": "str",
     "warnings": ["str"],
     "report": "str",  # --report

@@ -436,6 +436,14 @@ def feature_parts(chains, measured, names):
     return parts, noise
 
 
+def _lm_options(screening: bool, level: float, dof: int) -> dict:
+    """`_lm`'s stops: a screening fit's (SCREENING_GAIN, SCREENING_ITER, the hopeless stop) or a full one's (FIT_GAIN)."""
+    if not screening:
+        return dict(cost_tol=FIT_GAIN)
+    return dict(max_iter=SCREENING_ITER, cost_tol=SCREENING_GAIN,
+                hopeless=(HOPELESS * stats.chi2.ppf(1 - level, max(dof, 1)), HOPELESS_GAIN))
+
+
 def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBudget | None = None,
         level: float = 0.01, lower: float = 0.25, upper: float = 2.0, grid: int = 41, most_basins: int = 4,
         intervals: bool = True, hold_flows=None, start=None, screening: bool = False) -> Fit:
@@ -494,9 +502,7 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
             problem, starts = _weighted_starts(parts, noise, ref, start, (lo, hi), free, [],
                                                (grid, most_basins, level), budget, dof)
     # 2. refine each basin, re-weighting once with the budget at the refined point
-    lm_options = dict(max_iter=SCREENING_ITER, cost_tol=SCREENING_GAIN,
-                      hopeless=(HOPELESS * stats.chi2.ppf(1 - level, max(dof, 1)), HOPELESS_GAIN)) if screening \
-        else dict(cost_tol=FIT_GAIN)
+    lm_options = _lm_options(screening, level, dof)
     refined, iterations = _refine(problem, starts, (lo, hi), scale, budget, noise, lm_options)
     if search and dof > 0 and stats.chi2.sf(refined[0][0], dof) <= level:  # not explained from the effects' starts:
         # their sizes searched in further basins too (a size the flows mimic from its start leaves the truth far)
