@@ -231,15 +231,12 @@ PAGES = {"Bearing": _bearing, "Rotor": _rotor, "Maps": _maps, "Identify": _ident
 PAGE_MODULES = {name: f"{__package__}.{name.lower()}_page" for name in PAGES}  # pair_maps_page: imported by _maps
 
 
-SYSTEM_FONT = "system-ui, -apple-system, 'Segoe UI', Roboto, 'Helvetica Neue', Arial, sans-serif"
-
-
 def _offline() -> None:
     """Panel's Fast design without its web font: it asked fonts.googleapis.com for Open Sans on every page load, and
     a plant's network is often closed (issue 38). Every file a page asks for now comes from this server; the text is
-    set in the system's own sans-serif (`SYSTEM_FONT`). The design's class is changed, not an instance: a template
-    makes its design anew as a page is served, and a subclass would lose the design's own scripts, which Panel
-    finds by the class's name."""
+    set in Open Sans where the system has it, else in its sans-serif (as it was wherever the font could not be
+    fetched). The design's class is changed, not an instance: a template makes its design anew as a page is served,
+    and a subclass would lose the design's own scripts, which Panel finds by the class's name."""
     from panel.theme.fast import Fast
 
     if "font" in Fast._resources:
@@ -330,7 +327,6 @@ def build() -> pn.template.FastListTemplate:
     _offline()
     template = pn.template.FastListTemplate(
         title="lubeviz — bearing lubrication from shaft vibration", main=[tabs], header=[glossary_button],
-        font=SYSTEM_FONT,
         modal=[pn.Column(pn.pane.Markdown("## Glossary"),
                          pn.pane.HTML(glossary_html(), stylesheets=[_GLOSSARY_CSS], sizing_mode="stretch_width"),
                          sizing_mode="stretch_width", css_classes=["lubeviz-glossary-dialog"])],

@@ -66,7 +66,7 @@ def test_no_page_asks_an_outside_host_for_a_font_or_a_script(tour):
 
 @pytest.mark.xfail(strict=True, reason="not yet (session 52): Panel's markdown.css and loading.css from cdn.holoviz.org "
                    "on the Rotor and Maps pages, and ~70 console errors a tour, most 'cannot find a view for Legend' "
-                   "(the legends moved out of the frame by `plotting.outside_legend`'s hook at every frame)")
+                   "with the Rotor page's updates (docs/notes/any-machine.md, 'The dashboard offline')")
 def test_no_page_asks_an_outside_host_for_anything_or_logs_a_console_error(tour):
     outside, errors = tour
     assert sorted({url for url, _ in outside}) == []
