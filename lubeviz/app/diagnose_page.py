@@ -37,7 +37,7 @@ from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .session import SessionState
-from .text import TABLE_CSS, file_label, plain, table_html, without_upload_dirs
+from .text import TABLE_CSS, badge, file_label, plain, table_html, without_upload_dirs
 from .widgets import (RecordDropper, not_loaded_message, quantity_slider, record_warnings_markdown, refused_message,
                       show_effect)
 
@@ -65,10 +65,6 @@ measurement would tell them apart), or that none does. The flows are then identi
 def _per_bearing(q) -> str:
     """'546 / 545 ml/min'-style flows (m^3/s), one per bearing."""
     return " / ".join(f"{v / M3S_PER_MLMIN:.0f}" for v in q)
-
-
-def _verdict_badge(v: str) -> str:
-    return {"starved": "🟠 starved", "normal": "🟢 normal", "over-supplied": "🔵 over-supplied"}.get(v, v)
 
 
 DIAGNOSABLE = [n for n, cls in EFFECTS.items() if cls.diagnosed]  # oil_temperature is `viscosity` in °C
@@ -373,7 +369,7 @@ class DiagnosePage(pn.viewable.Viewer):
                 iv_text = "" if iv is None else f" ({iv[0]:.0f}–{'∞' if iv[1] is None else f'{iv[1]:.0f}'})"
                 cells.append(f"**Q{k + 1} = {fd[f'q{k + 1}_mlmin']:.0f} ± {fd[f'q{k + 1}_std_mlmin']:.0f} ml/min**"
                              f"{iv_text}")
-                cells.append(_verdict_badge(d.verdicts_for(f)[k]))
+                cells.append(badge(d.verdicts_for(f)[k]))
             if truth:
                 cells.append(f"{truth['q_mlmin'][k]:.0f} ml/min")
             lines.append("| " + " | ".join(cells) + " |")

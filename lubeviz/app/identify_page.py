@@ -34,7 +34,7 @@ from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .session import SessionState
-from .text import TABLE_CSS, file_label, plain, table_html, without_upload_dirs
+from .text import TABLE_CSS, badge, file_label, plain, table_html, without_upload_dirs
 from .widgets import RecordDropper, not_loaded_message, record_warnings_markdown, refused_message
 
 hv.extension("bokeh", logo=False)
@@ -72,9 +72,6 @@ def sample_file(machine) -> Path | None:
     return path if path.exists() else None
 
 
-ICONS = {"starved": "🟠 starved", "normal": "🟢 normal", "over-supplied": "🔵 over-supplied"}
-
-
 def verdict_text(r, k: int) -> str:
     """Bearing k's verdict as far as the record supports it: the verdict at both ends of the flow's 95 %
     interval (an open upper end counts as over-supplied); 'starved or normal' when the interval spans the
@@ -84,8 +81,8 @@ def verdict_text(r, k: int) -> str:
     v = r.verdict(k)
     ends = verdict_over_interval(r.q[k], None if r.intervals is None else r.intervals[k], r.q_threshold[k])
     if ends[0] != ends[1]:
-        return f"{ICONS[ends[0]]} to {ends[1]} (the interval spans the band around Q_T)"
-    text = ICONS.get(v, v)
+        return f"{badge(ends[0])} to {badge(ends[1])} (the interval spans the band around Q_T)"
+    text = badge(v)
     return text + " (uncertain: the model does not explain the record)" if r.model_explains_data is False else text
 
 

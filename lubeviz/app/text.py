@@ -87,3 +87,19 @@ def table_html(frame, *, marked=(), css_class: str = "") -> str:
         rows.append(f"<tr{cls}>" + "".join(f"<td>{cell(v)}</td>" for v in row) + "</tr>")
     klass = f"lubeviz-table {_html.escape(css_class, quote=True)}".strip()
     return f'<table class="{klass}"><thead><tr>{head}</tr></thead><tbody>{"".join(rows)}</tbody></table>'
+
+
+# A lubrication verdict as a coloured badge (issue 38: emoji circles showed as empty boxes without an emoji font).
+# The Okabe-Ito colours a colour-blind reader tells apart; the word is always written, the colour only repeats it.
+BADGE_COLOURS = {"starved": ("#E69F00", "#000000"), "normal": ("#009E73", "#ffffff"),
+                 "over-supplied": ("#0072B2", "#ffffff")}
+
+
+def badge(verdict: str) -> str:
+    """'starved', 'normal' or 'over-supplied' as an inline HTML badge for a Markdown pane (the word as plain text
+    for anything else)."""
+    if verdict not in BADGE_COLOURS:
+        return plain(verdict)
+    background, colour = BADGE_COLOURS[verdict]
+    return (f'<span class="lubeviz-badge" style="background:{background};color:{colour};border-radius:3px;'
+            f'padding:0 5px;white-space:nowrap">{verdict}</span>')

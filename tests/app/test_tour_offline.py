@@ -19,6 +19,21 @@ REPO = Path(__file__).resolve().parents[2]
 SAMPLE = REPO / "assets" / "sample_record.csv"
 SLOW_MS = 300_000
 LOCAL = {"127.0.0.1", "localhost", ""}
+_TEXT_JS = """() => {
+  const out = [];
+  const walk = (node) => {
+    if (node.nodeType === Node.TEXT_NODE) { out.push(node.textContent); return; }
+    if (node.nodeType !== Node.ELEMENT_NODE && node.nodeType !== Node.DOCUMENT_FRAGMENT_NODE) return;
+    if (node.nodeType === Node.ELEMENT_NODE && ["SCRIPT", "STYLE"].includes(node.tagName)) return;
+    if (node.shadowRoot) walk(node.shadowRoot);
+    for (const child of node.childNodes) walk(child);
+  };
+  walk(document.body);
+  return out.join(" ");
+}"""
+# characters drawn as emoji, which need an emoji font (the verdicts' coloured circles, U+1F7E0-1F7EB, were these):
+# U+1F000-1FAFF and the older symbols whose default presentation is emoji (a star or an arrow drawn as text is fine)
+EMOJI = re.compile("[\U0001F000-\U0001FAFF\u2705\u274C\u2753-\u2757\u2B50\u2B55\u231A\u231B\u23E9-\u23F3]")
 
 
 @pytest.fixture(scope="module")
@@ -34,32 +49,43 @@ def tour(browser, app_server):
         if url.scheme in ("http", "https", "ws", "wss") and url.hostname not in LOCAL:
             outside.append((req.url, req.resource_type))
 
+    texts = {}
+
+    def visible(name):  # every text the page shows, shadow roots included (Panel renders its panes into them)
+        texts[name] = page.evaluate(_TEXT_JS)
+
     page.on("request", request)
     page.on("console", lambda msg: errors.append(msg.text) if msg.type == "error" else None)
     page.on("pageerror", lambda exc: errors.append(str(exc)))
     page.goto(app_server + "/app")
     expect(page.locator(".lubeviz-start")).to_contain_text("Where to start", timeout=SLOW_MS)
+    visible("Start")
     open_tab(page, "Bearing")
     wait_for_plot_title(page, "Pressure p(α, z) at Q = ", timeout_ms=SLOW_MS)
+    visible("Bearing")
     open_tab(page, "Rotor")
     wait_for_plot_title(page, "Full spectrum at node 6", timeout_ms=SLOW_MS)
     wait_for_plots(page, count=4, timeout_ms=SLOW_MS)
+    visible("Rotor")
     open_tab(page, "Maps")
     wait_for_plot_title(page, "fb1 over Q1 × Q2", timeout_ms=SLOW_MS)
+    visible("Maps")
     open_tab(page, "Identify")
     page.locator(".lubeviz-upload input[type=file]").set_input_files(str(SAMPLE))
     expect(page.locator(".lubeviz-record-info")).to_contain_text("sample_record.csv", timeout=SLOW_MS)
     page.get_by_role("button", name="Identify the supply flows").click()
     expect(page.locator(".lubeviz-result")).to_contain_text(re.compile(r"Q1 = \d"), timeout=SLOW_MS)
+    visible("Identify")
     open_tab(page, "Diagnose")
     page.wait_for_timeout(2_000)  # what the page draws when shown
+    visible("Diagnose")
     context.close()
-    return outside, errors
+    return outside, errors, texts
 
 
 def test_no_page_asks_an_outside_host_for_a_font_or_a_script(tour):
     # Panel's Fast design asked fonts.googleapis.com for Open Sans on every page load (`shell._offline`)
-    outside, _ = tour
+    outside, _, _ = tour
     asked = sorted({url for url, kind in outside if kind in ("font", "script") or "font" in url})
     assert asked == []
 
@@ -68,6 +94,15 @@ def test_no_page_asks_an_outside_host_for_a_font_or_a_script(tour):
                    "on the Rotor and Maps pages, and ~70 console errors a tour, most 'cannot find a view for Legend' "
                    "with the Rotor page's updates (docs/notes/any-machine.md, 'The dashboard offline')")
 def test_no_page_asks_an_outside_host_for_anything_or_logs_a_console_error(tour):
-    outside, errors = tour
+    outside, errors, _ = tour
     assert sorted({url for url, _ in outside}) == []
     assert errors == []
+
+
+def test_no_page_shows_an_emoji(tour):
+    # the verdicts' coloured circles showed as empty boxes without an emoji font (issue 38): badges now
+    _, _, texts = tour
+    assert set(texts) == {"Start", "Bearing", "Rotor", "Maps", "Identify", "Diagnose"}
+    found = {name: sorted(set(EMOJI.findall(text))) for name, text in texts.items() if EMOJI.search(text)}
+    assert found == {}
+    assert "starved" in texts["Identify"] and "over-supplied" in texts["Identify"]  # the sample's verdicts, as words
