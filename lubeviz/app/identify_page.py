@@ -316,7 +316,11 @@ class IdentifyPage(pn.viewable.Viewer):
         for owner in dict.fromkeys(p.owner for p in others):
             lines.append(f"\n**{plain(owner)}**: " + "; ".join(plain(p.text()) for p in others if p.owner == owner))
         lines.append("")
-        extra = f"{r.mode} mode; {'converged' if r.converged else '**not converged**'} in {r.iterations} iterations, " \
+        # best mode's count is every Levenberg-Marquardt step over its starts and refinements; the page's "Newton
+        # iterations per start" bounds paper mode's only (issue 38: "Max iterations 15" beside "101 iterations")
+        steps = (f"{r.iterations} Newton iterations (at most {self.settings.max_iterations} per start)"
+                 if r.mode == "paper" else f"{r.iterations} Levenberg-Marquardt steps over all starts")
+        extra = f"{r.mode} mode; {'converged' if r.converged else '**not converged**'}: {steps}, " \
                 f"{r.starts_tried} start(s), {r.evaluations} model evaluations, {r.seconds * 1e3:.0f} ms."
         if r.chi2 is not None:
             extra += f" χ² = {r.chi2:.1f} for {r.dof} degrees of freedom (p = {r.p_value:.3g})."

@@ -94,6 +94,12 @@ def test_identify_page_identifies_the_sample_record(app_page, screenshot):
     # The sample was simulated at 420 / 600 ml/min with 12 dB of noise (assets/sample_record.csv).
     assert abs(q1 - 420) < 10 and abs(q2 - 600) < 10
     assert "starved" in shown and "over-supplied" in shown
+    # best mode counts its Levenberg-Marquardt steps; the iteration limit on the page is paper mode's (issue 38:
+    # "Max iterations 15" beside "converged in 101 iterations")
+    steps = int(re.search(r"(\d+) Levenberg-Marquardt steps over all starts", shown).group(1))
+    assert steps > 0
+    expect(app_page.get_by_text("Paper mode: Newton iterations per start")).to_be_visible()
+    expect(app_page.get_by_text("Max iterations")).to_have_count(0)
     expect(app_page.locator(".lubeviz-features")).to_contain_text("fb1")
     screenshot(app_page, "identify")
 

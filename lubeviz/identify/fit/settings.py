@@ -19,7 +19,9 @@ class IdentificationSettings(param.Parameterized):
     upper = Quantity(2.0, bounds=(1.0, 5.0), unit="", doc="Upper bound of the search, fraction of Q_T")
     starts = param.List([0.7, 1.0, 1.3], item_type=float,
                         doc="Start grid per bearing, fractions of Q_T (3x3 starts ordered by total error)")
-    max_iterations = param.Integer(15, bounds=(1, 200), doc="Newton iterations per start")
+    max_iterations = param.Integer(15, bounds=(1, 200), label="Paper mode: Newton iterations per start",
+                                   doc="Paper mode: generalized Newton-Raphson iterations per start (best mode's "
+                                       "Levenberg-Marquardt stops on its own tolerances)")
     fd_step = Quantity(0.02, bounds=(1e-5, 0.2), unit="",
                        doc="Paper mode: central-difference step of the Jacobian, fraction of Q_T")
     phi_scale = Quantity(math.radians(30.0), bounds=(0.0, None), unit="rad", display_unit="deg",
