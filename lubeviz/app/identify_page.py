@@ -47,8 +47,9 @@ UPLOAD_LIMIT_MB = 50  # the browser refuses larger files before sending them (th
 EXPLAIN = f"""
 ### Identify the supply flows from a record
 Upload a record of shaft vibration at one steady speed: the machine's measurement planes, each with two
-proximity probes (CSV, NumPy `.npz` or MATLAB `.mat`; SPEC §6 of the README: `# speed_hz: 75`,
-`# sample_rate_hz: 10000`, `# units: um`, then columns `x1, y1, x2, y2, …`). Files up to {UPLOAD_LIMIT_MB} MB.
+proximity probes (CSV, NumPy `.npz` or MATLAB `.mat`). A CSV record starts with its header lines
+`# speed_hz: 75`, `# sample_rate_hz: 10000` and `# units: um`, then one column per probe, `x1, y1, x2, y2, …`
+(plane 1's X and Y probes first), one row per sample. Files up to {UPLOAD_LIMIT_MB} MB.
 Or load the machine's sample record (for the paper's machine: bearings fed 420 and 600 ml/min, 12 dB noise;
 for the other shipped machines a record made by direct film solves; for an uploaded machine one simulated by
 the identification's own model at 0.8, 1.2, 1.0 … × Q_T).

@@ -32,7 +32,7 @@ MODEL_LIMIT_BYTES = 200_000  # a model file is a page of text; anything larger i
 
 GUIDE = """
 ### Describe your machine
-A model file (TOML, [SPEC §8]) is a short text file: download the template below, edit it, upload it here.
+A model file (TOML) is a short text file: download the template below, edit it, upload it here.
 1. **[machine]**: a name, the operating speed and the speed range the model is meant for.
 2. **[shaft]**: the shaft as a row of sections from one end, `[length, outer diameter]` or
    `[length, outer, inner diameter]` in mm. Each section ends at a node: node 1 is the left end of the first.
@@ -67,7 +67,7 @@ def machine_from_upload(content: bytes, filename: str, store: Path) -> Machine:
 
     label = filename or "model file"
     if content is None or len(content) == 0:
-        raise ModelFileError(f"{label}: the file is empty; expected a model file (TOML, SPEC §8)")
+        raise ModelFileError(f"{label}: the file is empty; expected a model file (TOML: the template on the start page shows one)")
     if len(content) > MODEL_LIMIT_BYTES:
         raise ModelFileError(f"{label}: {len(content) / 1e3:.0f} kB is too large for a model file "
                              f"(at most {MODEL_LIMIT_BYTES / 1e3:.0f} kB)")

@@ -106,3 +106,11 @@ def test_no_page_shows_an_emoji(tour):
     found = {name: sorted(set(EMOJI.findall(text))) for name, text in texts.items() if EMOJI.search(text)}
     assert found == {}
     assert "starved" in texts["Identify"] and "over-supplied" in texts["Identify"]  # the sample's verdicts, as words
+
+
+def test_no_page_sends_the_reader_to_a_spec_they_cannot_open(tour):
+    # the Identify page pointed at "SPEC §6 of the README" for the record's format, the machine guide at "SPEC §8"
+    # (issue 38): the pages say what a record and a model file look like instead
+    _, _, texts = tour
+    assert {name for name, text in texts.items() if "SPEC" in text} == set()
+    assert "# sample_rate_hz" in texts["Identify"] and "x1, y1, x2, y2" in texts["Identify"]
