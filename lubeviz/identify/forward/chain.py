@@ -326,15 +326,14 @@ def _rows(a, shape, tail) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=256)
-def _static_where(names: tuple) -> tuple:
-    """((name, 0-based plane, 0 for x or 1 for y), ...) of the static features among `names`."""
-    return tuple((n, feature_plane(n)[1] - 1, 0 if n[1] == "x" else 1) for n in names if is_static(n))
-
-
-@functools.lru_cache(maxsize=256)
-def _dynamic(names: tuple) -> tuple:
-    """The 1X invariants among feature `names` (the others are static positions)."""
-    return tuple(n for n in names if not is_static(n))
+def _feature_split(names: tuple) -> tuple:
+    """(the 1X invariants among feature `names`, their indices in `names`, ((name, its index, 0-based plane, 0 for x
+    or 1 for y), ...) of the static positions among them): a fit asks for the same names thousands of times. The
+    indices are a list, as numpy indexes with them (a tuple would index several axes); never changed by a caller."""
+    dynamic = tuple((i, n) for i, n in enumerate(names) if not is_static(n))
+    static = tuple((n, i, feature_plane(n)[1] - 1, 0 if n[1] == "x" else 1) for i, n in enumerate(names)
+                   if is_static(n))
+    return tuple(n for _, n in dynamic), [i for i, _ in dynamic], static
 
 
 # --- the chain -----------------------------------------------------------------------------------
@@ -948,11 +947,10 @@ class ForwardChain:
         """Features (last axis, `names` order): the 1X invariants and the static offsets (m)."""
         out = self.output(theta, dB_extra)
         names = tuple(names)
-        dyn = _dynamic(names)
-        if len(dyn) == len(names):  # 1X invariants only
+        dyn, at, where = _feature_split(names)
+        if not where:  # 1X invariants only
             return feature_vector(out.x, out.y, names)
-        where = _static_where(names)
-        for n, k, _ in where:
+        for n, _, k, _ in where:
             if k >= self.n_planes:
                 raise InputError(f"feature {n}: the chain has {self.n_planes} planes")
             if out.static is None or k not in self.static_planes:
@@ -960,9 +958,9 @@ class ForwardChain:
                                  "centre, where the static position is measured")
         g = np.empty(out.x.shape[:-1] + (len(names),))
         if dyn:
-            g[..., [names.index(n) for n in dyn]] = feature_vector(out.x, out.y, dyn)
-        for n, k, j in where:
-            g[..., names.index(n)] = out.static[..., k, j]
+            g[..., at] = feature_vector(out.x, out.y, dyn)
+        for _, i, k, j in where:
+            g[..., i] = out.static[..., k, j]
         return g
 
     def direct_output(self, theta) -> ChainOutput:
