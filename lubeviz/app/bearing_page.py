@@ -58,6 +58,13 @@ FIELD_OPTS = dict(cmap="viridis", colorbar=True, responsive=True, min_height=260
                   xlabel="α (deg, from the top, in the direction of rotation)", ylabel="z (mm)",
                   framewise=True, toolbar="above")
 COEF_COLORS = {"xx": "#1f77b4", "xy": "#ff7f0e", "yx": "#2ca02c", "yy": "#d62728"}
+# The chosen button of a toggle (the bearing shown, the colour scale) filled in the header's blue, the others plain:
+# Fast's own marking of the chosen one was hardly visible (issue 38).
+CHOSEN_CSS = """
+.bk-btn-group .bk-btn.bk-active { background-color: #2c5f8a !important; color: #ffffff !important;
+  border-color: #2c5f8a !important; font-weight: 600; }
+.bk-btn-group .bk-btn:not(.bk-active) { background-color: #ffffff; color: #2c5f8a; }
+"""
 VIEW_START_DEG = -90.0  # fields shown over alpha in [-90, 270): the groove (0) and the loaded zone (180) whole
 AUTO = (math.nan, math.nan)  # HoloViews' "no limits": the colour or axis range follows the frame
 THETA_RANGE = (0.0, 1.0)  # the oil fraction's whole range: 0 (no oil) to 1 (full film)
@@ -110,6 +117,7 @@ class BearingPage(pn.viewable.Viewer):
         self.sweep_jobs = JobPanel()
         self._q_threshold: dict[tuple[int, float], float] = {}
         self._scales: dict[tuple[int, float], dict[str, float]] = {}  # (bearing, speed) -> fixed ranges (MPa)
+        self._loads: dict[int, str] = {}  # bearing -> its static load in words
         self._frame: SupplyFrame | None = None
         self._frame_scaled = False  # the frame shown was drawn on the fixed scale (known by then)
         self._frame_pipe = hv.streams.Pipe(data=None)  # the two fields
@@ -121,11 +129,14 @@ class BearingPage(pn.viewable.Viewer):
         self._error = pn.pane.Alert("", alert_type="danger", visible=False, sizing_mode="stretch_width")
         names = {f"Bearing {k + 1} (node {b.node})": k for k, b in enumerate(machine.bearings)}
         self.param.bearing.objects = names
-        self._bearing_select = pn.widgets.RadioButtonGroup.from_param(self.param.bearing, button_type="primary")
+        self._bearing_select = pn.widgets.RadioButtonGroup.from_param(self.param.bearing, button_type="default",
+                                                                      stylesheets=[CHOSEN_CSS],
+                                                                      css_classes=["lubeviz-bearing-choice"])
         self._scale_select = pn.Row(
             pn.pane.Markdown(f"{self.param.colour_scale.label}:", margin=(0, 5, 0, 10), align="center"),
             pn.widgets.RadioButtonGroup.from_param(self.param.colour_scale, button_type="default",
-                                                   description=self.param.colour_scale.doc, align="center"),
+                                                   description=self.param.colour_scale.doc, align="center",
+                                                   stylesheets=[CHOSEN_CSS]),
             css_classes=["lubeviz-colour-scale"])
         self._ready = False
         # The first films are solved while the page's plots are built and sent (about a second on first use).
@@ -411,8 +422,9 @@ class BearingPage(pn.viewable.Viewer):
 
     def _theta_image(self, data):
         f = data
-        return self._field(f, None if f is None else f.theta, "Oil fraction θ(α, z)", "θ (–)",
-                           "Blues_r", clim=THETA_RANGE if self.colour_scale == "fixed" else AUTO)
+        field = self._field(f, None if f is None else f.theta, "Oil fraction θ(α, z)", "θ (–)",
+                            "Blues_r", clim=THETA_RANGE if self.colour_scale == "fixed" else AUTO)
+        return field * _film_broken_outline(f)
 
     def _profile_pressure(self, data):
         opts = dict(responsive=True, min_height=280, framewise=True, **plotting.outside_legend("above"),
@@ -473,11 +485,12 @@ class BearingPage(pn.viewable.Viewer):
 
     def _locus_marker(self, data):
         cur = [] if data is None else [tuple(data.position / data.clearance)]
-        return hv.Points(cur, ["e_X/c (–)", "e_Y/c (–)"], label="current Q").opts(color="red", size=10)
+        return hv.Points(cur, ["e_X/c (–)", "e_Y/c (–)"], label="current Q").opts(
+            color=OUTLINE_COLOUR, marker="x", size=14, line_width=3)
 
     def _q_line(self, data):
         q = [] if data is None else [data.q / M3S_PER_MLMIN]
-        return hv.VLines(q, label="current Q").opts(color="red", line_width=2)
+        return hv.VLines(q, label="current Q").opts(color=OUTLINE_COLOUR, line_width=2)
 
     def _coefficients(self, data, which):
         unit, scale = ("MN/m", 1e-6) if which == "K" else ("kN·s/m", 1e-3)
@@ -499,6 +512,15 @@ class BearingPage(pn.viewable.Viewer):
             color=plotting.NEUTRAL, line_dash="dashed", line_width=2)
         return hv.Overlay(curves + [line]).opts(**opts)
 
+    def _load_words(self) -> str:
+        """The shown bearing's static load in words (computed once a bearing: on 3+ supports a coupled solve)."""
+        if self.bearing not in self._loads:
+            try:
+                self._loads[self.bearing] = _load_words(resources.bearing_load(self.machine, self.bearing))
+            except Exception:  # noqa: BLE001 - the table still shows the film
+                return "—"
+        return self._loads[self.bearing]
+
     def _summary_text(self, f: SupplyFrame) -> str:
         s = f.summary
         qt = self._q_threshold.get((self.bearing, self.speed))
@@ -510,6 +532,7 @@ class BearingPage(pn.viewable.Viewer):
         return "\n".join([
             f"#### Q = {f.q / M3S_PER_MLMIN:.0f} ml/min — {state}",
             "| quantity | value |", "|---|---|",
+            f"| static load (its share of the rotor's weight) | {self._load_words()} |",
             f"| eccentricity ratio ε | {s.eccentricity_ratio:.3f} |",
             f"| attitude angle φ | {math.degrees(s.attitude_angle):.1f}° |",
             f"| minimum film h_min | {s.min_film * 1e6:.1f} µm |",
@@ -519,6 +542,32 @@ class BearingPage(pn.viewable.Viewer):
             f"| side leakage | {s.side_leakage / M3S_PER_MLMIN:.1f} ml/min |",
             f"| friction power loss | {s.power_loss:.0f} W |",
         ])
+
+
+FULL_FILM = 0.995  # θ above this is a full film: the outline drawn on the θ field is where the film breaks
+OUTLINE_COLOUR = "#000000"  # the outline and the current-Q marks: black, no coefficient's colour (COEF_COLORS)
+
+
+def _film_broken_outline(frame) -> hv.Contours:
+    """Where the film breaks (θ < FULL_FILM) as a line over the θ field: near and above Q_T the streamers hold
+    θ of 0.9-0.99, which the colour alone shows as almost the full film's white (issue 38)."""
+    kd = ["alpha", "z"]
+    if frame is None:
+        return hv.Contours([], kd, label="film broken (θ < 1)").opts(color=OUTLINE_COLOUR, line_width=1.5)
+    alpha, theta = frame.on_uniform_grid(frame.theta)
+    deg, order = _view_order(alpha)
+    img = hv.Image((deg, frame.z * 1e3, theta[:, order]), kdims=kd, vdims=["theta"])
+    lines = hv.operation.contours(img, levels=[FULL_FILM], overlaid=False)
+    return hv.Contours(lines.data if lines.data else [], kd, label="film broken (θ < 1)").opts(
+        color=OUTLINE_COLOUR, line_width=1.5, line_dash="dotted")
+
+
+def _load_words(load) -> str:
+    """'3273 N, downwards' (or its angle from downwards) for a bearing's static load [Wx, Wy] (N)."""
+    w = float(np.hypot(*load))
+    lean = math.degrees(math.atan2(float(load[0]), -float(load[1])))
+    return f"{w:.0f} N, " + ("downwards" if abs(lean) < 0.5 else f"{abs(lean):.0f}° from downwards towards "
+                             f"{'+X' if lean > 0 else '−X'}")
 
 
 def _qt_label(q_threshold: float | None) -> str:

@@ -24,8 +24,9 @@ from ..api import DiagnosisSettings, diagnose
 from ..diagnose import diagnosis_dict
 from ..diagnose.settings import REPORT_MAP_POINTS
 from ..diagnose.loop import interval_words
-from ..diagnose.report import AFTER_COLOUR as AFTER, BEFORE_COLOUR as BEFORE, report_html, report_maps, scan_svg
-from ..effects import EFFECTS
+from ..diagnose.report import (AFTER_COLOUR as AFTER, BEFORE_COLOUR as BEFORE, WORK_ORDER_FIELDS, report_file_name,
+                               report_html, report_maps, scan_svg)
+from ..effects import EFFECTS, label_title, quantity_words
 from ..errors import LubevizError
 from ..identify.forward.chain import simulate
 from ..identify.forward.measured import measure
@@ -37,7 +38,7 @@ from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .session import SessionState
-from .text import TABLE_CSS, badge, file_label, plain, table_html, without_upload_dirs
+from .text import TABLE_CSS, badge, file_label, plain, signs, table_html, truth_words, without_upload_dirs
 from .widgets import (RecordDropper, not_loaded_message, quantity_slider, record_warnings_markdown, refused_message,
                       show_effect)
 
@@ -67,17 +68,31 @@ def _per_bearing(q) -> str:
     return " / ".join(f"{v / M3S_PER_MLMIN:.0f}" for v in q)
 
 
+WORK_ORDER_HINTS = {"asset": "e.g. P-101 B feed pump", "location": "e.g. unit 2, pump house",
+                    "operator": "your name", "comment": "what was seen, what was done"}
+
+
+def _unit(effect, key: str) -> str:
+    """' µm' for a fitted parameter `key` of `effect` (a pair's 'name.param' of its partner too); '' without one."""
+    name = key.rsplit(".", 1)[-1]
+    for e in getattr(effect, "effects", (effect,)):
+        if name in getattr(e, "continuous", ()):
+            unit = e.unit(name)
+            return f" {dict(um='µm', deg='°').get(unit, unit)}" if unit else ""
+    return ""
+
+
 DIAGNOSABLE = [n for n, cls in EFFECTS.items() if cls.diagnosed]  # oil_temperature is `viscosity` in °C
 
 
 class DiagnosePage(pn.viewable.Viewer):
     """The Diagnose page of one session."""
 
-    effect_name = param.Selector(default="probe_rotation", objects=list(EFFECTS),
+    effect_name = param.Selector(default="probe_rotation", objects={EFFECTS[n].kind(): n for n in EFFECTS},
                                  doc="Effect the simulated sample record carries")
     snr_db = param.Number(12.0, bounds=(0.0, 40.0), doc="Signal-to-noise ratio of the sample's probes (dB)")
     seed = param.Integer(1, bounds=(0, 1_000_000), doc="Seed of the sample's noise")
-    candidates = param.ListSelector(default=DIAGNOSABLE, objects=DIAGNOSABLE,
+    candidates = param.ListSelector(default=DIAGNOSABLE, objects={EFFECTS[n].kind(): n for n in DIAGNOSABLE},
                                     doc="Effects the diagnosis tries (each in every placement)")
 
     def __init__(self, machine: Machine, state: SessionState, **params):
@@ -106,7 +121,12 @@ class DiagnosePage(pn.viewable.Viewer):
         self._run = pn.widgets.Button(name="Diagnose", button_type="primary", disabled=True,
                                       css_classes=["lubeviz-diagnose-run"])
         self._run.on_click(self._on_run)
-        self._download = pn.widgets.FileDownload(callback=self._report, filename="lubeviz-diagnosis.html",
+        # What the engineer types for the work order: the report carries it as written (issue 38).
+        self._work_order = {key: (pn.widgets.TextAreaInput if key == "comment" else pn.widgets.TextInput)(
+            name=head, placeholder=WORK_ORDER_HINTS[key], sizing_mode="stretch_width",
+            css_classes=[f"lubeviz-report-{key}"], **({"rows": 3} if key == "comment" else {}))
+            for key, head in WORK_ORDER_FIELDS}
+        self._download = pn.widgets.FileDownload(callback=self._report, filename=report_file_name(None),
                                                  label="Download report (HTML)", button_type="success",
                                                  disabled=True, css_classes=["lubeviz-download-report"])
         self._record_info = pn.pane.Markdown("No record yet.", sizing_mode="stretch_width",
@@ -131,10 +151,15 @@ class DiagnosePage(pn.viewable.Viewer):
                                             "seed": {"type": pn.widgets.IntInput, "name": "Noise seed"}})
         tried = pn.widgets.MultiChoice.from_param(self.param.candidates, name="Candidate effects to try",
                                                   sizing_mode="stretch_width")
+        # The sample's controls in their own card, folded away while the session's record is a file: they set up
+        # a simulated sample and say nothing about a user's record (issue 38).
+        self._sample_card = pn.Card(sample_settings, self._effect_story, self._effect_widgets, *flows,
+                                    self._sample_button, title="Or a sample that carries an effect",
+                                    collapsed=False, sizing_mode="stretch_width", css_classes=["lubeviz-sample-card"])
         controls = pn.Column(
-            "### Record", self._upload, pn.pane.Markdown("**or a sample that carries an effect:**"),
-            sample_settings, self._effect_story, self._effect_widgets, *flows, self._sample_button,
-            self._record_info, "### Diagnosis", tried, self._run, self.jobs, self._download, width=340)
+            "### Record", self._record_info, self._upload, self._sample_card,
+            "### Diagnosis", tried, self._run, self.jobs, "### Report for the work order",
+            *self._work_order.values(), self._download, width=340)
         results = pn.Column(self._message, self._record_warnings, self._verdict, self._flows, self._residuals,
                             sizing_mode="stretch_width")
         self._layout = pn.Column(
@@ -143,16 +168,25 @@ class DiagnosePage(pn.viewable.Viewer):
             self._scans, self._maps, pn.pane.Markdown(EXPLAIN, sizing_mode="stretch_width"), sizing_mode="stretch_width")
         self.param.watch(lambda e: self._choose_effect(e.new), "effect_name")
         self._choose_effect(self.effect_name)
+        self.state.param.watch(self._on_record, "record")
+        self._on_record()  # a record loaded on the Identify page before this page was first opened
 
     def __panel__(self):
         return self._layout
 
     async def start(self):
-        """Once shown: the sample's flows and sliders at fractions of each bearing's Q_T (from the coefficient
-        tables, shared with the other pages), in place of the first guess they start from."""
-        if self._started:
-            return
-        self._started = True
+        """Each time the page is shown: the first time, the sample's flows and sliders at fractions of each bearing's
+        Q_T; then the diagnosis the Identify page asked for ("Diagnose this record"), if it did."""
+        if not self._started:
+            self._started = True
+            await self._sample_at_q_t()
+        if self.state.diagnosis_asked and self.state.record is not None:
+            self.state.diagnosis_asked = False
+            await self._on_run(None)
+
+    async def _sample_at_q_t(self):
+        """The sample's flows and sliders at fractions of each bearing's Q_T (from the coefficient tables, shared
+        with the other pages), in place of the first guess they start from."""
         if "flooded_threshold_mlmin" in self.machine.reference:  # the published Q_T: the sample starts from it
             return
         try:
@@ -191,8 +225,19 @@ class DiagnosePage(pn.viewable.Viewer):
         self._show_error(not_loaded_message(filename, problem, self._record_name))
 
     def _loaded(self, record, measured, truth, name: str):
-        self._record, self._measured, self._truth = record, measured, truth
-        self._record_name = name
+        """Make a record read or simulated here the session's (every page shows it: `_on_record`)."""
+        self.state.use(record, measured, name, loaded_on="Diagnose", truth=truth)
+
+    def _on_record(self, *events):
+        """Show the session's record, loaded here or on the Identify page, and drop the last one's diagnosis."""
+        state = self.state
+        if state.record is None:
+            return
+        self._record, self._measured, self._truth = state.record, state.measured, state.truth
+        self._record_name = state.record_name
+        if state.loaded_on != "Diagnose":
+            self._message.visible = False  # a failed upload here is not about the record now shown
+        self._sample_card.collapsed = state.truth is None  # a user's record: the sample's controls fold away
         self._result = None
         self._verdict.visible = False
         self._flows.object = ""
@@ -202,8 +247,8 @@ class DiagnosePage(pn.viewable.Viewer):
         self._residuals.object = self._residual_plot(None)
         self._download.disabled = True
         self._run.disabled = False
-        self._record_info.object = self._info_text(record, truth, name)
-        self._record_warnings.object = record_warnings_markdown(record, self.machine)
+        self._record_info.object = self._info_text(state.record, state.truth, state.record_name)
+        self._record_warnings.object = record_warnings_markdown(state.record, self.machine)
         self._record_warnings.visible = bool(self._record_warnings.object)
 
     def _info_text(self, record, truth, name: str) -> str:
@@ -211,7 +256,8 @@ class DiagnosePage(pn.viewable.Viewer):
         position it carries, and the true flows only of a sample this page simulated (`truth`)."""
         n = record.displacement.shape[-1]
         dur = n / record.sample_rate_hz
-        lines = [f"**{plain(name)}**", "",
+        where = self.state.loaded_on
+        lines = [f"**{plain(name)}**" + ("" if where in (None, "Diagnose") else f" (loaded on the {where} page)"), "",
                  f"speed {record.speed_hz:g} Hz; {dur:.2f} s ({dur * record.speed_hz:.0f} revolutions); "
                  f"{len(record.nodes)} planes at nodes {', '.join(str(n) for n in record.nodes)}"]
         t_oil = getattr(record, "oil_temperature_c", None)
@@ -223,9 +269,7 @@ class DiagnosePage(pn.viewable.Viewer):
         if getattr(record, "static_offset", None) is not None:
             lines += ["", "static shaft position: present (it separates hotter oil, wear and less oil)"]
         if truth:
-            q = truth["q_mlmin"]
-            lines += ["", "Truth: " + ", ".join(f"Q{k + 1} = {v:.0f}" for k, v in enumerate(q)) + " ml/min" +
-                      (f", effect {plain(truth['effect'])}" if truth.get("effect") else "")]
+            lines += ["", truth_words(truth, self.machine)]
         return "\n".join(lines)
 
     async def _on_sample(self, event):
@@ -251,7 +295,7 @@ class DiagnosePage(pn.viewable.Viewer):
         resources.prepare_views(base, (effect,), progress=progress)  # a viscosity/clearance change: new tables
         record = simulate(base.with_effects((effect,)), theta, snr_db=snr_db, rng=np.random.default_rng(seed),
                           metadata={"effect": effect.spec()})
-        record = dataclasses.replace(record, source=f"sample with {effect.spec()}")
+        record = dataclasses.replace(record, source=f"sample: {effect.title()}")
         truth = {"q_mlmin": [float(q / M3S_PER_MLMIN) for q in theta], "effect": effect.spec()}
         return record, measure(record), truth
 
@@ -327,19 +371,23 @@ class DiagnosePage(pn.viewable.Viewer):
         return dict(diagnosis=d, summary=diagnosis_dict(d), record=record, maps=list(run.maps), truth=truth,
                     notes=run.inputs.notes)
 
+    def work_order(self) -> dict:
+        """The work order's fields as typed on the page ({key: text}, `report.WORK_ORDER_FIELDS`)."""
+        return {key: w.value for key, w in self._work_order.items()}
+
     # --- showing ----------------------------------------------------------------------------------------
     def _show(self, r):
         d, s = r["diagnosis"], r["summary"]
         kind = "success" if d.explained and not d.ambiguous else ("warning" if d.explained or d.ambiguous else "danger")
         added = {"explained": "**No effect needed.** ", "unexplained": "**No effect explains the record.** ",
                  "measurement fault": "**The measurement is broken: no effect was fitted.** "}.get(
-            d.outcome, "" if d.added is None else f"**Effect added: {plain(d.added.label)}.** ")
+            d.outcome, "" if d.added is None else f"**Effect added: {plain(d.added.title)}.** ")
         # The flows first: the browser receives each change as its own message, and whoever reads the verdict
         # (a user, a test) should find the flows it speaks of already there.
         self._flows.object = self._flows_text(d, s, r["truth"], r["name"])
         self._verdict.alert_type = kind
         notes = r.get("notes", ())
-        self._verdict.object = added + plain(d.verdict) + "".join(f"\n\n_Note: {plain(n)}_" for n in notes)
+        self._verdict.object = added + plain(signs(d.verdict)) + "".join(f"\n\n_Note: {plain(signs(n))}_" for n in notes)
         self._verdict.visible = True
         self._residuals.object = self._residual_plot(d)
         table = self._candidates_table(d, s)
@@ -351,12 +399,13 @@ class DiagnosePage(pn.viewable.Viewer):
                                        sizing_mode="stretch_width")) for sc in d.scans]) if d.scans else []
         self._maps.objects = [pn.pane.HoloViews(self._map_plot(*m, r["truth"]), linked_axes=False,
                                                 css_classes=["lubeviz-diagnose-map"]) for m in r["maps"]]
+        self._download.filename = report_file_name(r["name"])
         self._download.disabled = False
 
     def _flows_text(self, d, s, truth, record_name: str) -> str:
         declared = d.before.q_threshold  # the plain model's flows are judged against the declared bearings
         qt = d.q_threshold if d.q_threshold is not None else declared  # the others against the machine as diagnosed
-        cols = [("plain model", d.before, s["before"])] + ([("with " + plain(d.added.label), d.after, s["after"])]
+        cols = [("plain model", d.before, s["before"])] + ([("with " + plain(d.added.title), d.after, s["after"])]
                                                           if d.after is not None else [])
         head = "| bearing | " + " | ".join(f"{name}: flow (95 % interval) | verdict" for name, _, _ in cols) + \
                (" | truth |" if truth else " |")
@@ -380,7 +429,8 @@ class DiagnosePage(pn.viewable.Viewer):
                         f" as diagnosed (declared: {_per_bearing(declared)})")
                      + f". Diagnosis in {d.seconds:.1f} s.")
         if d.ambiguous:
-            lines += ["", f"**Look-alikes**: {plain(', '.join(d.ambiguous))} fit as well. To tell them apart: "
+            lines += ["", f"**Look-alikes**: {plain('; '.join(label_title(a) for a in d.ambiguous))} fit as well. "
+                          "To tell them apart: "
                           f"{plain('; or '.join(d.separated_by))}."]
         elif d.separated_by:
             lines += ["", f"To confirm it: {plain('; or '.join(d.separated_by))}."]
@@ -395,11 +445,11 @@ class DiagnosePage(pn.viewable.Viewer):
         for i, (c, e) in enumerate(zip(d.candidates, s["effects"]), start=1):
             ev = e["evidence"] or {}
             params = e["parameters"]
-            fitted = ", ".join(f"{k} = {params[k]:.4g} ± {params[k + '_std']:.2g}" for k in params
-                               if k + "_std" in params)
+            fitted = ", ".join(f"{quantity_words(k.rsplit('.', 1)[-1])} {params[k]:.4g} ± {params[k + '_std']:.2g}"
+                               f"{_unit(c, k)}" for k in params if k + "_std" in params)
             mark = "added" if d.added is not None and c.label == d.added.label else (
                 "as good" if c.label in d.ambiguous else "")
-            rows.append({"rank": i, "effect": c.label, "": mark, "ΔAIC": round(ev.get("delta_aic", math.nan), 1),
+            rows.append({"rank": i, "effect": c.title, "": mark, "ΔAIC": round(ev.get("delta_aic", math.nan), 1),
                          "χ²/dof": round(c.fit.chi2 / max(c.fit.dof, 1), 2) if c.fit is not None else math.nan,
                          "passes": "yes" if c.passes else "no", "fitted parameters ± 1σ": fitted or e["error"] or "",
                          **{f"Q{k} (ml/min)": round(ev.get(f"q{k}_mlmin", math.nan))
@@ -419,7 +469,7 @@ class DiagnosePage(pn.viewable.Viewer):
         if d.after is not None:
             after = dict(zip(d.after.features_names, d.after.residual))
             rows += [(n, "with effect", float(after.get(n, np.nan))) for n in names]
-            title = f"Residual of each feature (σ), before and after {d.added.label}"
+            title = f"Residual of each feature (σ), before and after {d.added.title}"
         top = max(3.0, 1.1 * float(np.nanmax(np.abs([r[2] for r in rows]))))  # the ±2σ band always shows
         bars = hv.Bars(rows, kd, vd).opts(color="fit", cmap=[BEFORE, AFTER], xlabel="", ylabel=vd, tools=["hover"],
                                           multi_level=False, framewise=True, ylim=(-top, top))
@@ -451,5 +501,5 @@ class DiagnosePage(pn.viewable.Viewer):
             return io.StringIO("")
         html = report_html(r["diagnosis"], record=r["record"], machine_name=self.machine.name,
                            bearing_nodes=[b.node for b in self.machine.bearings],
-                           maps=report_maps(r["maps"], r["diagnosis"]))
+                           maps=report_maps(r["maps"], r["diagnosis"]), work_order=self.work_order())
         return io.StringIO(html)

@@ -21,7 +21,7 @@ import panel as pn
 
 from ..errors import LubevizError
 from ..api import identify_record
-from ..identify.batch import check_model_speed, model_speed
+from ..identify.batch import OIL_ASSUMED, check_model_speed, model_speed
 from ..identify.output.export import feature_unit, result_csv, result_dict
 from ..identify.fit.least_squares import Z95
 from ..identify.forward.measured import measure
@@ -34,7 +34,7 @@ from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
 from .session import SessionState
-from .text import TABLE_CSS, badge, file_label, plain, table_html, without_upload_dirs
+from .text import TABLE_CSS, badge, file_label, plain, signs, table_html, truth_words, without_upload_dirs
 from .widgets import RecordDropper, not_loaded_message, record_warnings_markdown, refused_message
 
 hv.extension("bokeh", logo=False)
@@ -58,8 +58,13 @@ the identification's own model at 0.8, 1.2, 1.0 … × Q_T).
 noise measured in the record and the model's own uncertainty; each flow gets a 95 % interval, and the χ²
 test says whether the model explains the record at all.
 **Paper mode** is the method of the paper (Eq. 11 errors, Newton from 3 × 3 starts). The search paths are
-drawn on the Maps page (choose "the record of the Identify page" there).
+drawn on the Maps page, which opens on the session's record.
 """
+
+
+OIL_NOTE = ("_The flows assume the oil is as viscous as the model file declares: one record at one speed cannot tell "
+            "hotter oil from more oil. An oil temperature in the record, the static shaft position (the probes' DC "
+            "gap) or records at other speeds check it._")
 
 
 def sample_file(machine) -> Path | None:
@@ -110,6 +115,10 @@ class IdentifyPage(pn.viewable.Viewer):
         self._run = pn.widgets.Button(name="Identify the supply flows", button_type="primary", disabled=True,
                                       css_classes=["lubeviz-identify"])
         self._run.on_click(self._on_run)
+        self._to_diagnose = pn.widgets.Button(name="Diagnose this record", button_type="default", disabled=True,
+                                              description="Open the Diagnose page and look for what the model lacks "
+                                                          "in this record", css_classes=["lubeviz-diagnose-this"])
+        self._to_diagnose.on_click(self._on_to_diagnose)
         self._record_info = pn.pane.Markdown("No record yet.", sizing_mode="stretch_width",
                                              css_classes=["lubeviz-record-info"])
         self._message = pn.pane.Alert("", alert_type="danger", visible=False, sizing_mode="stretch_width",
@@ -135,7 +144,7 @@ class IdentifyPage(pn.viewable.Viewer):
                             show_name=False)
         controls = pn.Column("### Record", self._upload, self._sample, self._record_info, "### Identification",
                              settings, self._run, self.jobs, pn.Row(self._download_json, self._download_csv),
-                             width=340)
+                             self._to_diagnose, width=340)
         results = pn.Column(self._message, self._record_warnings, self._result, self._warning, self._features,
                             sizing_mode="stretch_width")
         self._layout = pn.Column(
@@ -144,6 +153,8 @@ class IdentifyPage(pn.viewable.Viewer):
                                            styles={"flex": "1 1 420px"}), flex_wrap="wrap"),
             self._spectra, self._signals, pn.pane.Markdown(EXPLAIN, sizing_mode="stretch_width"),
             sizing_mode="stretch_width")
+        self.state.param.watch(self._on_record, "record")
+        self._on_record()  # a record loaded on the Diagnose page before this page was first opened
 
     def __panel__(self):
         return self._layout
@@ -178,20 +189,36 @@ class IdentifyPage(pn.viewable.Viewer):
         return True
 
     def _use(self, record, measured, name: str) -> None:
-        """Show a record read or simulated, and make it the session's."""
-        self._record_name = name
-        self.state.record, self.state.measured = record, measured
-        self.state.identification = None
+        """Make a record read or simulated here the session's (every page shows it: `_on_record`)."""
+        self.state.use(record, measured, name, loaded_on="Identify")
+
+    def _on_record(self, *events) -> None:
+        """Show the session's record, loaded here or on the Diagnose page, and drop the last one's results."""
+        state = self.state
+        record, measured = state.record, state.measured
+        if record is None:
+            return
+        self._record_name = state.record_name
+        if state.loaded_on != "Identify":
+            self._message.visible = False  # a failed upload here is not about the record now shown
         self._item = None
         self._result.object = ""
         self._warning.visible = False
         self._features.objects = []
         self._download_json.disabled = self._download_csv.disabled = True
         self._run.disabled = False
+        self._to_diagnose.disabled = False
         self._record_info.object = self._info(record, measured)
         self._record_warnings.object = record_warnings_markdown(record, self.machine)
         self._record_warnings.visible = bool(self._record_warnings.object)
         self._draw_record(record, measured)
+
+    def _on_to_diagnose(self, event) -> None:
+        """Open the Diagnose page on the session's record and diagnose it there (no second upload)."""
+        if self.state.record is None:
+            return
+        self.state.diagnosis_asked = True
+        self.state.ask("Diagnose")
 
     def _read(self, content, filename, progress):
         record = read_record_bytes(content, filename, **self.machine.record_defaults())
@@ -250,15 +277,20 @@ class IdentifyPage(pn.viewable.Viewer):
         n = record.displacement.shape[-1]
         dur = n / record.sample_rate_hz
         snr = measured.line_snr
-        return "\n".join([
-            f"**{plain(self._record_name)}**", "",
+        lines = [
+            f"**{plain(self._record_name)}**" + ("" if self.state.loaded_on in (None, "Identify") else
+                                                 f" (loaded on the {self.state.loaded_on} page)"), "",
             f"speed {record.speed_hz:g} Hz; {record.sample_rate_hz:g} samples/s; {dur:.2f} s "
             f"({dur * record.speed_hz:.0f} revolutions)", "",
             f"{len(record.nodes)} planes at nodes {', '.join(str(n) for n in record.nodes)}; probes at "
             + ", ".join(f"{a[0]:g}°/{a[1]:g}°" for a in record.probe_angles_deg), "",
             "1X lines over noise: forward " + "/".join(f"{v:.0f}" for v in snr[:, 0]) + ", backward "
             + "/".join(f"{v:.0f}" for v in snr[:, 1]) + " σ",
-        ])
+        ]
+        truth = self.state.truth
+        if truth:
+            lines += ["", truth_words(truth, self.machine)]
+        return "\n".join(lines)
 
     # --- identification ---------------------------------------------------------------------------------
     async def _on_run(self, event):
@@ -298,6 +330,7 @@ class IdentifyPage(pn.viewable.Viewer):
 
     def _show_result(self, item, name: str):
         r = item.result
+        oil_note = any(w.startswith(OIL_ASSUMED) for w in r.warnings)
         flows = [p for p in r.params if p.is_flow]
         qt = r.q_threshold / M3S_PER_MLMIN
         lines = [f"### Identified supply flows of {plain(name)}",
@@ -326,6 +359,8 @@ class IdentifyPage(pn.viewable.Viewer):
         if r.chi2 is not None:
             extra += f" χ² = {r.chi2:.1f} for {r.dof} degrees of freedom (p = {r.p_value:.3g})."
         lines.append(extra)
+        if oil_note:  # true of every record at one speed without the static position: a note, not a warning
+            lines += ["", OIL_NOTE]
         self._result.object = "\n".join(lines)
         warn = []
         if r.model_explains_data is False:
@@ -333,8 +368,8 @@ class IdentifyPage(pn.viewable.Viewer):
                         "included): the flows above are the best fit of a model that misses something, and their "
                         "intervals are widened by it. The **Diagnose** page traces what is missing.")
         for w in r.warnings:
-            if not w.startswith("the model does not explain") and not w.startswith("not unique"):
-                warn.append(plain(w[0].upper() + w[1:] + "."))
+            if not w.startswith(("the model does not explain", "not unique", OIL_ASSUMED)):
+                warn.append(plain(signs(w[0].upper() + w[1:] + ".")))
         if not r.unique:
             alt = "; ".join(" / ".join(f"{q / M3S_PER_MLMIN:.0f}" for q in a[:len(flows)]) + " ml/min"
                             for a in r.alternatives)

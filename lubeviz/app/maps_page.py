@@ -52,7 +52,7 @@ other over-supplied. "Take the Rotor page's flows" copies the flows set there.
 PLANES = {"bearing centres": "center", "outside the bearings": "outside"}
 SIMULATED_FRACTIONS = (0.8, 1.2)  # the simulated record's default flows, fractions of Q_T: starved / over-supplied
 FEATURES = (("fb1", "fb1 (–)", "viridis"), ("fb2", "fb2 (–)", "viridis"),  # name, colour bar label, colour map
-            ("phi1", "φ1 (deg)", "twilight"), ("phi2", "φ2 (deg)", "twilight"))
+            ("phi1", "φ1 (deg)", "plasma"), ("phi2", "φ2 (deg)", "plasma"))
 SYMBOLS = {"fb1": "fb1", "fb2": "fb2", "phi1": "φ1", "phi2": "φ2"}
 ROOT_COLORS = {"fb1": "#e41a1c", "fb2": "#377eb8", "phi1": "#ff7f00", "phi2": "#4daf4a"}
 # Drawn over the grey ε_T map in light and dark themes alike: mid-luminance colours (contrast >= 2.5 against
@@ -63,8 +63,36 @@ THRESHOLD_COLOR = "#e7298a"  # the Q_T lines and the 3 x 3 starts (fractions of 
 ERROR_GREYS = [f"#{v:02x}{v:02x}{v:02x}" for v in np.linspace(0x30, 0xd8, 256).round().astype(int)]
 
 
+# Whose features the maps compare with: a record this page simulates, or the session's one record (loaded on the
+# Identify or the Diagnose page; issue 38: "Maps names it"). A page opens on the session's record when it has one.
+SOURCES = {"a record simulated at the flows set here": "simulated",
+           "the session's record (loaded on Identify or Diagnose)": "uploaded"}
+NO_RECORD = ("no record in this session yet: load one on the Identify or the Diagnose page (a file, or a sample), "
+             "and it is drawn here")
+
+
 class RecordSourceWatch:
-    """What both Maps pages do when their record changes: recompute when it is the source shown."""
+    """What both Maps pages do when their record changes: recompute when it is the source shown; a new record
+    of the session becomes the source."""
+
+    def _watch_record(self):
+        """Call in `__init__` once `state` is set, before the page's controls are built."""
+        if self.state.record is not None:
+            self.source = "uploaded"
+        self.state.param.watch(self._on_new_record, "record")
+
+    def _on_new_record(self, event):
+        if event.new is not None and self.source != "uploaded":
+            self.source = "uploaded"  # the page's own watcher on `source` recomputes
+
+    def _record_line(self, r) -> str:
+        """The summary's first line: which record the maps are of."""
+        if r.get("source") != "uploaded":
+            return "Record: simulated here at the flows below."
+        where = self.state.loaded_on
+        name = r.get("record_name") or "the session's record"
+        return f"Record: **{plain(name)}**" + (
+            f" (loaded on the {where} page)" if where else "")
 
     async def _on_flows(self, *events):
         if self._ready and self.source == "simulated":
@@ -80,8 +108,7 @@ class MapsPage(RecordSourceWatch, pn.viewable.Viewer):
 
     planes = param.Selector(default="center", objects=PLANES, label="Measurement planes",
                             doc="Measurement planes of the maps")
-    source = param.Selector(default="simulated", objects={
-        "a record simulated at the flows set here": "simulated", "the record of the Identify page": "uploaded"},
+    source = param.Selector(default="simulated", objects=SOURCES,
         label="Source", doc="Whose measured features define the error functions")
     grid_points = param.Integer(81, bounds=(21, 201), label="Grid points", doc="Grid points along each flow axis")
     starts_shown = param.Integer(9, bounds=(1, 9), label="Searches shown",
@@ -93,6 +120,7 @@ class MapsPage(RecordSourceWatch, pn.viewable.Viewer):
         self.machine = machine
         self.op = operating
         self.state = state
+        self._watch_record()
         self.settings = IdentificationSettings.paper(name="maps identification")
         # The simulated record's operating point: the session's speed, this page's own flows (set in `start`,
         # once Q_T is known from the model).
@@ -192,7 +220,7 @@ class MapsPage(RecordSourceWatch, pn.viewable.Viewer):
         m = self.machine
         if source == "uploaded":
             if state.measured is None or state.record is None:
-                raise ValueError("no record on the Identify page yet: upload one there (or use the sample)")
+                raise ValueError(NO_RECORD)
             # the model the Identify page built for this record: same speed, same planes
             speed, planes_nodes = model_speed(m, state.record), tuple(state.measured.nodes)
         model = resources.forward_model(m, speed, planes_nodes, progress=progress)
@@ -215,7 +243,7 @@ class MapsPage(RecordSourceWatch, pn.viewable.Viewer):
             q_ref, ident = np.array(flows), None
         result = identification_map(model, measured, self.settings, axes, identification=ident)
         result.update(grid=grid, q_ref=q_ref, model_nodes=planes_nodes, page_identification=page,
-                      mode=self.settings.mode)
+                      mode=self.settings.mode, source=source, record_name=state.record_name)
         return result
 
     async def _recompute(self, *events):
@@ -228,13 +256,22 @@ class MapsPage(RecordSourceWatch, pn.viewable.Viewer):
         except Cancelled:
             return
         except Exception as exc:  # noqa: BLE001 - shown on the page
-            self._error.object = f"**Maps not computed**: {plain(exc)}"
-            self._error.visible = True
+            self._failed(exc)
             return
         self._error.visible = False
         self.param.starts_shown.bounds = (1, max(1, len(self._result["paths"])))
         self.starts_shown = len(self._result["paths"])
         self._redraw()
+
+    def _failed(self, exc):
+        """The error, and no plot of an earlier record or setting under it (issue 38)."""
+        self._result = None
+        self._errors.object = None
+        for pane in self._feature_panes:
+            pane.object = None
+        self._summary.object = ""
+        self._error.object = f"**Maps not computed**: {plain(exc)}"
+        self._error.visible = True
 
     def _redraw(self, *events):
         r = self._result
@@ -308,7 +345,7 @@ class MapsPage(RecordSourceWatch, pn.viewable.Viewer):
 
     def _summary_text(self, r) -> str:
         qi = r["q_identified"] / M3S_PER_MLMIN
-        lines = [f"#### Identified ({r['mode']} mode): Q1 = {qi[0]:.1f}, Q2 = {qi[1]:.1f} ml/min",
+        lines = [self._record_line(r), f"#### Identified ({r['mode']} mode): Q1 = {qi[0]:.1f}, Q2 = {qi[1]:.1f} ml/min",
                  f"{'converged' if r['converged'] else '**not converged**'}; {r['iterations']} iterations, "
                  f"{r['starts_tried']} start(s) tried"]
         if r.get("q_ref") is not None:

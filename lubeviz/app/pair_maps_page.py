@@ -30,7 +30,7 @@ from ..progress import Cancelled
 from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
 from .jobs import JobPanel
-from .maps_page import RecordSourceWatch
+from .maps_page import NO_RECORD, SOURCES, RecordSourceWatch
 from .session import SessionState
 from .text import plain
 from .widgets import quantity_slider
@@ -59,8 +59,7 @@ class PairMapsPage(RecordSourceWatch, pn.viewable.Viewer):
 
     x_flow = param.Selector(default=0, objects={"Q1": 0}, label="Horizontal axis", doc="The flow along x")
     y_flow = param.Selector(default=1, objects={"Q2": 1}, label="Vertical axis", doc="The flow along y")
-    source = param.Selector(default="simulated", objects={
-        "a record simulated at the flows set here": "simulated", "the record of the Identify page": "uploaded"},
+    source = param.Selector(default="simulated", objects=SOURCES,
         label="Source", doc="Whose measured features the χ² compares with")
     grid_points = param.Integer(41, bounds=(21, 101), label="Grid points", doc="Grid points along each flow axis")
     snr_db = param.Number(12.0, bounds=(0.0, 60.0), label="SNR (dB)", doc="Noise of the simulated record (dB)")
@@ -70,6 +69,7 @@ class PairMapsPage(RecordSourceWatch, pn.viewable.Viewer):
         self.machine = machine
         self.op = operating
         self.state = state
+        self._watch_record()
         n = len(machine.bearings)
         if n < 2:
             raise ValueError(f"{machine.name} has {n} oil-film bearing: there is no pair of flows to map")
@@ -164,7 +164,7 @@ class PairMapsPage(RecordSourceWatch, pn.viewable.Viewer):
         m = self.machine
         if source == "uploaded":
             if state.measured is None or state.record is None:
-                raise ValueError("no record on the Identify page yet: upload one there (or use the sample)")
+                raise ValueError(NO_RECORD)
             record, measured = state.record, state.measured
             chain = resources.chain(m, model_speed(m, record), tuple(record.nodes), record.probe_angles_deg,
                                     progress=progress)
@@ -187,14 +187,14 @@ class PairMapsPage(RecordSourceWatch, pn.viewable.Viewer):
         progress(0, 1, "the maps")
         kinds = [f"{kind}{p + 1}" for p in range(chain.n_planes) for kind in ("fb", "phi")]
         pm = pair_map(chain, pair, held, measured=measured, names=names, features=kinds, budget=budget, n=points)
-        return dict(map=pm, fit=result, chain_names=chain.names, q_ref=q_ref, nodes=tuple(chain.nodes))
+        return dict(map=pm, fit=result, chain_names=chain.names, q_ref=q_ref, nodes=tuple(chain.nodes), source=source,
+                    record_name=state.record_name)
 
     async def _recompute(self, *events):
         if not self._ready:
             return
         if self.x_flow == self.y_flow:
-            self._error.object = "Choose two different flows for the two axes."
-            self._error.visible = True
+            self._failed("choose two different flows for the two axes")
             return
         try:
             self._result = await self.jobs.run(
@@ -203,11 +203,19 @@ class PairMapsPage(RecordSourceWatch, pn.viewable.Viewer):
         except Cancelled:
             return
         except Exception as exc:  # noqa: BLE001 - shown on the page
-            self._error.object = f"**Maps not computed**: {plain(exc)}"
-            self._error.visible = True
+            self._failed(exc)
             return
         self._error.visible = False
         self._redraw()
+
+    def _failed(self, exc):
+        """The error, and no plot of an earlier record or setting under it (issue 38)."""
+        self._result = None
+        self._chi2.object = None
+        self._features.objects = []
+        self._summary.object = ""
+        self._error.object = f"**Maps not computed**: {plain(exc)}"
+        self._error.visible = True
 
     def _redraw(self):
         r = self._result
@@ -262,7 +270,7 @@ class PairMapsPage(RecordSourceWatch, pn.viewable.Viewer):
             fb = name.startswith("fb")
             label = f"{name} (–)" if fb else f"φ{name[3:]} (deg)"
             img = hv.QuadMesh((a, b, v if fb else np.degrees(v)), kd, label).opts(
-                cmap="viridis" if fb else "twilight", colorbar=True, clabel=label, tools=["hover"], logz=fb)
+                cmap="viridis" if fb else "plasma", colorbar=True, clabel=label, tools=["hover"], logz=fb)
             t = r["q_ref"]
             marks = hv.Points([] if t is None else [(t[i] / M3S_PER_MLMIN, t[j] / M3S_PER_MLMIN)], kd).opts(
                 color="red", marker="x", size=12, line_width=3)
@@ -274,7 +282,7 @@ class PairMapsPage(RecordSourceWatch, pn.viewable.Viewer):
     def _summary_text(self, r) -> str:
         res = r["fit"]
         q = res.flow_values()
-        lines = [f"#### Identified (best mode): {flows_text(q)}",
+        lines = [self._record_line(r), f"#### Identified (best mode): {flows_text(q)}",
                  f"χ² = {res.chi2:.1f} for {res.dof} degrees of freedom (p = {res.p_value:.3g}); "
                  f"{res.seconds * 1e3:.0f} ms"]
         for k in range(q.size):

@@ -96,9 +96,10 @@ def _flows(flows) -> str:
     return ", ".join(f"Q{k + 1} = {q / M3S_PER_MLMIN:.0f}" for k, q in enumerate(flows)) + " ml/min"
 
 
-def effect_choices() -> list[str]:
-    """'none' and every registered effect the linear response carries (large_orbit has its own section)."""
-    return ["none", *(n for n, c in EFFECTS.items() if c.stage != "response")]
+def effect_choices() -> dict[str, str]:
+    """{words: name}: no effect, and every registered effect the linear response carries, named in words (large_orbit
+    has its own section)."""
+    return {"no effect": "none", **{c.kind(): n for n, c in EFFECTS.items() if c.stage != "response"}}
 
 
 class RotorPage(pn.viewable.Viewer):
@@ -243,7 +244,7 @@ class RotorPage(pn.viewable.Viewer):
             return
         try:
             effect = None if self.effect is None else self.effect.hold()  # a copy: widgets may move meanwhile
-            label = "response" if effect is None else f"response with {effect.label()}"
+            label = "response" if effect is None else f"response with {effect.title()}"
             state = await self.jobs.run(self._state, self.node, self.op.flows, effect, label=label,
                                         quiet=True)
         except Cancelled:
@@ -500,7 +501,7 @@ class RotorPage(pn.viewable.Viewer):
             color="gray", line_dash="dashed", line_width=1.5)
         return (hv.Scatter((noisy[0], noisy[1]), *kd, label="probes (noisy)").opts(color="#9ecae1", size=3)
                 * base
-                * hv.Curve((x, y), *kd, label="steady orbit" if effect is None else f"with {effect.label()}").opts(
+                * hv.Curve((x, y), *kd, label="steady orbit" if effect is None else f"with {effect.title()}").opts(
                     color="#08519c", line_width=2)
                 * hv.Points([(x[0], y[0])], kd, label="t = 0 (keyphasor)").opts(color=plotting.NEUTRAL, size=8)).opts(
             title=f"Orbit at node {data['node']} (forward: counter-clockwise)", xlim=(-lim, lim), ylim=(-lim, lim),
@@ -689,7 +690,7 @@ class RotorPage(pn.viewable.Viewer):
             color="gray" if effect is not None else "#08519c", size=10))
         if effect is not None:
             layers.append(hv.Curve(([p0[0], p[0]], [p0[1], p[1]]), *kd).opts(color="#d62728", line_width=1))
-            layers.append(hv.Points([tuple(p)], kd, label=f"with {effect.label()}").opts(color="#d62728", size=10))
+            layers.append(hv.Points([tuple(p)], kd, label=f"with {effect.title()}").opts(color="#d62728", size=10))
         e = math.hypot(*p) / c
         return hv.Overlay(layers).opts(**dict(opts, title=f"Shaft centreline, bearing {k + 1}: ε = {e:.2f}"),
                                        xlim=(-lim, lim), ylim=(-lim, lim))
@@ -725,7 +726,7 @@ class RotorPage(pn.viewable.Viewer):
                           for k, (a, b) in enumerate(zip(s["static"], s["static0"])))
         note = " (modes: the bearings as the effect changes them)" if effect.stage == "bearings" else \
             " (modes: without the effect)"
-        return ["", f"**With {effect.label()}**: fb {fb0:.3f} → {abs(s['zf']) / abs(s['zb']):.3f}, "
+        return ["", f"**With {plain(effect.title())}**: fb {fb0:.3f} → {abs(s['zf']) / abs(s['zb']):.3f}, "
                     f"φ {math.degrees(s['phi0']):.1f}° → {math.degrees(s['phi']):.1f}° "
                     f"(without the effect → with it); centreline moved {shift}{note}."]
 

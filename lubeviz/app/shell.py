@@ -261,12 +261,17 @@ def build() -> pn.template.FastListTemplate:
                    dynamic=True, sizing_mode="stretch_width", css_classes=["lubeviz-pages"])
     building: dict[str, asyncio.Future] = {}
 
+    def watch_state(state: SessionState) -> SessionState:
+        # a page asks for another ("Diagnose this record"): its tab is shown, and built and started by `show`
+        state.param.watch(lambda e: e.new in names and setattr(tabs, "active", 1 + names.index(e.new)), "open_page")
+        return state
+
     def use_machine(machine) -> None:
         cancel_jobs()
         pages.clear()
         building.clear()
         work.update(machine=machine, op=operating_point(machine),
-                    state=SessionState(name="session"))
+                    state=watch_state(SessionState(name="session")))
         for i, name in enumerate(names, start=1):
             tabs[i] = (name, spinner())
         template.lubeviz_machine = machine
@@ -319,6 +324,7 @@ def build() -> pn.template.FastListTemplate:
         cancel_jobs()
 
     tabs.param.watch(lambda e: show(e.new), "active")
+    watch_state(work["state"])
     pn.state.onload(lambda: show(tabs.active))
     pn.state.on_session_destroyed(closed)
     glossary_button = pn.widgets.Button(name="Glossary", button_type="light", width=100, align="center",

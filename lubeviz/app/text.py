@@ -103,3 +103,49 @@ def badge(verdict: str) -> str:
     background, colour = BADGE_COLOURS[verdict]
     return (f'<span class="lubeviz-badge" style="background:{background};color:{colour};border-radius:3px;'
             f'padding:0 5px;white-space:nowrap">{verdict}</span>')
+
+
+# The library's words are ASCII (the command line prints them too); a page shows the units' own signs.
+_SIGNS = ((re.compile(r"(?<=\d) um\b"), " µm"), (re.compile(r"(?<=\d) deg\b"), "°"), (re.compile(r" \+- "), " ± "),
+          (re.compile(r"(?<=\d) x (?=as|the)"), " × "), (re.compile(r"\bchi2\b"), "χ²"),
+          (re.compile(r"(?<=\d)-(?=\d)"), "–"), (re.compile(r"(?<=\()x(?=\d)"), "×"),
+          (re.compile(r" -> "), " → "))
+
+
+def signs(text: str) -> str:
+    """`text` with '150 um', '5 deg', '+-', 'chi2', 'x0.75-1.33' written as a page shows them: 150 µm, 5°, ±, χ²,
+    ×0.75–1.33."""
+    for pattern, shown in _SIGNS:
+        text = pattern.sub(shown, text)
+    return text
+
+
+_LABEL = re.compile(r"\b[a-z_0-9]+\[[a-z_]+=[^\]]*\](?: \+ [a-z_0-9]+\[[a-z_]+=[^\]]*\])*")
+
+
+def labels_as_words(text: str) -> str:
+    """`text` with every candidate label in it (`clearance[bearing=1]`) written in words (`effects.label_title`)."""
+    from ..effects import label_title
+
+    return _LABEL.sub(lambda m: label_title(m.group(0)), str(text))
+
+
+def effect_words(spec: str, machine=None) -> str:
+    """An effect given in its command-line form (`clearance:bearing=1,clearance_um=150`) in an engineer's words
+    (`Effect.told`: 'Bearing 1 has radial clearance 150 µm (declared 120 µm) instead of the declared one.'), as
+    plain text; the form itself when it does not parse."""
+    from ..effects import parse_effect
+
+    try:
+        return plain(signs(parse_effect(spec).told(machine=machine)))
+    except Exception:  # noqa: BLE001 - a sample's effect always parses; anything else is shown as written
+        return plain(spec)
+
+
+def truth_words(truth: dict, machine=None) -> str:
+    """The truth of a sample a page simulated (Markdown): its flows and, in words, its effect."""
+    text = "**Truth** (this sample was simulated here): " + ", ".join(
+        f"Q{k + 1} = {v:.0f}" for k, v in enumerate(truth["q_mlmin"])) + " ml/min"
+    if truth.get("effect"):
+        text += ". " + effect_words(truth["effect"], machine)
+    return text

@@ -20,7 +20,7 @@ import panel as pn
 import param
 
 from ..model.quantity import Quantity
-from .text import plain
+from .text import labels_as_words, plain, signs
 
 
 def show_effect(name: str, machine, story, widgets):
@@ -32,13 +32,35 @@ def show_effect(name: str, machine, story, widgets):
     try:
         effect = demo_effect(name, machine)
     except LubevizError as exc:  # e.g. an oil temperature on a machine that declares no oil
-        story.object = f"**{plain(name)}** is not available for this machine: {plain(exc)}"
+        from ..effects import EFFECTS
+
+        why = labels_as_words(re.sub(r"^effect ", "", str(exc).replace(str(machine.source), Path(str(machine.source)).name)))
+        story.object = (f"**{plain(EFFECTS[name].kind().capitalize())}** is not available for this machine: "
+                        f"{plain(why)}")
         widgets.objects = []
         return None
-    story.object = f"**{effect.effect_name}**: {effect.describe()}"
-    widgets.objects = parameter_widgets(effect, (*effect.placement, *effect.continuous), end=machine.n_nodes,
-                                        sizing_mode="stretch_width")
+    names = (*effect.placement, *effect.continuous)
+
+    def tell(*events):
+        story.object = effect_story(effect, machine)
+
+    tell()
+    widgets.objects = parameter_widgets(effect, names, end=machine.n_nodes, sizing_mode="stretch_width")
+    effect.param.watch(tell, list(names))  # the story quotes the values set on the widgets
     return effect
+
+
+def effect_story(effect, machine) -> str:
+    """An effect's story for a page (Markdown): its title, what it is at the values set (`Effect.told`, with the
+    declared values), and the rest of its description's first paragraph, every parameter in words (issue 38: no
+    `clearance_um` on a page)."""
+    from ..effects import quantity_words
+
+    told = signs(effect.told(machine=machine))
+    first, _, rest = " ".join(effect.describe().split()).partition(". ")
+    rest = re.sub(r"`(\w+)`", lambda m: quantity_words(m.group(1)), rest)
+    return f"**{plain(effect.title()[0].upper() + effect.title()[1:])}**: {plain(told)}" + (
+        f" {plain(signs(rest))}" if rest else "")
 
 
 def demo_effect(name: str, machine):

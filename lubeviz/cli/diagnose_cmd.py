@@ -21,6 +21,10 @@ def register(sub) -> None:
     p.add_argument("--report", default=None, metavar="FILE.html",
                    help="write a self-contained HTML report (one record or set; with several, FILE gets -1, -2...)")
     p.add_argument("--level", type=float, default=0.01, help="significance level of the chi-square test (0.01)")
+    for key, head in (("asset", "asset or tag"), ("location", "location"), ("operator", "operator"),
+                      ("comment", "comment")):  # report.WORK_ORDER_FIELDS, without importing the numerics here
+        p.add_argument(f"--{key}", default=None, metavar="TEXT",
+                       help=f"the work order's {head}, printed at the top of the --report")
     p.set_defaults(run=run_diagnose)
 
 
@@ -69,12 +73,13 @@ def run_diagnose(args) -> dict | list:
         for w in item["warnings"]:
             sys.stderr.write(f"lubeviz diagnose: warning: {w}\n")
         if args.report:
-            from ..diagnose.report import report_maps, write_report
+            from ..diagnose.report import WORK_ORDER_FIELDS, report_maps, write_report
 
             maps = report_maps(run.maps, d)
             path = args.report if len(groups) == 1 else args.report.replace(".html", f"-{g}.html")
+            work_order = {key: getattr(args, key) for key, _ in WORK_ORDER_FIELDS}
             write_report(d, path, record=group[0], machine_name=machine.name,
-                         bearing_nodes=[b.node for b in machine.bearings], maps=maps)
+                         bearing_nodes=[b.node for b in machine.bearings], maps=maps, work_order=work_order)
             item["report"] = path
         out.append(item)
     if not args.json:

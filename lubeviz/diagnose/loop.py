@@ -78,6 +78,12 @@ class Candidate:
         return (self.effect, *self.partners)
 
     @property
+    def title(self) -> str:
+        """The candidate in words (`Effect.title`: 'the clearance of bearing 1', a pair's two joined), for verdicts
+        and pages; `label` is its key in code and JSON."""
+        return " with ".join(e.title() for e in self.effects)
+
+    @property
     def separated_by(self) -> tuple[str, ...]:
         return tuple(dict.fromkeys(type(e).separated_by for e in self.effects if type(e).separated_by))
 
@@ -443,7 +449,7 @@ def _unnamed_pair_words(before: Fit, unnamed, records: int = 1) -> str:
     words = ""
     if unnamed:
         c = unnamed[0]
-        words += (f" Two effects at once fit it: {c.label} (chi2 {c.fit.chi2:.1f} for {c.fit.dof} dof), but with so "
+        words += (f" Two effects at once fit it: {c.title} (chi2 {c.fit.chi2:.1f} for {c.fit.dof} dof), but with so "
                   f"few degrees of freedom left almost any pair fits, so none is named.")
     if unnamed or before.dof - 3 < PAIR_DOF:
         held = "This record holds" if records == 1 else f"These {records} records hold"
@@ -547,7 +553,7 @@ def _explained_outcome(chains, meas, before, names, budget, level, passing=()) -
         out.update(ambiguous=tuple(c.label for c in others), set_intervals=ivs[0], separated_by=separated)
         shown = others[:LOOK_ALIKES_TOLD]
         more = f" and {len(others) - len(shown)} more" if len(others) > len(shown) else ""
-        out["verdict"] += (" But " + "; ".join(f"{c.label} ({_flows_text(c.fit)})" for c in shown) + more
+        out["verdict"] += (" But " + "; ".join(f"{c.title} ({_flows_text(c.fit)})" for c in shown) + more
                            + f" fit{'s' if len(others) == 1 else ''} it as well (chi2 "
                            + ", ".join(f"{c.fit.chi2:.1f}" for c in shown) + f" against the plain model's "
                            f"{before.chi2:.1f}) with other flows: until a measurement tells them apart the flows are "
@@ -674,7 +680,7 @@ def _unpinned_after_effect(out: dict, chains, meas, best, passing, names, budget
     joined = tuple(union_interval(*(iv[k] for iv in ivs if iv is not None)) for k in range(len(wide)))
     out["set_intervals"] = joined
     out["separated_by"] = tuple(dict.fromkeys((*out["separated_by"], *(type(e).separated_by for e in free))))
-    who = f"with {best.label}" if not out["ambiguous"] else "with any of these explanations"
+    who = f"with {best.title}" if not out["ambiguous"] else "with any of these explanations"
     out["verdict"] += (f" But this record does not pin {_unpinned_words(free)}: {who}, within that range it is "
                        f"explained as well at other flows, so they are known only within {interval_words(joined)}. "
                        f"To pin {'them' if len(free) > 1 else 'it'}: {_pinned_by(free)}.")
@@ -737,7 +743,7 @@ def _pairs_after_effect(out: dict, chains, meas, best, tried, names, budget, lev
     out["separated_by"] = tuple(dict.fromkeys((*out["separated_by"], *(w for c in found for w in c.separated_by))))
     shown = sorted(found, key=lambda c: c.fit.chi2)[:LOOK_ALIKES_TOLD]
     more = f" and {len(found) - len(shown)} more" if len(found) > len(shown) else ""
-    out["verdict"] += (" But with a second effect beside it, " + "; ".join(f"{c.label} ({_flows_text(c.fit)}, chi2 "
+    out["verdict"] += (" But with a second effect beside it, " + "; ".join(f"{c.title} ({_flows_text(c.fit)}, chi2 "
                                                                            f"{c.fit.chi2:.1f})" for c in shown)
                        + more + f" fit{'s' if len(found) == 1 else ''} the record at least as well (chi2 "
                        f"{after.chi2:.1f} alone) with other flows: until a measurement tells them apart the flows are "
@@ -779,15 +785,15 @@ def _added_outcome(chains, before, best, after, passing, ambiguity_aic) -> dict:
         # one speed: a fitted 1X force stands for any 1X force, also one from an effect not in the library
         ambiguous = ambiguous + (OTHER_FORCE,)
         separated = separated + (FORCE_SEPARATION,)
-        flows = "; ".join(f"{c.label}: {_flows_words(c.fit)}" for c in [best, *close])
+        flows = "; ".join(f"{c.title}: {_flows_words(c.fit)}" for c in [best, *close])
         set_intervals = _set_intervals(after, close)
         verdict = (f"Ambiguous cause: a synchronous (1X) force on the rotor explains the record "
-                   f"({', '.join(c.label for c in [best, *close])}), or an effect not in the library that acts "
+                   f"({', '.join(c.title for c in [best, *close])}), or an effect not in the library that acts "
                    f"as one ({OTHER_FORCE_EXAMPLES}). At one speed these are the same force, so the flows hardly "
                    f"depend on which: {_flow_labels(before)} = {flows} ml/min (plain model: {_flows_words(before)}). To tell the "
                    f"causes apart: {'; or '.join(separated)}.")
     elif close:
-        flows = "; ".join(f"{c.label}: {_flows_text(c.fit)}" for c in [best, *close])
+        flows = "; ".join(f"{c.title}: {_flows_text(c.fit)}" for c in [best, *close])
         set_intervals = _set_intervals(after, close)
         verdict = (f"Ambiguous: {len(close) + 1} effects explain the record equally well ({flows}). "
                    f"Until a measurement tells them apart the flows are known only within "
@@ -839,18 +845,18 @@ def _asked_for(before: Fit, tried, scanned: int = 0, level: float = ASKED_LEVEL)
 
 def _asked_words(before: Fit, asked: Asked) -> str:
     return (f"The plain model passes its test (chi2 = {before.chi2:.1f} for {before.dof} dof), but "
-            f"{asked.candidate.label} lowers chi2 by {asked.drop:.1f} for {asked.k} parameter"
+            f"{asked.candidate.title} lowers chi2 by {asked.drop:.1f} for {asked.k} parameter"
             f"{'s' if asked.k > 1 else ''}, more than chance allows over the {asked.n} candidates tried (a drop of "
             f"{asked.point:.1f} at {100 * ASKED_LEVEL:g} % over them): the record asks for an effect. ")
 
 
 def _unexplained_outcome(before, tried, refused) -> dict:
     closest = tried[0] if tried and tried[0].fit is not None else None
-    left = "" if closest is None else (f" The closest candidate, {closest.label}, still leaves chi2 = "
+    left = "" if closest is None else (f" The closest candidate, {closest.title}, still leaves chi2 = "
                                        f"{closest.fit.chi2:.1f} for {closest.fit.dof} dof.")
     if refused:
         left = " " + "; ".join(
-            f"{c.label} passed the screening fit (chi2 = {c.fit.chi2:.1f}) but not once refined with its "
+            f"{c.title} passed the screening fit (chi2 = {c.fit.chi2:.1f}) but not once refined with its "
             f"intervals (chi2 = {r.chi2:.1f} for {r.dof} dof)" for c, r in refused) + "."
     verdict = ("Unexplained: the model does not fit the record and no effect in the library brings the "
                f"residual back to noise (plain chi2 = {before.chi2:.1f} for {before.dof} dof)." + left +
@@ -1060,7 +1066,7 @@ def _story(c: Candidate, f: Fit, machine) -> str:
         size = ("" if c.unbalance_scale is None else
                 f"; the orbit's size implies {c.unbalance_scale:.2f} x the declared unbalance")
         return f"Large orbits: the film force along the orbit, not its linearization{size}"
-    told = [effect.told(std, machine).rstrip(".") or effect.label() for effect, std in fitted_effects(c, f)]
+    told = [effect.told(std, machine).rstrip(".") or effect.title() for effect, std in fitted_effects(c, f)]
     if len(told) == 1:
         return told[0]
     return "Two effects at once: " + "; and ".join(t[0].lower() + t[1:] for t in told)

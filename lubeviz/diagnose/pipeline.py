@@ -54,7 +54,7 @@ def run_diagnosis(records: Sequence, machine, settings: DiagnosisSettings | None
         maps.append(FlowMap("plain model", cost_map(chains, meas, n=map_points, flows=d.before.flow_values(),
                                                     pair=pair), d.before, pair))
         if d.added is not None and d.after is not None:
-            maps.append(FlowMap(f"with {d.added.label}", cost_map(chains, meas, candidate=d.added, n=map_points,
+            maps.append(FlowMap(f"with {d.added.title}", cost_map(chains, meas, candidate=d.added, n=map_points,
                                                                   flows=d.after.flow_values(), pair=pair),
                                 d.after, pair))
     return DiagnosisRun(diagnosis=d, inputs=inputs, maps=tuple(maps))

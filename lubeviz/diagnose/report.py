@@ -26,6 +26,7 @@ import numpy as np
 from .. import __version__
 from ..identify.forward.budget import ModelBudget
 from .loop import fit_flows, fit_flows_std, fitted_effects, interval_words
+from ..effects import label_title, parse_effect, quantity_words
 from ..identify.fit.result import VERDICT_BAND as BAND
 from ..model.quantity import Quantity
 from ..units import M3S_PER_MLMIN, MLMIN_PER_M3S
@@ -92,17 +93,31 @@ def _fmt(v) -> str:
     return str(v)
 
 
+def _titles(labels) -> str:
+    """Candidates' labels as an engineer reads them (`effects.label_title`), joined."""
+    return "; ".join(label_title(label) for label in labels)
+
+
+def _quantity(name: str) -> str:
+    """A fitted parameter's name in words: 'angle' for angle_deg, a pair's 'probe_rotation.angle_deg' likewise."""
+    return quantity_words(name.rsplit(".", 1)[-1])
+
+
+def _unit(unit: str) -> str:
+    return {"um": "µm", "deg": "°", "N m": "N·m"}.get(unit, unit)
+
+
 def _effect_parameters(c) -> str:
-    """'angle_deg = 4.99 ± 0.32 deg; plane = 1': fitted ones with their std, then the held ones (the fit's
-    `FitParameter`s, then the effect's placement)."""
+    """'angle 4.99 ± 0.32 °; plane 1': fitted ones with their std, then the held ones (the fit's
+    `FitParameter`s, then the effect's placement), in words."""
     if c.fit is None:
         return escape(c.error or "fit failed")
     fitted = [p for p in c.fit.params if p.free and not p.is_flow]
-    parts = [f"<b>{escape(p.name)}</b> = {p.value:.4g} ± {p.std:.2g} {escape(p.unit)}" for p in fitted]
+    parts = [f"<b>{escape(_quantity(p.name))}</b> {p.value:.4g} ± {p.std:.2g} {escape(_unit(p.unit))}" for p in fitted]
     if getattr(c, "unbalance_scale", None) is not None:  # large orbits: read from the record's 1X, not fitted
         parts.append(f"unbalance {c.unbalance_scale:.2f} × the declared one (the orbit's size, from the 1X)")
     names = {p.name for p in fitted}
-    held = [f"{escape(n)} = {escape(_fmt(v))}" for n, v in c.effect.values().items() if n not in names]
+    held = [f"{escape(_quantity(n))} {escape(_fmt(v))}" for n, v in c.effect.values().items() if n not in names]
     return "; ".join(parts) + (f" <span class='small'>(held: {', '.join(held)})</span>" if held else "")
 
 
@@ -123,7 +138,7 @@ def _actions(d, nodes) -> list[str]:
                    "the best effect of the library. Check the machine (alignment, rub, looseness) and the "
                    "measurement (probe wiring, calibration, a steady speed) and record again.")
     if outcome == "ambiguous":
-        out.append(f"<b>Several explanations fit equally well</b> ({escape(', '.join((d.added.label,) + d.ambiguous))}). "
+        out.append(f"<b>Several explanations fit equally well</b> ({escape(_titles((d.added.label,) + d.ambiguous))}). "
                    "Before acting on them, take one of the measurements that separate them (listed under “Telling "
                    "look-alikes apart”). The flows below are those of the best-ranked, provisionally"
                    + ("." if d.set_intervals is None else
@@ -133,7 +148,7 @@ def _actions(d, nodes) -> list[str]:
         told = ([(e, {}) for e in d.added.effects] if d.after is None else fitted_effects(d.added, d.after))
         story = escape(" ".join(e.told(std) for e, std in told))
         sep = escape("; or ".join(d.added.separated_by))
-        out.append(f"<b>The model needed {escape(d.added.label)}</b>: {story} Confirm it"
+        out.append(f"<b>The model needed {escape(d.added.title)}</b>: {story} Confirm it"
                    + (f" by {sep}." if sep else "."))
     if d.set_intervals is not None and outcome != "ambiguous":  # an explanation the record cannot rule out
         out.append("<b>Other explanations fit as well</b> (the verdict says which): over all of them the flows are "
@@ -413,12 +428,12 @@ def _candidates_table(d) -> str:
     for i, c in enumerate(d.candidates, start=1):
         mark = " ★ added" if c.label == added else (" ≈ as good" if c.label in d.ambiguous else "")
         if c.fit is None:
-            rows.append(f"<tr><td>{i}</td><td>{escape(c.label)}</td><td colspan='5'>{escape(c.error)}</td></tr>")
+            rows.append(f"<tr><td>{i}</td><td>{escape(c.title)}</td><td colspan='5'>{escape(c.error)}</td></tr>")
             continue
         f = c.fit
         style = " style='font-weight:bold'" if mark.startswith(" ★") else ""
         rows.append(f"<tr{style}><td>{i}</td>"
-                    f"<td>{escape(c.label)}{escape(mark)}</td><td class='num'>{c.aic - best:+.1f}</td>"
+                    f"<td>{escape(c.title)}{escape(mark)}</td><td class='num'>{c.aic - best:+.1f}</td>"
                     f"<td class='num'>{f.chi2 / max(f.dof, 1):.2f}</td><td>{'yes' if c.passes else 'no'}</td>"
                     f"<td>{_effect_parameters(c)}</td>"
                     f"<td class='num'>{_flows_cell(f)}</td></tr>")
@@ -427,6 +442,46 @@ def _candidates_table(d) -> str:
             "<p class='small'>Ranked by Akaike's information criterion AIC = χ² + 2k (k: free parameters); ΔAIC "
             "to the best. “passes”: what the effect leaves is noise and model uncertainty (p above the test "
             "level). Two candidates within ΔAIC 4 are not told apart by this record.</p>")
+
+
+# The work order's fields a report carries (the Diagnose page's boxes, `lubeviz diagnose --asset ...`): key, heading.
+WORK_ORDER_FIELDS = (("asset", "Asset / tag"), ("location", "Location"), ("operator", "Operator"),
+                     ("comment", "Comment"))
+
+
+def _work_order_table(work_order: dict | None) -> str:
+    """The work order's fields as a table (each escaped: typed by a person, shown as written); '' when none."""
+    rows = [(head, str((work_order or {}).get(key) or "").strip()) for key, head in WORK_ORDER_FIELDS]
+    rows = [(h, v) for h, v in rows if v]
+    if not rows:
+        return ""
+    return ("<table class='work-order'>" + "".join(
+        f"<tr><th>{escape(h)}</th><td>{escape(v).replace(chr(10), '<br>')}</td></tr>" for h, v in rows) + "</table>")
+
+
+def report_file_name(record_name: str | None, when: _dt.date | None = None) -> str:
+    """The report's file name: 'lubeviz-<the record's name>-<date>.html', the name reduced to letters, digits, '-', '_'
+    and '.' (a file name any system takes)."""
+    import re
+
+    stem = Path(str(record_name or "record")).stem if record_name else "record"
+    stem = re.sub(r"[^A-Za-z0-9._-]+", "-", stem).strip("-.") or "record"
+    return f"lubeviz-{stem[:60]}-{(when or _dt.date.today()).isoformat()}.html"
+
+
+def _truth_words(truth: dict) -> str:
+    """A simulated record's truth in words: its flows, its effect as `Effect.told` says it."""
+    parts = []
+    q = truth.get("q_mlmin")
+    if q is not None:
+        parts.append("true flows " + ", ".join(f"Q{k + 1} = {v:.0f}" for k, v in enumerate(q)) + " ml/min")
+    if truth.get("effect"):
+        try:
+            parts.append(parse_effect(truth["effect"]).told())
+        except Exception:  # noqa: BLE001 - a truth from elsewhere: as given
+            parts.append(f"effect {truth['effect']}")
+    parts += [f"{k}: {v}" for k, v in truth.items() if k not in ("q_mlmin", "effect")]
+    return "; ".join(parts)
 
 
 def _record_section(record, measured_names) -> str:
@@ -446,7 +501,7 @@ def _record_section(record, measured_names) -> str:
     if record.set_name:
         rows.append(("set", record.set_name))
     for k, v in sorted(record.metadata.items()):
-        rows.append((f"metadata: {k}", v))
+        rows.append((f"metadata: {k}", _truth_words({"effect": v}) if k == "effect" else v))  # a sample's, in words
     return "<table>" + "".join(f"<tr><th>{escape(str(a))}</th><td>{escape(str(b))}</td></tr>" for a, b in rows) + "</table>"
 
 
@@ -461,13 +516,15 @@ def _budget_section() -> str:
 
 
 def report_html(diagnosis, *, record=None, title: str = "Lubrication diagnosis", machine_name: str | None = None,
-                bearing_nodes: Sequence[int] | None = None, maps: Sequence = (), generated: _dt.datetime | None = None
-                ) -> str:
+                bearing_nodes: Sequence[int] | None = None, maps: Sequence = (), generated: _dt.datetime | None = None,
+                work_order: dict | None = None) -> str:
     """The diagnosis as one self-contained HTML document (str).
 
     `record`: the measured record (its file, speed, planes and duration are listed); `bearing_nodes`: the
     machine's bearing nodes, named in the text; `maps`: optional chi^2 maps [(title, (qi, qj, chi2), paths,
-    pair)] with `paths` and `pair` as in `map_svg`; `generated`: the date printed (default now, local time).
+    pair)] with `paths` and `pair` as in `map_svg`; `generated`: the date printed (default now, local time);
+    `work_order`: what the engineer typed for the work order ({field: text}, WORK_ORDER_FIELDS), shown as written
+    under the title (empty fields left out).
     """
     d = diagnosis
     generated = generated or _dt.datetime.now().astimezone()
@@ -479,6 +536,7 @@ def report_html(diagnosis, *, record=None, title: str = "Lubrication diagnosis",
     parts = [f"<h1>{escape(title)}</h1>",
              "<p class='sub'>" + escape(" · ".join(filter(None, [machine_name, record.source if record else None,
                                                                    generated.strftime("%Y-%m-%d %H:%M %Z")]))) + "</p>",
+             _work_order_table(work_order),
              "<h2>What to do</h2>",
              f"<div class='verdict {cls}'>" + ("" if d.verdict.lower().startswith(outcome.split()[0]) else
                                                 f"<b>{escape(outcome.capitalize())}.</b> ") + f"{escape(d.verdict)}</div>",
@@ -511,14 +569,14 @@ def report_html(diagnosis, *, record=None, title: str = "Lubrication diagnosis",
             parts += [scan_svg(sc), f"<p class='small'>{escape(sc.words()[0].upper() + sc.words()[1:])}.</p>"]
     if d.ambiguous or d.separated_by:
         sep = "".join(f"<li>{escape(s)}</li>" for s in d.separated_by)
+        # the look-alikes are named once, in "What to do"; here only what tells them apart (issue 38)
         parts += ["<h2>Telling look-alikes apart</h2>",
-                  (f"<p>These effects fit this record as well as the one named: "
-                   f"<b>{escape(', '.join(d.ambiguous))}</b>.</p>" if d.ambiguous else
+                  ("<p>The explanations named under “What to do” fit this record as well as one another. Any of these "
+                   "measurements tells them apart:</p>" if d.ambiguous else
                    "<p>The effect named is clearly the best of the library for this record; to confirm it:</p>"),
                   f"<ul>{sep}</ul>"]
     if truth is not None or (d.truth and d.truth.get("effect")):
-        parts += ["<h2>Known truth (simulated record)</h2>",
-                  "<p>" + escape(", ".join(f"{k} = {v}" for k, v in d.truth.items())) + "</p>"]
+        parts += ["<h2>Known truth (simulated record)</h2>", "<p>" + escape(_truth_words(d.truth)) + "</p>"]
     parts += ["<h2>Record</h2>", _record_section(record, names),
               "<h2>Model uncertainty budget</h2>", _budget_section(),
               f"<p class='small'>lubeviz {escape(__version__)} · diagnosis computed in {d.seconds:.1f} s · report "

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..effects import EFFECTS
+
 SCAN_DCHI2 = 3.84  # chi2 quantile, 1 dof, 95 %
 SCREEN_STRIDE = 2  # a diagnosis screens a scanned effect at every 2nd node (and the last); the effects its verdict
 # names or keeps in an ambiguity are then fitted at every node: the profile the verdict quotes is whole
@@ -48,10 +50,11 @@ class NodeScan:
     def words(self) -> str:
         """Where the effect acts, as far as this record says."""
         fit = _ranges(self.fitting)
+        kind = EFFECTS[self.effect_name].kind() if self.effect_name in EFFECTS else self.effect_name
         if self.identifiable:
-            return (f"{self.effect_name} fits best at node {self.best} (nodes {fit} within chi2 + {SCAN_DCHI2:g} of "
+            return (f"{kind} fits best at node {self.best} (nodes {fit} within chi2 + {SCAN_DCHI2:g} of "
                     "it)")
-        return (f"the location of {self.effect_name} is not identifiable from this record: node {self.best} fits "
+        return (f"the location of {kind} is not identifiable from this record: node {self.best} fits "
                 f"best, but nodes {fit} fit as well (within chi2 + {SCAN_DCHI2:g}) of the {len(self.nodes)} where it "
                 "can act")
 

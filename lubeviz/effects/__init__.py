@@ -37,6 +37,39 @@ def parse_effects(texts: Iterable[str]) -> tuple[Effect, ...]:
     return tuple(parse_effect(t) for t in texts)
 
 
+def label_title(label: str) -> str:
+    """A candidate's label (`clearance[bearing=1]`, a pair's `a + b`) in an engineer's words (`Effect.title`: 'the
+    clearance of bearing 1'); a label that names no effect of the library (a verdict's 'another 1X force') as given."""
+    parts = [p.strip() for p in str(label).split(" + ")]
+    out = []
+    for part in parts:
+        name, _, rest = part.partition("[")
+        cls = EFFECTS.get(name)
+        if cls is None:
+            return str(label)
+        values = {}
+        for item in filter(None, rest.rstrip("]").split(",")):
+            key, _, value = item.partition("=")
+            if key not in cls.placement:
+                return str(label)
+            values[key] = None if value == "None" else (int(value) if value.lstrip("-").isdigit() else value)
+        try:
+            out.append(cls(**values).title())
+        except Exception:  # noqa: BLE001 - a placement this class refuses: the label as given
+            return str(label)
+    return " with ".join(out)
+
+
+def quantity_words(name: str) -> str:
+    """A parameter's name as words, without its unit suffix: clearance_um -> 'clearance', angle_deg -> 'angle',
+    force_n -> 'force', dx_um -> 'dx' (the unit is written after the value)."""
+    for suffix in ("_um", "_deg", "_nm", "_n", "_c", "_hz", "_kg", "_mlmin", "_ns_m", "_n_m"):
+        if name.endswith(suffix) and len(name) > len(suffix):
+            name = name[:-len(suffix)]
+            break
+    return name.replace("_", " ")
+
+
 __all__ = ["EFFECTS", "STAGES", "Bow", "Clearance", "Effect", "LargeOrbit", "Misalignment", "OilTemperature", "Pedestals", "ProbeGain",
-           "ProbeRotation", "Registry", "SideLoad", "SupportStiffness", "Unbalance2", "Viscosity", "Wiring", "bow_shape", "parse_effect",
+           "ProbeRotation", "Registry", "SideLoad", "SupportStiffness", "Unbalance2", "Viscosity", "Wiring", "bow_shape", "label_title", "parse_effect", "quantity_words",
            "parse_effects", "register"]

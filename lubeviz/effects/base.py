@@ -52,6 +52,16 @@ class Effect(param.Parameterized):
     oil_viscosity: ClassVar[bool] = False
     # True for an effect that changes the bearings' static loads (the static position or several speeds settle it)
     static_load: ClassVar[bool] = False
+    # The effect and its placement in an engineer's words, for pages, verdicts and reports (`title`): each
+    # {placement} field is written as words ("bearing 1", "every bearing", "node 10"); `label` stays the key of code
+    # and JSON.
+    title_words: ClassVar[str] = ""
+    kind_words: ClassVar[str] = ""  # what the effect is, without its placement ("a second unbalance")
+
+    @classmethod
+    def kind(cls) -> str:
+        """What the effect is in words, without its placement: `kind_words`, else its name with spaces."""
+        return cls.kind_words or cls.effect_name.replace("_", " ")
 
     def __init__(self, **params):
         super().__init__(**params)
@@ -202,6 +212,13 @@ class Effect(param.Parameterized):
             return self.effect_name
         return f"{self.effect_name}[" + ",".join(f"{p}={getattr(self, p)}" for p in self.placement) + "]"
 
+    def title(self) -> str:
+        """'the clearance of bearing 1': the effect and its placement in words (`title_words`), what a page, a verdict
+        and a report call it; the label where a class has no words."""
+        if not self.title_words:
+            return self.label()
+        return self.title_words.format(**{p: place_words(p, getattr(self, p)) for p in self.placement})
+
     def spec(self) -> str:
         """SPEC §7 form, NAME:key=value,... with every parameter (round-trips through `parse_effect`)."""
         return self.effect_name + ":" + ",".join(f"{k}={_fmt(v)}" for k, v in self.values().items())
@@ -264,6 +281,15 @@ class Effect(param.Parameterized):
             return text
 
         return re.sub(r"`(\w+)`", value, first)
+
+
+def place_words(name: str, value) -> str:
+    """A placement's value in words: bearing 1, every bearing, node 10, plane 2, support 1, span 2 (others as given)."""
+    if name == "bearing":
+        return "every bearing" if value in ("both", "all") else f"bearing {value}"
+    if name in ("node", "plane", "support", "span"):
+        return f"{name} {value}"
+    return str(value)
 
 
 def _told(v) -> str:

@@ -72,6 +72,7 @@ class Bow(Effect):
     """
 
     effect_name = "bow"
+    kind_words = "a bowed shaft"
     stage = "rotor"
     continuous = ("amplitude_um", "phase_deg")
     placement = ("node", "span")
@@ -114,6 +115,11 @@ class Bow(Effect):
         """'bow[node=None]' for the one span between the outermost bearings (the paper's), 'bow[span=2]' for the
         second span of a shaft held at three or more places."""
         return f"bow[node={self.node}]" if self.span is None else f"bow[span={self.span}]"
+
+    def title(self) -> str:
+        if self.span is not None:
+            return f"a bowed shaft in span {self.span}"
+        return "a bowed shaft" + ("" if self.node is None else f" (quoted at node {self.node})")
 
     def placements(self, *, n_bearings: int, n_planes: int, n_supports: int = 0) -> list["Bow"]:
         """Between the outermost bearings, and in each span between two places the shaft is held where there are

@@ -22,6 +22,8 @@ class Clearance(Effect):
     """
 
     effect_name = "clearance"
+    kind_words = "bearing clearance (wear)"
+    title_words = "the clearance of {bearing} (wear)"
     stage = "bearings"
     continuous = ("clearance_um",)
     placement = ("bearing",)

@@ -34,6 +34,8 @@ class LargeOrbit(Effect):
     """
 
     effect_name = "large_orbit"
+    kind_words = "large orbits (the film's nonlinear force)"
+    title_words = "orbits too large for the linear film model"
     stage = "response"
     separated_by = ("the 2X line of the record (film nonlinearity grows it with the orbit), or a record at a "
                     "smaller unbalance")

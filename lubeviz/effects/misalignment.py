@@ -14,8 +14,8 @@ MISALIGNMENT_CHOICES = [c for c in BEARING_CHOICES if isinstance(c, int)]
 
 @register
 class Misalignment(Effect):
-    """Bearing `bearing`'s centre sits `dx_um`, `dy_um` from its declared place (SPEC §8 `offset_um` plus these):
-    settled foundations, thermal growth, a shimmed housing.
+    """Bearing `bearing`'s centre sits `dx_um` sideways and `dy_um` up from its declared place (the model file's
+    offset plus these): settled foundations, thermal growth, a shimmed housing.
 
     On three or more supports the shaft held at the journals' new places shares its weight otherwise: a bearing
     lowered by 10 um on the uniform three-bearing test machine sheds a quarter of its load onto its neighbours
@@ -26,6 +26,8 @@ class Misalignment(Effect):
     """
 
     effect_name = "misalignment"
+    kind_words = "a bearing out of line"
+    title_words = "{bearing} out of line"
     stage = "bearings"
     continuous = ("dx_um", "dy_um")
     placement = ("bearing",)

@@ -25,6 +25,8 @@ class OilTemperature(Effect):
     """
 
     effect_name = "oil_temperature"
+    kind_words = "oil temperature"
+    title_words = "the oil's temperature in {bearing}"
     stage = "bearings"
     continuous = ("temperature_c",)
     placement = ("bearing",)

@@ -23,6 +23,8 @@ class Pedestals(Effect):
     """
 
     effect_name = "pedestals"
+    kind_words = "flexible pedestals"
+    title_words = "a flexible pedestal under {bearing}"
     stage = "rotor"
     continuous = ("mass_kg", "stiffness_n_m", "damping_ns_m")
     placement = ("bearing",)

@@ -21,6 +21,8 @@ class ProbeGain(Effect):
     """
 
     effect_name = "probe_gain"
+    kind_words = "a probe's gain"
+    title_words = "the gain of probe {channel}"
     stage = "probes"
     continuous = ("gain",)
     placement = ("channel",)

@@ -24,6 +24,8 @@ class ProbeRotation(Effect):
     """
 
     effect_name = "probe_rotation"
+    kind_words = "a turned probe pair"
+    title_words = "the probes of {plane} turned"
     stage = "probes"
     continuous = ("angle_deg",)
     placement = ("plane",)

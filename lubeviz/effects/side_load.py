@@ -33,6 +33,7 @@ class SideLoad(Effect):
     """
 
     effect_name = "side_load"
+    kind_words = "a static side load"
     stage = "bearings"
     static_load = True
     continuous = ("force_n", "moment_nm")
@@ -56,6 +57,10 @@ class SideLoad(Effect):
                                   doc="Whether the machine stands on 3+ supports (set when bound): the loads' change "
                                       "is then given with the journals held (`static_load_change`) and the films "
                                       "yield to it in the chain's load shift")
+
+    def title(self) -> str:
+        return ("a static side load (between the bearings)" if self.node is None
+                else f"a static side load at node {self.node}")
 
     def bind(self, machine) -> "SideLoad":
         from ..rotor.assembly import rotor_from_machine

@@ -26,6 +26,8 @@ class SupportStiffness(Effect):
     """
 
     effect_name = "support_stiffness"
+    kind_words = "a support's stiffness"
+    title_words = "the stiffness of {support}"
     stage = "rotor"
     continuous = ("factor",)
     placement = ("support",)

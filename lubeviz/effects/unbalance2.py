@@ -20,6 +20,8 @@ class Unbalance2(Effect):
     """
 
     effect_name = "unbalance2"
+    title_words = "a second unbalance at {node}"
+    kind_words = "a second unbalance"
     stage = "rotor"
     continuous = ("ratio", "phase_deg")
     placement = ("node",)

@@ -22,6 +22,8 @@ class Viscosity(Effect):
     """
 
     effect_name = "viscosity"
+    kind_words = "oil viscosity"
+    title_words = "the oil's viscosity in {bearing}"
     stage = "bearings"
     continuous = ("factor",)
     placement = ("bearing",)

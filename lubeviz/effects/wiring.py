@@ -97,6 +97,7 @@ class Wiring(Effect):
     """
 
     effect_name = "wiring"
+    kind_words = "a wiring mix-up"
     stage = "probes"
     continuous = ()
     placement = ("fault",)
@@ -140,3 +141,9 @@ class Wiring(Effect):
 
     def summary(self) -> str:
         return f"a measurement mix-up: {fault_words(self.fault)}"
+
+    def title(self) -> str:
+        return f"a wiring mix-up: {fault_words(self.fault)}"
+
+    def told(self, std: dict | None = None, machine=None) -> str:
+        return f"The record's columns are not the channels they are declared to be: {fault_words(self.fault)}."

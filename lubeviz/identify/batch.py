@@ -41,6 +41,10 @@ class RecordIdentification:
     bearings: tuple = ()  # (name, node, supply) of each fluid-film bearing in file order (SPEC §8 `flows`)
 
 
+# The caveat every record at one speed without a static position carries (a note on the pages, not a warning: it is
+# true of every such record, issue 38).
+OIL_ASSUMED = "the flows assume the declared oil viscosity"
+
 def fit_features(settings, chain) -> tuple[str, ...]:
     """The features a best-mode fit uses: the settings' list, or, when it is the default (the paper's six invariants
     of two planes), every invariant of the chain's planes (`model.plane_features`)."""
@@ -189,7 +193,7 @@ def _fit_record(record, machine, speed, measured, settings, effects, budget, pro
             out = _oil_check(out, res, chain, measured, settings, budget)
         else:
             out = dataclasses.replace(out, warnings=out.warnings + (
-                "the flows assume the declared oil viscosity: one record at one speed cannot tell hotter or colder "
+                f"{OIL_ASSUMED}: one record at one speed cannot tell hotter or colder "
                 "oil from a supply change (--oil-check quantifies it: it builds the tables over x0.75-1.33 viscosity once; "
                 "the static shaft position or records at other speeds separate them)",))
     return out

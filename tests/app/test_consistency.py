@@ -62,7 +62,7 @@ def test_maps_page_shows_the_identify_pages_answer_for_its_record(app_page, scre
     open_tab(app_page, "Maps")
     summary = app_page.locator(".lubeviz-maps-summary")
     expect(summary).to_contain_text("Identified", timeout=SLOW_MS)  # the page's own first map is drawn
-    app_page.get_by_label("Source").select_option(label="the record of the Identify page")
+    app_page.get_by_label("Source").select_option(label="the session's record (loaded on Identify or Diagnose)")
     # The Maps page searches in paper mode by default: the Identify page's best-mode answer is shown beside
     # its own, labelled, with the Identify page's numbers.
     expect(summary).to_contain_text("Same record, another search", timeout=SLOW_MS)

@@ -25,20 +25,20 @@ def test_diagnose_page_names_the_effect_and_downloads_the_report(app_page, scree
     page = app_page
     open_tab(page, "Diagnose")
     story = page.locator(".lubeviz-effect-story")
-    expect(story).to_contain_text("probe_rotation", timeout=SLOW_MS)
+    expect(story).to_contain_text("The probes of plane 1 turned", timeout=SLOW_MS)
     page.get_by_role("button", name="Simulate a sample with this effect").click()
-    expect(page.locator(".lubeviz-diagnose-record")).to_contain_text("sample with probe_rotation:plane=1,angle_deg=5",
+    expect(page.locator(".lubeviz-diagnose-record")).to_contain_text("sample: the probes of plane 1 turned",
                                                                      timeout=SLOW_MS)
     page.get_by_role("button", name="Diagnose").click()
     verdict = page.locator(".lubeviz-verdict")
     # The page answers while the diagnosis runs: another widget changes what it shows at once.
     expect(page.get_by_role("button", name="Cancel").first).to_be_visible(timeout=30_000)
     t0 = time.perf_counter()
-    page.get_by_label("Effect in the sample").select_option("bow")
+    page.get_by_label("Effect in the sample").select_option(label="a bowed shaft")
     expect(story).to_contain_text("A residual bow", timeout=5_000)
     answered = time.perf_counter() - t0
     running = page.get_by_role("button", name="Cancel").first.is_visible()
-    expect(verdict).to_contain_text("Effect added: probe_rotation[plane=1]", timeout=SLOW_MS)
+    expect(verdict).to_contain_text("Effect added: the probes of plane 1 turned", timeout=SLOW_MS)
     assert answered < 5.0 and running, f"the page answered in {answered:.1f} s (diagnosis still running: {running})"
 
     flows_pane = page.locator(".lubeviz-diagnosis-flows")
@@ -50,15 +50,15 @@ def test_diagnose_page_names_the_effect_and_downloads_the_report(app_page, scree
     assert abs(q1[1] - TRUE_MLMIN[0]) < 10 and abs(q2[1] - TRUE_MLMIN[1]) < 10  # with the effect: right
     assert abs(q1[1] - TRUE_MLMIN[0]) < abs(q1[0] - TRUE_MLMIN[0])  # ... and closer than the plain fit
     assert "starved" in flows and "over-supplied" in flows
-    expect(page.locator(".lubeviz-candidates")).to_contain_text("probe_rotation[plane=1]")
-    wait_for_plot_title(page, "before and after probe_rotation[plane=1]", timeout_ms=SLOW_MS)
-    wait_for_plot_title(page, "χ² over Q1 × Q2, with probe_rotation[plane=1]", timeout_ms=SLOW_MS)
+    expect(page.locator(".lubeviz-candidates")).to_contain_text("the probes of plane 1 turned")
+    wait_for_plot_title(page, "before and after the probes of plane 1 turned", timeout_ms=SLOW_MS)
+    wait_for_plot_title(page, "χ² over Q1 × Q2, with the probes of plane 1 turned", timeout_ms=SLOW_MS)
 
     with page.expect_download(timeout=60_000) as download:
         page.get_by_role("button", name=re.compile("Download report")).click()
     report = open(download.value.path(), encoding="utf-8").read()
     assert report.lstrip().lower().startswith("<!doctype html>")
-    assert report.count("<svg") >= 2 and "probe_rotation[plane=1]" in report
+    assert report.count("<svg") >= 2 and "the probes of plane 1 turned" in report and "probe_rotation" not in report
     assert "http" not in report.lower()
     screenshot(page, "diagnose")
 
@@ -70,8 +70,8 @@ def test_rotor_page_effect_moves_the_orbit_features(app_page, screenshot):
     expect(summary).to_contain_text("Node 6", timeout=SLOW_MS)
     wait_for_plot_title(page, "Shaft centreline, bearing 1", timeout_ms=SLOW_MS)
     before = text(summary)
-    page.get_by_label("Effect switched on").select_option("viscosity")
-    expect(summary).to_contain_text("With viscosity[bearing=both]", timeout=SLOW_MS)
+    page.get_by_label("Effect switched on").select_option(label="oil viscosity")
+    expect(summary).to_contain_text("With the oil's viscosity in every bearing", timeout=SLOW_MS)
     after = text(summary)
 
     def fb(shown):

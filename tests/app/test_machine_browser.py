@@ -74,10 +74,11 @@ def test_machine_c_chosen_moved_identified_diagnosed_and_a_bad_file_refused(app_
         assert abs(got / true - 1) < 0.05, (flows, shown)
     screenshot(page, "machine_fan_identify")
 
-    # Diagnose the same record
+    # Diagnose the same record: the session's one record, no second upload (issue 38)
     open_tab(page, "Diagnose")
-    page.locator(".lubeviz-diagnose-upload input[type=file]").set_input_files(str(FAN_RECORD))
-    expect(page.locator(".lubeviz-diagnose-record")).to_contain_text("three_bearing_fan.csv", timeout=SLOW_MS)
+    record = page.locator(".lubeviz-diagnose-record")
+    expect(record).to_contain_text("three_bearing_fan.csv", timeout=SLOW_MS)
+    expect(record).to_contain_text("loaded on the Identify page")
     page.locator(".lubeviz-diagnose-run button").click()
     verdict = page.locator(".lubeviz-verdict")
     expect(verdict).to_be_visible(timeout=SLOW_MS)

@@ -63,7 +63,7 @@ def _identify(page):
 
 
 def _diagnose(page):
-    expect(page.locator(".lubeviz-effect-story")).to_contain_text("probe_rotation", timeout=SLOW_MS)
+    expect(page.locator(".lubeviz-effect-story")).to_contain_text("The probes of plane 1 turned", timeout=SLOW_MS)
     wait_for_plots(page, count=1, timeout_ms=SLOW_MS)
 
 

@@ -125,15 +125,19 @@ def test_diagnose_page_reloads_the_same_file_after_a_sample(app_page, records):
     page, good = app_page, records["good"]
     open_tab(page, "Diagnose")
     info = page.locator(".lubeviz-diagnose-record")
-    expect(page.locator(".lubeviz-effect-story")).to_contain_text("probe_rotation", timeout=SLOW_MS)
+    expect(page.locator(".lubeviz-effect-story")).to_contain_text("The probes of plane 1 turned", timeout=SLOW_MS)
     drop(page, "lubeviz-diagnose-upload", good)
     expect(info).to_contain_text(good.name, timeout=30_000)
     # The file's metadata claims its flows (q1_mlmin, q2_mlmin), but a file may claim anything: no "Truth"
     # is shown but of a sample the page simulated itself (issue 34, item 8).
     expect(info).not_to_contain_text("Truth")
-    page.get_by_role("button", name="Simulate a sample with this effect").click()
-    expect(info).to_contain_text("sample with probe_rotation", timeout=SLOW_MS)
-    expect(info).to_contain_text("Truth: Q1 = 420, Q2 = 600 ml/min")
+    # under a user's file the sample's controls are folded away (they say nothing about the file): opened here
+    sample = page.get_by_role("button", name="Simulate a sample with this effect")
+    expect(sample).to_be_hidden()
+    page.get_by_text("Or a sample that carries an effect").click()
+    sample.click()
+    expect(info).to_contain_text("sample: the probes of plane 1 turned", timeout=SLOW_MS)
+    expect(info).to_contain_text("Truth (this sample was simulated here): Q1 = 420, Q2 = 600 ml/min")
     dropped_item(page, "lubeviz-diagnose-upload", good.name)
     drop(page, "lubeviz-diagnose-upload", good)
     expect(info, "the same file dropped again is not shown").to_contain_text(good.name, timeout=30_000)

@@ -81,13 +81,15 @@ def test_diagnose_names_a_rotated_probe_pair_and_writes_its_report(capsys, tmp_p
     write_record_csv(make_record(spec), rec)
     report = tmp_path / "r.html"
     code, out, err = run(capsys, "diagnose", rec, "--effects", "probe_rotation,probe_gain,viscosity",
-                         "--report", report, "--json")
+                         "--report", report, "--json", "--asset", "P-101 B", "--operator", "A. Engineer")
     assert code == 0, err
     data = json.loads(out)
     assert {"before", "effects", "added", "after", "explained", "ambiguous", "verdict"} <= set(data)
     assert data["added"] == "probe_rotation[plane=2]" and data["explained"]
     assert not data["before"]["model_explains_data"]
-    assert "<svg" in report.read_text()
+    html = report.read_text()
+    assert "<svg" in html and "P-101 B" in html and "A. Engineer" in html  # the work order's fields
+    assert "the probes of plane 2 turned" in html
     code, _, err = run(capsys, "diagnose", rec, "--effects", "pedestal")
     assert code == 2 and "did you mean 'pedestals'" in err
     code, _, err = run(capsys, "diagnose", rec, "--effects", "oil_temperature")  # would try nothing

@@ -221,7 +221,8 @@ def test_an_unexplained_record_is_told_which_pair_fits_it_and_what_would_name_on
     assert len(unnamed) == 1 and unnamed[0].label == "unbalance2:node=10 + probe_gain:channel=x1"
     thin = types.SimpleNamespace(values=np.zeros(2), dof=4)
     words = _unnamed_pair_words(thin, unnamed)
-    assert "Two effects at once fit it: unbalance2:node=10 + probe_gain:channel=x1 (chi2 0.3 for 1 dof)" in words
+    assert ("Two effects at once fit it: a second unbalance at node 10 with the gain of probe x1 (chi2 0.3 for 1 dof)"
+            in words)  # in words; the label stays the candidate's key
     assert "This record holds 6 features for 2 unknown flows" in words and "DC gap" in words
     assert _unnamed_pair_words(types.SimpleNamespace(values=np.zeros(2), dof=8), []) == ""
     assert "These 3 records hold 6 features" in _unnamed_pair_words(thin, [], records=3)

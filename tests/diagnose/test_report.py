@@ -79,13 +79,43 @@ def test_report_names_the_added_effect_and_both_flows(diagnosed):
     d, record, *_ = diagnosed
     assert d.added is not None and d.added.label == "probe_rotation[plane=1]"
     text = "".join(parse(report_html(d, record=record)).text)
-    assert "probe_rotation[plane=1]" in text
+    assert "the probes of plane 1 turned" in text  # the effect named in words ...
+    assert "probe_rotation[" not in text and "angle_deg" not in text  # ... never by its code label or parameter
     assert "The probe pair of plane 1 sits" in text  # the effect's story, in words
     for fit in (d.before, d.after):
         for k in range(2):
             assert f"{fit.values[k] / M3S_PER_MLMIN:.0f} ± " in text
     assert "starved" in text and "over-supplied" in text  # 420 and 600 ml/min against Q_T ≈ 545
     assert "lubeviz 0." in text and "75 Hz" in text
+
+
+def test_report_carries_the_work_order_typed_on_the_page_as_written(diagnosed):
+    from lubeviz.diagnose.report import WORK_ORDER_FIELDS
+
+    d, record, *_ = diagnosed
+    typed = {"asset": "P-101 B <feed> pump", "location": "unit 2 & pump house", "operator": "A. Engineer",
+             "comment": "line 1\nline 2 <script>x</script>"}
+    doc = report_html(d, record=record, work_order=typed)
+    text = "".join(parse(doc).text)
+    for key, head in WORK_ORDER_FIELDS:
+        assert head in text
+    assert "P-101 B <feed> pump" in text and "unit 2 & pump house" in text and "A. Engineer" in text
+    assert "<script>" not in doc and "line 1<br>line 2" in doc  # escaped, its line breaks kept
+    assert text.index("P-101 B") < text.index("What to do")  # at the top, where a work order is read
+    empty = report_html(d, record=record, work_order={"asset": "  ", "comment": ""})
+    assert "Asset / tag" not in empty and "Comment" not in "".join(parse(empty).text)
+
+
+def test_the_report_s_file_name_comes_from_the_record_and_the_date():
+    import datetime as dt
+
+    from lubeviz.diagnose.report import report_file_name
+
+    day = dt.date(2026, 11, 29)
+    assert report_file_name("pump-7 inboard.csv", day) == "lubeviz-pump-7-inboard-2026-11-29.html"
+    assert report_file_name("C:/runs/../x<y>.npz", day) == "lubeviz-x-y-2026-11-29.html"  # no path, no odd character
+    assert report_file_name(None, day) == "lubeviz-record-2026-11-29.html"
+    assert len(report_file_name("r" * 500 + ".csv", day)) < 100
 
 
 def test_report_escapes_text_from_the_record(diagnosed):

@@ -68,4 +68,4 @@ def test_a_toy_effect_shows_up_in_simulate_identify_diagnose_report_and_the_roto
     # the Rotor page's list of effects to switch on
     from lubeviz.app.rotor_page import effect_choices
 
-    assert "toy_plane_gain" in effect_choices()
+    assert effect_choices()["toy plane gain"] == "toy_plane_gain"  # named in words: its name, spaced

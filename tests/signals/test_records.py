@@ -303,7 +303,7 @@ def test_bad_csv_is_refused_with_file_and_field(tmp_path, field, make, phrases):
     ("# speed_hz: 75\n# units: m\n0,1,2,3,4\n", "header", "holds numbers"),
     ("# speed_hz: 75\n# Speed_Hz: 60\n", "Speed_Hz", "given twice"),
     ("# speed_hz: 75\n# units: m\nt,x1,y1,x1,y2\n0,1,2,3,4\n", "'x1'", "appears twice"),
-    ("# speed_hz: 75\n# units: m\nt,x1,y1,x2,y2\n0,1,2,3,4\n0.1,1,2,3,4,5\n", "line 5", "ragged row"),
+    ("# speed_hz: 75\n# units: m\nt,x1,y1,x2,y2\n0,1,2,3,4\n0.1,1,2,3,4,5\n", "line 5", "this row has 6 cells; expected one number per column of the header row (line 3: t, x1, y1, x2, y2)"),
     ("# speed_hz: 75\n# units: m\nt,x1,y1,x2,y2\n0,1,2,3,4\n# units: mm\n", "line 5", "comment after"),
 ])
 def test_malformed_csv_text_is_refused(tmp_path, text, field, phrase):

@@ -142,8 +142,10 @@ def _csv_batch(body: list[str], line_numbers: list[int], where: str, delimiter, 
     bad = np.flatnonzero(widths != len(names))
     if bad.size:
         k = int(bad[0])
-        raise _fail(where, f"line {line_numbers[k]}", f"ragged row: {widths[k]} cells",
-                    f"{len(names)} cells, as in the header (line {header_line})")
+        heads = ", ".join(n or "(unnamed)" for n in names)
+        raise _fail(where, f"line {line_numbers[k]}", f"this row has {widths[k]} cells",
+                    f"one number per column of the header row (line {header_line}: {heads}), "
+                    f"{len(names)} cells on every row")
     if not positions:
         return []
     try:  # fast path: numpy's C parser on the columns we use
