@@ -54,7 +54,10 @@ def plain_bearing(l_over_d: float, n_circ: int = 120, n_axial: int = 40) -> Bear
 # a fresh clone (caches built) with `--durations=0` under the README's command on this 2-core machine; only their
 # order matters. A file renamed or gone from here stops the run (UsageError), so that the list cannot drift.
 LONG_FILES = {  # seconds at 8da80f2 with the seeds (docs/notes/test-suite-time.md)
-    "tests/identify/test_orbit_fit.py": 149,  # three fits on the time integration's record (a seed)
+    # the time integration's record (a seed): the time rounds' loop alone (147 s), the 5- and 16-harmonic fits (108 +
+    # 25 s), each file on its own worker (durations of the brief of session ci-speed, 2 workers, loaded)
+    "tests/identify/test_orbit_fit_time_round.py": 147,
+    "tests/identify/test_orbit_fit.py": 133,
     "tests/app/test_start_and_layout.py": 149,
     "tests/rotor/test_orbit_balance.py": 130,
     "tests/identify/test_orbit_fit_balance.py": 109,

@@ -3,7 +3,7 @@
 The time integration itself is too slow for the suite (4-6 min a round at the paper's point); its figures on the
 bench's 12 time-integration records are in BENCHMARKS "Time rounds". Here: the gap's conventions on a small orbit
 (the time integration at a coarse step). The rounds' loop, with a better orbit model standing in for the time
-integration, is tested in `test_orbit_fit.py` on that module's time-integration record."""
+integration, is tested in `test_orbit_fit_time_round.py` on the time-integration record of `test_orbit_fit.py`."""
 
 import numpy as np
 import pytest
