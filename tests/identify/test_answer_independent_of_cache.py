@@ -9,6 +9,7 @@ cache's logic does not depend on the mesh); the slow one the shipped model, as t
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -68,11 +69,22 @@ def prebuild_oil_range(machine_file: Path, cache_dir: Path) -> None:
         geometry_table(bearing, s0 * np.linspace(*ORACLE_OIL_RANGE, 9), directory=cache_dir)
 
 
-def test_identify_json_is_the_same_on_a_cold_and_on_a_warm_cache(tmp_path):
-    machine = coarse_machine_file(tmp_path)
-    cold, warm = tmp_path / "cold", tmp_path / "warm"
+@pytest.fixture(scope="module")
+def coarse_cold(tmp_path_factory):
+    """The coarse machine's file, `identify --json` of it on an empty cache, and the cache directory that run left
+    (the slices it built, nothing else), made once: each test below starts from a copy of that directory, so that
+    what it adds or breaks there is its own (the same cold run was made three times; ~5 s each)."""
+    root = tmp_path_factory.mktemp("coarse_cold")
+    machine = coarse_machine_file(root)
+    plain_cold, _ = identify(root / "cache", machine=machine)
+    return machine, plain_cold, root / "cache"
 
-    plain_cold, _ = identify(cold, machine=machine)
+
+def test_identify_json_is_the_same_on_a_cold_and_on_a_warm_cache(tmp_path, coarse_cold):
+    machine, plain_cold, cold_cache = coarse_cold
+    cold, warm = tmp_path / "cold", tmp_path / "warm"
+    shutil.copytree(cold_cache, cold)  # what the cold run stored: the slices of the declared oil only
+
     prebuild_oil_range(machine, warm)
     oil_warmup, _ = identify(warm, "--oil-check", machine=machine)
     plain_warm, _ = identify(warm, machine=machine)
@@ -94,9 +106,8 @@ def test_identify_json_is_the_same_on_a_cold_and_on_a_warm_cache(tmp_path):
     assert (oil_cold["q1_mlmin"], oil_cold["q2_mlmin"]) == (plain_cold["q1_mlmin"], plain_cold["q2_mlmin"])
 
 
-def test_identify_answers_with_a_warning_when_the_cache_directory_is_a_file(tmp_path):
-    machine = coarse_machine_file(tmp_path)
-    good, _ = identify(tmp_path / "good", machine=machine)
+def test_identify_answers_with_a_warning_when_the_cache_directory_is_a_file(tmp_path, coarse_cold):
+    machine, good, _ = coarse_cold
     not_a_dir = tmp_path / "cache-is-a-file"
     not_a_dir.write_text("a file where the cache directory should be")
     for _ in range(2):  # and again: nothing stored, nothing broken, the same answer
@@ -106,10 +117,10 @@ def test_identify_answers_with_a_warning_when_the_cache_directory_is_a_file(tmp_
     assert not_a_dir.read_text() == "a file where the cache directory should be"
 
 
-def test_identify_answers_without_hanging_when_fifos_stand_in_for_the_slices(tmp_path):
-    machine = coarse_machine_file(tmp_path)
+def test_identify_answers_without_hanging_when_fifos_stand_in_for_the_slices(tmp_path, coarse_cold):
+    machine, good, cold_cache = coarse_cold
     cache_dir = tmp_path / "cache"
-    good, _ = identify(cache_dir, machine=machine)
+    shutil.copytree(cold_cache, cache_dir)  # the slices the cold run stored
     slices = sorted((cache_dir / "slices").glob("*.npz"))
     assert slices
     for path in slices:
