@@ -35,12 +35,15 @@ def test_a_time_round_with_a_better_orbit_model_standing_in_brings_the_five_harm
 
     def better(chain, ob, scale, revolutions=4, steps=512, progress=silent):
         calls.append((np.asarray(ob.bearings.flows, dtype=float).copy(), scale))
-        # the 16-harmonic balance on the model's films, its Newton started from the same balance on the slopes'
-        # coarser films: the same orbit (the gap agrees to 5e-8 of itself) in 4 steps after 15 there, 47 s, against
-        # 21 shortened steps and 174 s from the 5-harmonic orbit (measured, one other process on the 2 cores)
-        coarse = _balance(chain, ob.bearings.flows, ob, 16, 64, 1e-5, silent, scale=scale,
+        # the 16-harmonic balance on the model's films, its Newton started from the same balance on coarser films,
+        # 30 x 30 then the slopes' 50 x 50: the same orbit as from the 50 x 50 balance alone (the gap agrees to
+        # 1.5e-11 of itself), 17 s (6 + 3 + 9) against 40 s (32 + 8) on a quiet machine; that one against 21
+        # shortened steps and 174 s from the 5-harmonic orbit directly (measured, one other process on the 2 cores)
+        flows = ob.bearings.flows
+        rough = _balance(chain, flows, ob, 16, 64, 1e-4, silent, scale=scale, machine=_with_mesh(chain.machine, 30))
+        coarse = _balance(chain, flows, rough, 16, 64, 1e-5, silent, scale=scale,
                           machine=_with_mesh(chain.machine, SLOPE_MESH))
-        b = _balance(chain, ob.bearings.flows, coarse, 16, 64, 1e-8, silent, scale=scale)
+        b = _balance(chain, flows, coarse, 16, 64, 1e-8, silent, scale=scale)
         gs = np.zeros((2, 2))
         for k in chain.static_planes:
             gs[k] = b.x[0, k].real - ob.x[0, k].real, b.y[0, k].real - ob.y[0, k].real
