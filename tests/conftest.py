@@ -54,14 +54,13 @@ def plain_bearing(l_over_d: float, n_circ: int = 120, n_axial: int = 40) -> Bear
 # a fresh clone (caches built) with `--durations=0` under the README's command on this 2-core machine; only their
 # order matters. A file renamed or gone from here stops the run (UsageError), so that the list cannot drift.
 LONG_FILES = {  # seconds at 8da80f2 with the seeds (docs/notes/test-suite-time.md)
-    # the time integration's record (a seed): the time rounds' loop alone (147 s), the 5- and 16-harmonic fits (108 +
-    # 25 s), each file on its own worker (durations of the brief of session ci-speed, 2 workers, loaded)
-    "tests/identify/test_orbit_fit_time_round.py": 147,
-    "tests/identify/test_orbit_fit.py": 133,
     "tests/app/test_start_and_layout.py": 149,
     "tests/rotor/test_orbit_balance.py": 130,
     "tests/identify/test_orbit_fit_balance.py": 109,
     "tests/diagnose/test_loop.py": 108,
+    # the time integration's record (a seed): the 5- and 16-harmonic fits (22 + 85 s), the time rounds' loop in a
+    # file of its own (42 s), each file alone on a quiet machine (2026-11-29)
+    "tests/identify/test_orbit_fit.py": 107,
     "tests/identify/test_answer_independent_of_cache.py": 107,  # cold caches, by design
     "tests/app/test_consistency.py": 100,
     "tests/rotor/test_whirl.py": 98,
@@ -71,6 +70,7 @@ LONG_FILES = {  # seconds at 8da80f2 with the seeds (docs/notes/test-suite-time.
     "tests/app/test_uploads.py": 53,
     "tests/app/test_hostile_browser.py": 45,
     "tests/identify/test_cache.py": 44,
+    "tests/identify/test_orbit_fit_time_round.py": 42,
     "tests/bench/test_loop_bench.py": 38,
 }
 
