@@ -241,6 +241,35 @@ def _offline() -> None:
 
     if "font" in Fast._resources:
         Fast._resources = {k: v for k, v in Fast._resources.items() if k != "font"}
+    _stylesheets_from_this_server()
+
+
+def _stylesheets_from_this_server() -> None:
+    """Panel's own style sheets (loading.css, markdown.css, the design's theme) from this server, never its CDN.
+
+    Panel rewrites a component's style sheet to the document's `dist_url` (this server's static files), but falls
+    back to cdn.holoviz.org where the model has no document yet: a design applied to a pane built during an
+    update (the Rotor page's first draw). The style sheet objects are shared by every component of a document, so
+    that one rewrite sent the whole page's loading.css to the CDN: offline, each failed to load (issue 38, found in
+    session 53: no DOM link named the CDN before the Rotor page, 16 after it). Served by `panel serve`, this app never
+    wants the CDN: a rewrite to it goes to this server's copy instead."""
+    import panel.io.resources as resources
+    import panel.reactive as reactive
+
+    if getattr(resources.patch_stylesheet, "lubeviz_local", False):
+        return
+    original = resources.patch_stylesheet
+
+    def local(stylesheet, dist_url):
+        if dist_url == resources.CDN_DIST and not resources.use_cdn():
+            doc = pn.state.curdoc
+            dist_url = (doc._template_variables.get("dist_url") if doc is not None else None) or \
+                resources.get_dist_path()
+        return original(stylesheet, dist_url)
+
+    local.lubeviz_local = True
+    resources.patch_stylesheet = local
+    reactive.patch_stylesheet = local
 
 
 def build() -> pn.template.FastListTemplate:

@@ -102,12 +102,20 @@ def test_no_page_asks_an_outside_host_for_a_font_or_a_script(tour):
     assert asked == []
 
 
-@pytest.mark.xfail(strict=True, reason="not yet (session 52): Panel's markdown.css and loading.css from cdn.holoviz.org "
-                   "on the Rotor and Maps pages, and ~70 console errors a tour, most 'cannot find a view for Legend' "
-                   "with the Rotor page's updates (docs/notes/any-machine.md, 'The dashboard offline')")
-def test_no_page_asks_an_outside_host_for_anything_or_logs_a_console_error(tour):
-    outside, errors, *_ = tour
+def test_no_page_asks_an_outside_host_for_anything(tour):
+    # Panel's loading.css and markdown.css went to cdn.holoviz.org once the Rotor page was drawn: a design applied to a
+    # pane without a document yet fell back to the CDN, and the style sheet objects are shared by the whole page
+    # (`shell._stylesheets_from_this_server`)
+    outside, *_ = tour
     assert sorted({url for url, _ in outside}) == []
+
+
+@pytest.mark.xfail(strict=True, reason="not yet (session 53): BokehJS 'cannot find a view for Legend' (PlotView."
+                   "_update_layout) for the Rotor page's legends whenever it is not the first page opened, about 70 a "
+                   "tour; not the outside-legend hook, the document freeze or the Bearing page's sweep "
+                   "(docs/notes/dashboard.md, 'The Rotor page's legend errors')")
+def test_no_page_logs_a_console_error(tour):
+    _, errors, *_ = tour
     assert errors == []
 
 
