@@ -96,6 +96,12 @@ def _flows(flows) -> str:
     return ", ".join(f"Q{k + 1} = {q / M3S_PER_MLMIN:.0f}" for k, q in enumerate(flows)) + " ml/min"
 
 
+def _mostly(whirls) -> str:
+    """The whirl direction a mode has at most of the speeds ('' when it has none)."""
+    named = [w for w in whirls if w]
+    return max(sorted(set(named)), key=named.count) if named else ""
+
+
 def effect_choices() -> dict[str, str]:
     """{words: name}: no effect, and every registered effect the linear response carries, named in words (large_orbit
     has its own section)."""
@@ -182,9 +188,10 @@ class RotorPage(pn.viewable.Viewer):
         centreline = [pn.pane.HoloViews(hv.DynamicMap(lambda data, k=k: self._centreline(data, k), streams=[self._pipe]),
                                         linked_axes=False, css_classes=[f"lubeviz-centreline{k + 1}"])
                       for k in range(len(self.machine.bearings))]
-        # Replaced whole when computed (the number of tracked modes varies): no DynamicMap here.
+        # Replaced whole when computed (the number of tracked modes varies): no DynamicMap here. Hidden until then:
+        # no empty axes under the button (issue 38).
         self._campbell_pane = campbell = pn.pane.HoloViews(self._campbell(None), css_classes=["lubeviz-campbell-plot"],
-                                                           **pane)
+                                                           visible=False, **pane)
         # Wrapping rows, so that a narrow window (800 px) stacks what a wide one sets side by side: the controls
         # above the plots, the orbit above the signals, one plot per row below.
         plots = pn.Column(drawing, pn.FlexBox(orbit, signals, flex_wrap="wrap"), **WRAPPING)
@@ -328,6 +335,7 @@ class RotorPage(pn.viewable.Viewer):
         drawn = (d, bool(changes))
         if self._campbell_drawn is None or self._campbell_drawn[0] is not d or self._campbell_drawn[1] != drawn[1]:
             self._campbell_pane.object = self._campbell(d, stale=drawn[1])  # redrawn only when its title changes
+            self._campbell_pane.visible = True
             self._campbell_drawn = drawn
 
     # --- large orbits (nonlinear film) -------------------------------------------------------------------
@@ -350,11 +358,11 @@ class RotorPage(pn.viewable.Viewer):
                                                 css_classes=["lubeviz-large-orbit-whirl"], **alert)
         self._large_orbit_summary = pn.pane.Markdown("", min_width=300, styles={"flex": "1 1 300px"},
                                                      css_classes=["lubeviz-large-orbit-summary"])
-        # Replaced whole when computed, as the Campbell diagram.
-        self._large_orbit_pane = pn.pane.HoloViews(self._large_orbit_plot(None), linked_axes=False,
+        # Replaced whole when computed, as the Campbell diagram, and hidden until then as it is.
+        self._large_orbit_pane = pn.pane.HoloViews(self._large_orbit_plot(None), linked_axes=False, visible=False,
                                                    css_classes=["lubeviz-large-orbit-plot"])
         self._large_orbit_lines = pn.pane.HoloViews(self._large_orbit_spectrum(None), linked_axes=False,
-                                                    css_classes=["lubeviz-large-orbit-spectrum"], **HALF)
+                                                    visible=False, css_classes=["lubeviz-large-orbit-spectrum"], **HALF)
 
     def _large_orbit_section(self):
         scale = pn.Param(self.param, parameters=["unbalance_scale"], show_name=False,
@@ -438,6 +446,7 @@ class RotorPage(pn.viewable.Viewer):
             self._large_orbit_pane.object = self._large_orbit_plot(d, stale=drawn[1])
             self._large_orbit_lines.object = self._large_orbit_spectrum(d, stale=drawn[1])
             self._large_orbit_summary.object = self._large_orbit_text(d)
+            self._large_orbit_pane.visible = self._large_orbit_lines.visible = True
             self._large_orbit_drawn = drawn
 
     def _fail(self, exc: Exception):
@@ -569,7 +578,11 @@ class RotorPage(pn.viewable.Viewer):
         res = data["result"].modes
         speeds = res.speeds / (2 * math.pi)
         fr = res.damped_frequencies_hz
-        tracks = [hv.Curve((speeds, fr[:, j]), kd, vd, label=f"mode {j + 1}") for j in range(min(8, fr.shape[1]))]
+        # each mode marked by the way it mostly whirls over the speeds: forward solid, backward dashed (issue 38)
+        whirl = [_mostly([row[j] for row in res.whirl]) for j in range(fr.shape[1])]
+        tracks = [hv.Curve((speeds, fr[:, j]), kd, vd, label=f"mode {j + 1}" + (f", {whirl[j]}" if whirl[j] else "")).opts(
+                      line_dash="dashed" if whirl[j] == "backward" else "solid")
+                  for j in range(min(8, fr.shape[1]))]
         one_x = hv.Curve((speeds, speeds), kd, vd, label="1X").opts(color=plotting.NEUTRAL, line_dash="dashed")
         marks = []
         crit = res.first_critical_speed
@@ -580,10 +593,10 @@ class RotorPage(pn.viewable.Viewer):
             marks.append((u.speed_hz, u.frequency_hz, "instability threshold"))
         pts = hv.Points([(a, b) for a, b, _ in marks], [kd, vd]).opts(color="red", size=10, marker="x")
         text = "; ".join(f"{name} {a:.1f} Hz" for a, _, name in marks) or "no crossing in range"
-        r = "/".join(f"{x:.2f}" for x in data["ratios"])
         q = "/".join(f"{f / M3S_PER_MLMIN:.0f}" for f in data["flows"])
         names = "/".join(f"Q{k + 1}" for k in range(len(data["flows"])))
-        title = f"Campbell diagram at Q/Q_T = {r} ({names} = {q} ml/min): {text}{' (stale)' if stale else ''}"
+        # short enough to be read whole above the plot (the fractions of Q_T are in the job's status and the sliders)
+        title = f"Campbell diagram at {names} = {q} ml/min: {text}{' (stale)' if stale else ''}"
         return (hv.Overlay(tracks) * one_x * pts * hv.VLine(data["speed"], label="operating speed").opts(
             color="green")).opts(**dict(opts, title=title, ylim=(0.0, 1.5 * speeds[-1])))
 
