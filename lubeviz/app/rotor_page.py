@@ -96,6 +96,22 @@ def _flows(flows) -> str:
     return ", ".join(f"Q{k + 1} = {q / M3S_PER_MLMIN:.0f}" for k, q in enumerate(flows)) + " ml/min"
 
 
+NODE_LABEL_GAP = 0.035  # node numbers on the drawing at least this fraction of the shaft's length apart (~21 px of 600)
+
+
+def node_labels(xs, first, gap_mm: float) -> list[int]:
+    """The nodes whose numbers the drawing shows, none closer than `gap_mm` to another: the nodes of `first`
+    (bearings, supports, planes, unbalance) before the others, then from the shaft's ends inwards, in order
+    (issue 38: with every node numbered, those of a finely meshed shaft ran into one another)."""
+    n = len(xs)
+    order = list(dict.fromkeys([k for k in first if 1 <= k <= n] + [1, n] + list(range(2, n))))
+    kept: list[int] = []
+    for k in order:
+        if all(abs(xs[k - 1] - xs[j - 1]) >= gap_mm for j in kept):
+            kept.append(k)
+    return sorted(kept)
+
+
 def _mostly(whirls) -> str:
     """The whirl direction a mode has at most of the speeds ('' when it has none)."""
     named = [w for w in whirls if w]
@@ -475,7 +491,9 @@ class RotorPage(pn.viewable.Viewer):
               * hv.Rectangles(bearings).opts(color="#e8a33d", line_color="black")
               * hv.Rectangles(supports).opts(color="#5a9e5a", line_color="black"))
         meas = list(m.center_nodes) + list(m.outside_nodes)
-        labels = hv.Labels([(xs[n - 1], -top - 40, str(n)) for n in range(1, m.n_nodes + 1)],
+        shown = node_labels(xs, [b.node for b in m.bearings] + [sp.node for sp in m.supports] + meas
+                            + [m.unbalance_node], gap_mm=NODE_LABEL_GAP * (xs[-1] - xs[0]))
+        labels = hv.Labels([(xs[n - 1], -top - 40, str(n)) for n in shown],
                            ["x (mm)", "radius (mm)"], "node").opts(text_font_size="8pt", text_color="gray")
         probes = hv.Points([(xs[n - 1], top + 30) for n in meas], ["x (mm)", "radius (mm)"],
                            label="measurement planes").opts(marker="inverted_triangle", size=10, color="#2c5f8a")
@@ -493,7 +511,8 @@ class RotorPage(pn.viewable.Viewer):
             show_legend=False, xlabel="axial position x (mm)", ylabel="radius (mm)", framewise=True)
 
     def _orbit(self, data):
-        opts = dict(frame_width=300, frame_height=300, legend_position="bottom_right", framewise=True)
+        # the legend under the frame, never over the orbit (issue 38)
+        opts = dict(frame_width=300, frame_height=300, framewise=True, **plotting.outside_legend("below", cols=2))
         kd = ["x (µm)", "y (µm)"]
         if not data:
             return (hv.Curve([], *kd) * hv.Scatter([], *kd) * hv.Points([], kd)).opts(title="Orbit", **opts)
