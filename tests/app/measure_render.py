@@ -1,6 +1,7 @@
 """Time to first render of the dashboard's start page in a real browser; prints one JSON object.
 
-    .venv/bin/python tests/app/measure_render.py [--loads 5] [--plots 0] [--bearing] [--slider 0] [--script app.py]
+    .venv/bin/python tests/app/measure_render.py [--loads 5] [--plots 0] [--rotor] [--bearing] [--slider 0]
+        [--script app.py]
 
 Starts `panel serve app.py` (timed from launch to /liveness: `server_start_s`), launches the system Chromium,
 then loads the start page `--loads` times, each in a new browser context (a new Panel session, no cache).
@@ -12,6 +13,9 @@ With `--bearing`, each load then clicks the Bearing tab and times from the click
 (the pressure field titled with its flow: `bearing_fields_s`), to the mid-plane profiles (drawn last of the
 film plots: `bearing_films_s`) and to the sweep over Q done ("flows ready": `bearing_sweep_s`). The first
 visit after server start computes Q_T, the films and the sweep; later visits find them in the server's cache.
+
+With `--rotor`, each load first clicks the Rotor tab and times from the click to its full spectrum drawn
+(`rotor_spectrum_s`: the response's plots, the flows known) and to four plots drawn (`rotor_plots_s`).
 """
 
 from __future__ import annotations
@@ -74,14 +78,25 @@ def bearing_tab(page) -> tuple[float, float, float]:
     return t1 - t0, t2 - t0, time.perf_counter() - t0
 
 
+def rotor_tab(page) -> tuple[float, float]:
+    """Seconds from the click on the Rotor tab until its full spectrum is drawn with the flows (the response's
+    plots: orbit, signals, spectrum, modes, centrelines) and until its first four plots are drawn."""
+    t0 = time.perf_counter()
+    page.locator(".bk-tab", has_text="Rotor").first.click()
+    wait_for_plot_title(page, "Full spectrum at node", timeout_ms=600_000)
+    t1 = time.perf_counter()
+    wait_for_plots(page, count=4, timeout_ms=600_000)
+    return t1 - t0, time.perf_counter() - t0
+
+
 def measure(script: Path = APP_SCRIPT, loads: int = 5, plots: int = 0, moves: int = 0,
-            bearing: bool = False) -> dict:
+            bearing: bool = False, rotor: bool = False) -> dict:
     """Server start and first-render times (seconds) of `script`'s page over `loads` fresh page loads."""
     started = time.perf_counter()
     with serve_app(script) as base_url:
         server_start_s = time.perf_counter() - started
         url = f"{base_url}/{Path(script).stem}"
-        render_s, plots_s, redraw_s, bearing_s = [], [], [], []
+        render_s, plots_s, redraw_s, bearing_s, rotor_s = [], [], [], [], []
         with sync_playwright() as pw:
             browser = pw.chromium.launch(**chromium_launch_args())
             try:
@@ -92,6 +107,8 @@ def measure(script: Path = APP_SCRIPT, loads: int = 5, plots: int = 0, moves: in
                     page.goto(url)
                     wait_for_panel(page)
                     render_s.append(time.perf_counter() - t0)
+                    if rotor:
+                        rotor_s.append(rotor_tab(page))
                     if bearing:
                         bearing_s.append(bearing_tab(page))
                     elif plots:  # the plots of the Bearing page, opened from the start page
@@ -122,6 +139,10 @@ def measure(script: Path = APP_SCRIPT, loads: int = 5, plots: int = 0, moves: in
     if bearing_s:
         fields, films, sweep = ([round(t, 3) for t in col] for col in zip(*bearing_s))
         result.update({"bearing_fields_s": fields, "bearing_films_s": films, "bearing_sweep_s": sweep})
+    if rotor_s:
+        spectrum, four = ([round(t, 3) for t in col] for col in zip(*rotor_s))
+        result.update({"rotor_spectrum_s": spectrum, "rotor_spectrum_median_s": round(statistics.median(spectrum), 3),
+                       "rotor_plots_s": four})
     if plots:
         result.update({"plots": plots, "plots_drawn_median_s": round(statistics.median(plots_s), 3),
                        "plots_drawn_s": [round(t, 3) for t in plots_s]})
@@ -137,11 +158,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--slider", type=int, default=0,
                         help="then step the Bearing page's supply slider this many times (cached flows) and time "
                              "each redraw")
+    parser.add_argument("--rotor", action="store_true",
+                        help="after each load, time the Rotor tab: click -> its full spectrum drawn (before --bearing)")
     parser.add_argument("--script", type=Path, default=APP_SCRIPT, help="the Panel script to serve")
     args = parser.parse_args(argv)
     if args.loads < 1:
         parser.error(f"--loads must be at least 1, got {args.loads}")
-    print(json.dumps(measure(args.script, args.loads, args.plots, args.slider, args.bearing)))
+    print(json.dumps(measure(args.script, args.loads, args.plots, args.slider, args.bearing, args.rotor)))
     return 0
 
 

@@ -126,3 +126,27 @@ def test_the_maps_page_opens_on_the_session_s_record_and_names_it(record_csv):
     line = shown(pn.pane.Markdown(maps._record_line({"source": "uploaded", "record_name": state.record_name})))
     assert "pump-7 inboard.csv" in line and "Identify" in line, line
     assert {v: k for k, v in SOURCES.items()}["uploaded"].startswith("the session's record")
+
+
+def test_a_map_that_cannot_be_computed_leaves_no_plot_of_the_last_under_its_message():
+    import holoviews as hv
+
+    from lubeviz.app.maps_page import NO_RECORD, MapsPage
+    from lubeviz.model.operating import operating_point
+
+    machine = resources.machine()
+    maps = MapsPage(machine, operating_point(machine), SessionState(name="test"))
+    stale = hv.Curve([(0, 0), (1, 1)])
+    maps._errors.object = stale  # what an earlier record's search left
+    for pane in maps._feature_panes:
+        pane.object = stale
+    maps._summary.object = "#### Identified (paper mode): Q1 = 1.0, Q2 = 2.0 ml/min"
+    maps._ready = True
+    import param
+
+    with param.parameterized.discard_events(maps):
+        maps.source = "uploaded"  # the session's record, which it has not
+    run_coro(maps._recompute())
+    assert maps._error.visible and NO_RECORD.split(":")[0] in maps._error.object
+    assert maps._errors.object is None and all(p.object is None for p in maps._feature_panes)
+    assert maps._summary.object == "" and maps._result is None
