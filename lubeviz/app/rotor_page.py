@@ -515,7 +515,11 @@ class RotorPage(pn.viewable.Viewer):
         opts = dict(frame_width=300, frame_height=300, framewise=True, **plotting.outside_legend("below", cols=2))
         kd = ["x (µm)", "y (µm)"]
         if not data:
-            return (hv.Curve([], *kd) * hv.Scatter([], *kd) * hv.Points([], kd)).opts(title="Orbit", **opts)
+            # labelled as the response's layers will be: the legend is in the first drawing, not added to a figure
+            # the browser has drawn (BokehJS then relaid the figure out before the legend had a view: "cannot find
+            # a view for Legend", at every update after)
+            return (hv.Curve([], *kd, label="steady orbit") * hv.Scatter([], *kd, label="probes (noisy)")
+                    * hv.Points([], kd, label="t = 0 (keyphasor)")).opts(title="Orbit", **opts)
         th = np.linspace(0, 2 * math.pi, 181)
         x = (data["x"] * np.exp(1j * th)).real * 1e6
         y = (data["y"] * np.exp(1j * th)).real * 1e6
@@ -539,7 +543,8 @@ class RotorPage(pn.viewable.Viewer):
         opts = dict(responsive=True, min_height=340, legend_position="top_right", framewise=True,
                     title="Probe signals")
         if not data:
-            return (hv.Curve([], "t (ms)", "displacement (µm)") * hv.Curve([], "t (ms)", "displacement (µm)")).opts(**opts)
+            return (hv.Curve([], "t (ms)", "displacement (µm)", label="x (horizontal)")
+                    * hv.Curve([], "t (ms)", "displacement (µm)", label="y (vertical)")).opts(**opts)  # as the orbit
         n_show = min(data["noisy"].shape[1], 64 * self.revolutions)
         t = data["t"][:n_show] * 1e3
         nz = data["noisy"][:, :n_show] * 1e6
@@ -569,7 +574,7 @@ class RotorPage(pn.viewable.Viewer):
         opts = dict(responsive=True, min_height=320, **plotting.outside_legend("right"), framewise=True,
                     title="Damped mode shapes at the operating speed (horizontal component)")
         if not data:
-            return hv.Overlay([hv.Curve([], kd, vd) for _ in range(4)]).opts(**opts)
+            return hv.Overlay([hv.Curve([], kd, vd, label=f"mode {j + 1}") for j in range(4)]).opts(**opts)  # as the orbit
         m = self.machine
         xs = np.concatenate([[0.0], np.cumsum([e.length for e in m.elements])]) * 1e3
         modal = data["modal"]
@@ -708,7 +713,7 @@ class RotorPage(pn.viewable.Viewer):
         opts = dict(frame_width=250, frame_height=250, framewise=True, **plotting.outside_legend("right"),
                     title=f"Shaft centreline, bearing {k + 1}")
         if not data:
-            return (hv.Curve([], *kd) * hv.Points([], kd)).opts(**opts)
+            return (hv.Curve([], *kd, label="clearance circle") * hv.Points([], kd, label="journal")).opts(**opts)
         th = np.linspace(0, 2 * math.pi, 181)
         c0, c = data["clearance"][k] * 1e6, data["clearance_eff"][k] * 1e6
         p0, p = data["static0"][k] * 1e6, data["static"][k] * 1e6
