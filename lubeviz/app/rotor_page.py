@@ -503,8 +503,8 @@ class RotorPage(pn.viewable.Viewer):
         unb = hv.Points([(xs[m.unbalance_node - 1], 0.0)], ["x (mm)", "radius (mm)"], label="unbalance").opts(
             marker="star", size=14, color="#d62728")
         return (el * labels * probes * sel * unb).opts(
-            title="The machine to scale: shaft, discs, oil-film bearings (orange), other supports (green), "
-                  "measurement planes (▼)",
+            # read whole above a 600 px frame (the longer one was cut): what the colours mean, briefly
+            title="The machine to scale: oil-film bearings orange, other supports green, ▼ probe planes",
             # 600 px: about 705 with its axes, within the plots' column of an 800 px window (a responsive
             # width would lose the 1:1 scale, data_aspect fixes the height)
             frame_width=600, data_aspect=1, xlim=(-50.0, xs[-1] + 50.0), ylim=(-top - 70, top + 60),

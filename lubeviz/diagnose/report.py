@@ -337,9 +337,28 @@ def _mlmin_to_ratio(q_mlmin: float, q_threshold: float) -> float:
     return float(q_mlmin) * M3S_PER_MLMIN / q_threshold
 
 
+# Viridis (matplotlib's, 10 stops), reversed as the Diagnose page draws its chi^2 maps: the best fit yellow, the worst
+# dark violet (issue 38: the report's grey ramp was faint and unlike the app's).
+_VIRIDIS = ("#440154", "#482878", "#3e4989", "#31688e", "#26828e", "#1f9e89", "#35b779", "#6ece58", "#b5de2b",
+            "#fde725")
+
+
+def _viridis_r(v: float) -> str:
+    """The reversed viridis colour of `v` in [0, 1] (0: yellow, 1: dark violet), interpolated between its stops."""
+    if not np.isfinite(v):
+        return "#ffffff"
+    x = (1.0 - min(max(float(v), 0.0), 1.0)) * (len(_VIRIDIS) - 1)
+    k = min(int(x), len(_VIRIDIS) - 2)
+    f = x - k
+    a, b = (np.array([int(h[i:i + 2], 16) for i in (1, 3, 5)]) for h in _VIRIDIS[k:k + 2])
+    r, g, bl = np.rint((1 - f) * a + f * b).astype(int)
+    return f"#{r:02x}{g:02x}{bl:02x}"
+
+
 def map_svg(q1, q2, chi2, *, paths=(), truth_mlmin=None, title: str = "", width: int = 380,
             pair: tuple[int, int] = (0, 1)) -> str:
-    """chi^2 over the flows of bearings `pair` (0-based; ml/min; the darker the better fit) with search paths
+    """chi^2 over the flows of bearings `pair` (0-based; ml/min; yellow the best fit, dark violet the worst, as on the
+    Diagnose page) with search paths
     [(label, (n, >= 2) m^3/s, colour): their columns `pair`]; `truth_mlmin`: every bearing's true flow."""
     q1, q2 = np.asarray(q1) / M3S_PER_MLMIN, np.asarray(q2) / M3S_PER_MLMIN
     qa, qb = pair
@@ -358,11 +377,12 @@ def map_svg(q1, q2, chi2, *, paths=(), truth_mlmin=None, title: str = "", width:
     body = [_text(left + size / 2, 15, title)] if title else []
     for i in range(len(q1)):
         for j in range(len(q2)):
-            g = int(40 + 215 * c[i, j])
             body.append(f'<rect x="{px(e1[i]):.1f}" y="{py(e2[j + 1]):.1f}" width="{px(e1[i + 1]) - px(e1[i]) + 0.3:.1f}" '
-                        f'height="{py(e2[j]) - py(e2[j + 1]) + 0.3:.1f}" fill="rgb({g},{g},{min(255, g + 25)})"/>')
+                        f'height="{py(e2[j]) - py(e2[j + 1]) + 0.3:.1f}" fill="{_viridis_r(c[i, j])}"/>')
     for label, path, colour in paths:
         p = np.asarray(path)[:, [qa, qb]] / M3S_PER_MLMIN  # the pair's (the search's other parameters are not drawn)
+        body.append(f'<polyline points="{" ".join(f"{px(a):.1f},{py(b):.1f}" for a, b in p)}" fill="none" '
+                    'stroke="#ffffff" stroke-width="4"/>')  # a white edge: the path reads on any colour
         pts = " ".join(f"{px(a):.1f},{py(b):.1f}" for a, b in p)
         body.append(f'<polyline points="{pts}" fill="none" stroke="{colour}" stroke-width="2"/>')
         body.append(f'<circle cx="{px(p[-1, 0]):.1f}" cy="{py(p[-1, 1]):.1f}" r="4" fill="{colour}">'
@@ -559,7 +579,7 @@ def report_html(diagnosis, *, record=None, title: str = "Lubrication diagnosis",
         parts.append(f"<h2>The search over Q{i + 1} × Q{j + 1}</h2><div style='display:flex;flex-wrap:wrap;gap:12px'>"
                      + "".join(map_svg(*m[1], paths=m[2] if len(m) > 2 else (), truth_mlmin=truth, title=m[0],
                                        pair=m[3] if len(m) > 3 else (0, 1)) for m in maps) + "</div>"
-                     "<p class='small'>χ² over the flows (darker: better fit); lines: the fits' search paths, "
+                     "<p class='small'>χ² over the flows (yellow: the best fit, dark violet: the worst, as on the Diagnose page); lines: the fits' search paths, "
                      "ending at the answer; ✕: the true flows when known.</p>")
     parts += ["<h2>Candidate effects</h2>", _candidates_table(d)]
     if d.scans:

@@ -132,8 +132,11 @@ def test_report_draws_the_maps_when_given(diagnosed, tmp_path):
     grid = cost_map(chain, measured, n=12)
     path = write_report(d, tmp_path / "report.html", record=record,
                         maps=[("plain model", grid, [("plain fit", d.before.paths[-1], "#999")])])
-    tags = parse(path.read_text(encoding="utf-8"))
+    html = path.read_text(encoding="utf-8")
+    tags = parse(html)
     assert tags.starts["svg"] >= 3 and tags.starts["polyline"] >= 1
+    # the Diagnose page's colours (viridis reversed): its best cell yellow, its worst dark violet
+    assert 'fill="#fde725"' in html and 'fill="#440154"' in html
 
 
 def test_residual_bars_mark_the_two_sigma_band():
