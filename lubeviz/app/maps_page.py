@@ -73,7 +73,20 @@ NO_RECORD = ("no record in this session yet: load one on the Identify or the Dia
 
 class RecordSourceWatch:
     """What both Maps pages do when their record changes: recompute when it is the source shown; a new record
-    of the session becomes the source."""
+    of the session becomes the source. While the page is not on screen (`on_screen`, set by the dashboard's shell)
+    a change of the session's record or identification only marks the maps stale: they are recomputed when the page
+    is shown again (`_catch_up`, from `start`), not beside the Identify page's identification."""
+
+    on_screen = True  # the shell sets it on every tab change; a page built outside a dashboard is always shown
+    _stale = False
+
+    async def _catch_up(self) -> bool:
+        """Recompute maps left stale while the page was hidden; whether it did."""
+        if not (self._ready and self._stale):
+            return False
+        self._stale = False
+        await self._recompute()
+        return True
 
     def _watch_record(self):
         """Call in `__init__` once `state` is set, before the page's controls are built."""
@@ -82,8 +95,14 @@ class RecordSourceWatch:
         self.state.param.watch(self._on_new_record, "record")
 
     def _on_new_record(self, event):
-        if event.new is not None and self.source != "uploaded":
+        if event.new is None or self.source == "uploaded":
+            return
+        if self.on_screen:
             self.source = "uploaded"  # the page's own watcher on `source` recomputes
+            return
+        with param.parameterized.discard_events(self):
+            self.source = "uploaded"
+        self._stale = True
 
     def _record_line(self, r) -> str:
         """The summary's first line: which record the maps are of."""
@@ -100,6 +119,9 @@ class RecordSourceWatch:
 
     async def _on_upload(self, event):
         if self._ready and self.source == "uploaded":
+            if not self.on_screen:
+                self._stale = True
+                return
             await self._recompute()
 
 
@@ -179,6 +201,7 @@ class MapsPage(RecordSourceWatch, pn.viewable.Viewer):
 
     async def start(self):
         if self._starting:
+            await self._catch_up()
             return
         self._starting = True
         try:
@@ -249,6 +272,7 @@ class MapsPage(RecordSourceWatch, pn.viewable.Viewer):
     async def _recompute(self, *events):
         if not self._ready:
             return
+        self._stale = False  # computed now, with the record and settings of now
         try:
             self._result = await self.jobs.run(
                 self._compute, self._nodes(), self.source, self.grid_points, self.snr_db, self.record_point.speed,

@@ -120,6 +120,7 @@ class PairMapsPage(RecordSourceWatch, pn.viewable.Viewer):
 
     async def start(self):
         if self._starting:
+            await self._catch_up()
             return
         self._starting = True
         try:
@@ -193,6 +194,7 @@ class PairMapsPage(RecordSourceWatch, pn.viewable.Viewer):
     async def _recompute(self, *events):
         if not self._ready:
             return
+        self._stale = False  # computed now, with the record and settings of now
         if self.x_flow == self.y_flow:
             self._failed("choose two different flows for the two axes")
             return

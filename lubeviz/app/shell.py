@@ -327,6 +327,11 @@ def build() -> pn.template.FastListTemplate:
                                                sizing_mode="stretch_width"))
 
     def show(index: int):
+        # each built page is told whether it is the one on screen: a hidden page defers its work (the Maps page does
+        # not recompute for a record loaded elsewhere until it is shown)
+        for built, page in pages.items():
+            if hasattr(page, "on_screen"):
+                page.on_screen = 1 <= index <= len(names) and built == names[index - 1]
         if not 1 <= index <= len(names):
             return  # the start page is static
         name = names[index - 1]

@@ -150,3 +150,30 @@ def test_a_map_that_cannot_be_computed_leaves_no_plot_of_the_last_under_its_mess
     assert maps._error.visible and NO_RECORD.split(":")[0] in maps._error.object
     assert maps._errors.object is None and all(p.object is None for p in maps._feature_panes)
     assert maps._summary.object == "" and maps._result is None
+
+
+def test_a_hidden_maps_page_waits_to_be_shown_before_it_maps_a_new_record(record_csv):
+    """A record loaded on Identify while the Maps page is hidden only marks its maps stale (no computing beside the
+    identification); shown again, it maps the session's record."""
+    from lubeviz.app.maps_page import MapsPage
+    from lubeviz.model.operating import operating_point
+
+    state = SessionState(name="test")
+    identify, _ = pages(state)
+    machine = resources.machine()
+    maps = MapsPage(machine, operating_point(machine), state)
+    maps._ready = maps._starting = True  # started earlier, on a simulated record
+    computed = []
+
+    async def recompute(*events):
+        computed.append(maps.source)
+
+    maps._recompute = recompute
+    maps.on_screen = False  # the shell: another tab is shown
+    run_coro(identify._on_upload(SimpleNamespace(new=("pump-7 inboard.csv", record_csv))))
+    assert computed == [] and maps.source == "uploaded" and maps._stale
+    run_coro(identify._on_run(None))  # the identification changes nothing on a hidden page either
+    assert computed == []
+    maps.on_screen = True
+    run_coro(maps.start())  # the tab shown again
+    assert computed == ["uploaded"] and not maps._stale
