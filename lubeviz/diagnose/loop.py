@@ -240,7 +240,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         def fit_one(effect, start=None, screening=True):
             nonlocal done
             done += 1
-            progress(min(done, total), total, effect.label())
+            progress(min(done, total), total, effect.title())
             return _fit_candidate(chains, meas, effect, names, budget, level, phase_starts, start, screening)
 
         if isinstance(e, list):  # where along the shaft: every 2nd node now, all of them if the verdict names it
@@ -936,7 +936,7 @@ def _fit_orbit(chain, measured, effect, names, budget, level, progress) -> Candi
     try:
         check_orbit_chain(chain)
         of = fit_large_orbit(chain, measured, names=names, budget=budget, level=level,
-                             progress=lambda i, n, t: progress(i, n, f"{effect.label()}: {t}"))
+                             progress=lambda i, n, t: progress(i, n, f"{effect.title()}: {t}"))
     except LubevizError as exc:
         return Candidate(label=effect.label(), effect=effect, fit=None, error=str(exc))
     return Candidate(label=effect.label(), effect=effect, fit=of.fit, defect=of.defect,

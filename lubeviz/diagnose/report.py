@@ -26,7 +26,7 @@ import numpy as np
 from .. import __version__
 from ..identify.forward.budget import ModelBudget
 from .loop import fit_flows, fit_flows_std, fitted_effects, interval_words
-from ..effects import label_title, parse_effect, quantity_words
+from ..effects import EFFECTS, label_title, parse_effect, quantity_words
 from ..identify.fit.result import VERDICT_BAND as BAND
 from ..model.quantity import Quantity
 from ..units import M3S_PER_MLMIN, MLMIN_PER_M3S
@@ -252,7 +252,8 @@ def scan_svg(scan, *, width: int = 760, height: int = 170) -> str:
     def y(v):
         return up + ph - min(max(v, 0.0), top) / top * ph
 
-    body = [_text(left, 14, f"{scan.effect_name}: chi2 at each node above the best node's", anchor="start"),
+    kind = EFFECTS[scan.effect_name].kind() if scan.effect_name in EFFECTS else scan.effect_name
+    body = [_text(left, 14, f"{kind[0].upper() + kind[1:]}: χ² at each node above the best node's", anchor="start"),
             f'<line x1="{left}" x2="{left + pw}" y1="{y(SCAN_DCHI2):.1f}" y2="{y(SCAN_DCHI2):.1f}" stroke="#3a7a3a" '
             'stroke-dasharray="4 3"/>',
             _text(left + pw, y(SCAN_DCHI2) - 3, f"+{SCAN_DCHI2:g}: fits as well", anchor="end", size=10,
@@ -266,7 +267,7 @@ def scan_svg(scan, *, width: int = 760, height: int = 170) -> str:
         colour = "#3a9a3a" if node in fitting else "#999"
         x = left + i * slot + 0.15 * slot
         body.append(f'<rect x="{x:.1f}" y="{y(d):.1f}" width="{0.7 * slot:.1f}" height="{max(y(0) - y(d), 0.5):.1f}" '
-                    f'fill="{colour}"><title>node {node}: chi2 {c:.1f}</title></rect>')
+                    f'fill="{colour}"><title>node {node}: χ² {c:.1f}</title></rect>')
         body.append(_text(left + (i + 0.5) * slot, up + ph + 14, node, size=10))
     body.append(_text(left + pw / 2, height - 4, "node", size=10))
     return _svg(width, height, body, f"{scan.effect_name}: fit over the nodes")

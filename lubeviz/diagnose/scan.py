@@ -95,7 +95,7 @@ class NodeSweep:
         self.own: dict = {True: set(), False: set()}  # screening -> indices fitted from their own starts
 
     def _fit(self, i, start, screening):
-        self.progress(self.effects[i].label())
+        self.progress(self.effects[i].title())
         c = self.fit_one(self.effects[i], start, screening)
         found = self.found[screening]
         if start is None:

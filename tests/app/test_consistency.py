@@ -158,7 +158,7 @@ def test_campbell_diagram_says_when_the_flows_have_moved(app_page, screenshot):
     q1, q2 = (float(h.get_attribute("aria-valuenow")) for h in (q1_handle, q2_handle))
     expect(summary).to_contain_text(f"Q2 = {q2:.0f} ml/min", timeout=SLOW_MS)
     button.click()
-    wait_for_plot_title(app_page, f"(Q1/Q2 = {q1:.0f}/{q2:.0f} ml/min)", timeout_ms=SLOW_MS)
+    wait_for_plot_title(app_page, f"Q1/Q2 = {q1:.0f}/{q2:.0f} ml/min:", timeout_ms=SLOW_MS)
     expect(campbell_status).to_contain_text(f"Campbell diagram at Q1 = {q1:.0f}, Q2 = {q2:.0f} ml/min",
                                             timeout=30_000)
     expect(stale).to_be_hidden()
@@ -180,8 +180,8 @@ def test_campbell_diagram_says_when_the_flows_have_moved(app_page, screenshot):
     screenshot(app_page, "rotor_campbell_stale")
     button.click()
     expect(stale).to_be_hidden(timeout=SLOW_MS)
-    wait_for_plot_title(app_page, f"(Q1/Q2 = {moved:.0f}/{q2:.0f} ml/min)", timeout_ms=SLOW_MS)
+    wait_for_plot_title(app_page, f"Q1/Q2 = {moved:.0f}/{q2:.0f} ml/min:", timeout_ms=SLOW_MS)
     # (a replaced figure's title may linger among the document's models: look at the new diagram's only)
-    new = [t for t in plot_titles(app_page) if f"(Q1/Q2 = {moved:.0f}/{q2:.0f} ml/min)" in t]
+    new = [t for t in plot_titles(app_page) if f"Q1/Q2 = {moved:.0f}/{q2:.0f} ml/min:" in t]
     assert new and not any("(stale)" in t for t in new), new
     expect(campbell_status).to_contain_text(f"Campbell diagram at Q1 = {moved:.0f}, Q2 = {q2:.0f} ml/min")
