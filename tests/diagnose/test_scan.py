@@ -48,6 +48,9 @@ class _Fake:
     def label(self):
         return f"{self.effect_name}[node={self.node}]"
 
+    def title(self):  # what the scan's progress shows
+        return f"a second unbalance at node {self.node}"
+
 
 class _C:
     """A candidate's fit at a node: its chi2, and `tag` as its answer (what a warm start carries)."""
