@@ -395,7 +395,7 @@ class DiagnosePage(pn.viewable.Viewer):
                                                  css_classes=["lubeviz-candidates"])]
         self._scans.objects = ([pn.pane.Markdown("### Where along the shaft", sizing_mode="stretch_width")] + [
             pn.Column(pn.pane.HTML(scan_svg(sc), css_classes=["lubeviz-node-scan"]),
-                      pn.pane.Markdown(plain(sc.words()[0].upper() + sc.words()[1:]) + ".",
+                      pn.pane.Markdown(plain(signs(sc.words()[0].upper() + sc.words()[1:])) + ".",
                                        sizing_mode="stretch_width")) for sc in d.scans]) if d.scans else []
         self._maps.objects = [pn.pane.HoloViews(self._map_plot(*m, r["truth"]), linked_axes=False,
                                                 css_classes=["lubeviz-diagnose-map"]) for m in r["maps"]]

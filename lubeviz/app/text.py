@@ -105,20 +105,7 @@ def badge(verdict: str) -> str:
             f'padding:0 5px;white-space:nowrap">{verdict}</span>')
 
 
-# The library's words are ASCII (the command line prints them too); a page shows the units' own signs.
-_SIGNS = ((re.compile(r"(?<=\d) um\b"), " µm"), (re.compile(r"(?<=\d) deg\b"), "°"), (re.compile(r" \+- "), " ± "),
-          (re.compile(r"(?<=\d) x (?=as|the)"), " × "), (re.compile(r"\bchi2\b"), "χ²"),
-          (re.compile(r"(?<=\d)-(?=\d)"), "–"), (re.compile(r"(?<=\()x(?=\d)"), "×"),
-          (re.compile(r" -> "), " → "))
-
-
-def signs(text: str) -> str:
-    """`text` with '150 um', '5 deg', '+-', 'chi2', 'x0.75-1.33' written as a page shows them: 150 µm, 5°, ±, χ²,
-    ×0.75–1.33."""
-    for pattern, shown in _SIGNS:
-        text = pattern.sub(shown, text)
-    return text
-
+from ..words import signs  # noqa: E402,F401 - the pages' name for it
 
 _LABEL = re.compile(r"\b[a-z_0-9]+\[[a-z_]+=[^\]]*\](?: \+ [a-z_0-9]+\[[a-z_]+=[^\]]*\])*")
 

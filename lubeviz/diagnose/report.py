@@ -27,6 +27,7 @@ from .. import __version__
 from ..identify.forward.budget import ModelBudget
 from .loop import fit_flows, fit_flows_std, fitted_effects, interval_words
 from ..effects import EFFECTS, label_title, parse_effect, quantity_words
+from ..words import signs
 from ..identify.fit.result import VERDICT_BAND as BAND
 from ..model.quantity import Quantity
 from ..units import M3S_PER_MLMIN, MLMIN_PER_M3S
@@ -146,7 +147,7 @@ def _actions(d, nodes) -> list[str]:
                       + "."))
     elif d.added is not None:
         told = ([(e, {}) for e in d.added.effects] if d.after is None else fitted_effects(d.added, d.after))
-        story = escape(" ".join(e.told(std) for e, std in told))
+        story = escape(signs(" ".join(e.told(std) for e, std in told)))
         sep = escape("; or ".join(d.added.separated_by))
         out.append(f"<b>The model needed {escape(d.added.title)}</b>: {story} Confirm it"
                    + (f" by {sep}." if sep else "."))
@@ -498,7 +499,7 @@ def _truth_words(truth: dict) -> str:
         parts.append("true flows " + ", ".join(f"Q{k + 1} = {v:.0f}" for k, v in enumerate(q)) + " ml/min")
     if truth.get("effect"):
         try:
-            parts.append(parse_effect(truth["effect"]).told())
+            parts.append(signs(parse_effect(truth["effect"]).told()))
         except Exception:  # noqa: BLE001 - a truth from elsewhere: as given
             parts.append(f"effect {truth['effect']}")
     parts += [f"{k}: {v}" for k, v in truth.items() if k not in ("q_mlmin", "effect")]
@@ -560,7 +561,7 @@ def report_html(diagnosis, *, record=None, title: str = "Lubrication diagnosis",
              _work_order_table(work_order),
              "<h2>What to do</h2>",
              f"<div class='verdict {cls}'>" + ("" if d.verdict.lower().startswith(outcome.split()[0]) else
-                                                f"<b>{escape(outcome.capitalize())}.</b> ") + f"{escape(d.verdict)}</div>",
+                                                f"<b>{escape(outcome.capitalize())}.</b> ") + f"{escape(signs(d.verdict))}</div>",
              "<ul class='actions'>" + "".join(f"<li>{a}</li>" for a in _actions(d, nodes)) + "</ul>",
              "<h2>Supply flows</h2>", _flows_table(d, nodes, truth)]
     if qt is not None:
@@ -587,7 +588,7 @@ def report_html(diagnosis, *, record=None, title: str = "Lubrication diagnosis",
         parts += ["<h2>Where along the shaft</h2>",
                   "<p>Each effect that acts at a place was fitted at every node where it can act.</p>"]
         for sc in d.scans:
-            parts += [scan_svg(sc), f"<p class='small'>{escape(sc.words()[0].upper() + sc.words()[1:])}.</p>"]
+            parts += [scan_svg(sc), f"<p class='small'>{escape(signs(sc.words()[0].upper() + sc.words()[1:]))}.</p>"]
     if d.ambiguous or d.separated_by:
         sep = "".join(f"<li>{escape(s)}</li>" for s in d.separated_by)
         # the look-alikes are named once, in "What to do"; here only what tells them apart (issue 38)

@@ -81,6 +81,7 @@ def test_report_names_the_added_effect_and_both_flows(diagnosed):
     text = "".join(parse(report_html(d, record=record)).text)
     assert "the probes of plane 1 turned" in text  # the effect named in words ...
     assert "probe_rotation[" not in text and "angle_deg" not in text  # ... never by its code label or parameter
+    assert "chi2" not in text and "+-" not in text and "χ²" in text  # the command line's ASCII written as signs
     assert "The probe pair of plane 1 sits" in text  # the effect's story, in words
     for fit in (d.before, d.after):
         for k in range(2):
