@@ -54,9 +54,19 @@ def test_diagnose_page_names_the_effect_and_downloads_the_report(app_page, scree
     wait_for_plot_title(page, "before and after the probes of plane 1 turned", timeout_ms=SLOW_MS)
     wait_for_plot_title(page, "χ² over Q1 × Q2, with the probes of plane 1 turned", timeout_ms=SLOW_MS)
 
+    # the work order's fields, typed on the page, go into the report (issue 38)
+    page.locator(".lubeviz-report-asset input").fill("P-101 B feed pump")
+    page.locator(".lubeviz-report-operator input").fill("A. Engineer")
+    page.locator(".lubeviz-report-comment textarea").fill("seen at the weekly round")
+    page.locator(".lubeviz-report-comment textarea").press("Tab")  # a text area sends its value when left
+    page.wait_for_timeout(500)
     with page.expect_download(timeout=60_000) as download:
         page.get_by_role("button", name=re.compile("Download report")).click()
     report = open(download.value.path(), encoding="utf-8").read()
+    # named after the record (the sample) and the date, not "lubeviz-diagnosis.html"
+    assert re.fullmatch(r"lubeviz-sample-the-probes-of-plane-1-turned-\d{4}-\d\d-\d\d\.html",
+                        download.value.suggested_filename), download.value.suggested_filename
+    assert "P-101 B feed pump" in report and "A. Engineer" in report and "seen at the weekly round" in report
     assert report.lstrip().lower().startswith("<!doctype html>")
     assert report.count("<svg") >= 2 and "the probes of plane 1 turned" in report and "probe_rotation" not in report
     assert "http" not in report.lower()
