@@ -265,25 +265,25 @@ def model_sensitivity(chain, theta, names, budget: ModelBudget | None = None) ->
     S = np.zeros((len(names), n_terms(nb, npl)))
     perts = np.stack(_dynamic_perturbations(chain, theta, budget))
     n_dyn = perts.shape[0]
+    # the features at theta and at each flow's +-supply_flow in one call (a call's own cost is ~2/3 of a point's)
+    s = budget.supply_flow
+    around = np.tile(theta, (1 + 2 * nb if s > 0 else 1, 1))
+    for k in range(nb if s > 0 else 0):
+        around[1 + 2 * k, k] *= 1.0 + s
+        around[2 + 2 * k, k] *= 1.0 - s
+    g = chain.features(around, names)
     if dyn:
         dyn_names = tuple(names[j] for j in dyn)
-        pts = np.broadcast_to(theta, (n_dyn, theta.size))
-        h = 1e-3
-        gp = chain.features(pts, dyn_names, dB_extra=h * perts)
-        gm = chain.features(pts, dyn_names, dB_extra=-h * perts)
-        S[dyn, :n_dyn] = (wrap_difference(gp - gm, dyn_names) / (2.0 * h)).T  # linear in each term
+        h = 1e-3  # both signs of every term in one call: one point repeated, its films evaluated once
+        pm = chain.features(np.broadcast_to(theta, (2 * n_dyn, theta.size)), dyn_names,
+                            dB_extra=np.concatenate([h * perts, -h * perts]))
+        S[dyn, :n_dyn] = (wrap_difference(pm[:n_dyn] - pm[n_dyn:], dyn_names) / (2.0 * h)).T  # linear in each term
         if budget.shaft_damping_low < 1.0 or budget.shaft_damping_high > 1.0:
-            up, down = _shaft_damping_columns(chain, theta, dyn_names, budget)
+            up, down = _shaft_damping_columns(chain, theta, dyn_names, budget, mid=g[0, dyn])
             S[dyn, n_dyn] = budget.calibration * up
             S[dyn, n_dyn + 1] = budget.calibration * down
-    if budget.supply_flow > 0:
-        s = budget.supply_flow
-        for k in range(len(chain.sources)):
-            pts = np.stack([theta, theta])
-            pts[0, k] *= 1.0 + s
-            pts[1, k] *= 1.0 - s
-            g = chain.features(pts, names)
-            S[:, n_dyn + 2 + k] = 0.5 * wrap_difference(g[0] - g[1], names)
+    for k in range(nb if s > 0 else 0):
+        S[:, n_dyn + 2 + k] = 0.5 * wrap_difference(g[1 + 2 * k] - g[2 + 2 * k], names)
     col = n_dyn + 2 + nb
     for j, n in enumerate(names):
         if is_static(n):
@@ -298,7 +298,7 @@ def model_sensitivity(chain, theta, names, budget: ModelBudget | None = None) ->
     if chain.defect is not None and (budget.orbit_defect > 0 or budget.orbit_truncation > 0):
         d = chain.defect  # the correction's own error, entry by entry
         size = orbit_defect_error(chain, theta, budget)
-        base = chain.features(theta, names)
+        base = g[0]
         for j in range(8):
             e = np.zeros(4, complex)
             e[j // 2] = size * (1.0 if j % 2 == 0 else 1j)
@@ -337,7 +337,7 @@ def shaft_damping_factors(budget: ModelBudget) -> tuple[float, float]:
     return (1.0 + 0.5 * (budget.shaft_damping_high - 1.0), 1.0 - 0.5 * (1.0 - budget.shaft_damping_low))
 
 
-def _shaft_damping_columns(chain, theta, names, budget) -> tuple[np.ndarray, np.ndarray]:
+def _shaft_damping_columns(chain, theta, names, budget, mid=None) -> tuple[np.ndarray, np.ndarray]:
     """The shaft damping's two one-sided changes, beta x the 1-sigma factors of its plausible range (none to several
     times the model file's value: the range is wide and uneven), each over sqrt 2: their
     covariance is the mean of the two outer products. Near a critical speed with a starved film the features
@@ -352,6 +352,6 @@ def _shaft_damping_columns(chain, theta, names, budget) -> tuple[np.ndarray, np.
         beta = chain.rotor.shaft_damping_beta
         cache[key] = [chain.with_rotor(chain.damped_rotor(beta * f)) for f in factors]
     hi, lo = (c.with_defect(chain.defect) for c in cache[key])
-    mid = chain.features(theta, names)
+    mid = chain.features(theta, names) if mid is None else mid
     return (wrap_difference(hi.features(theta, names) - mid, names) / np.sqrt(2.0),
             wrap_difference(mid - lo.features(theta, names), names) / np.sqrt(2.0))
