@@ -29,6 +29,7 @@ when there is one). Tests check every path against a direct solve of the assembl
 from __future__ import annotations
 
 import functools
+import hashlib
 import math
 import threading
 from dataclasses import dataclass
@@ -289,6 +290,50 @@ def _reference_solve(rotor, omega: float, B0, rhs) -> np.ndarray:
     return lu_solve(lu, rhs, check_finite=False)
 
 
+class _StatesMemo:
+    """The load shift's states (`forward.shifted.shifted_states`' five arrays) of the last SIZE batches of at least
+    POINTS points, every point served, by their inputs' bytes; shared by the chains of one machine, speed, rotor and
+    loads (`with_effects`, `with_rotor`). A diagnosis searches the same flow lattice with ~30 candidates whose
+    effects leave the bearings as declared (a probe's gain or angle, a second unbalance, a bow, a pedestal): their
+    films are the plain chain's, point for point (~2/3 of a lattice point's cost). A point served by its slices has
+    the same values whatever other slices are loaded since, so a remembered batch is the batch computed again;
+    each get hands out copies."""
+
+    SIZE = 8
+    POINTS = 256
+
+    def __init__(self):
+        self._store: dict = {}
+        self._lock = threading.Lock()
+
+    @staticmethod
+    def key(*arrays) -> bytes:
+        h = hashlib.blake2b(digest_size=20)
+        for a in arrays:
+            if a is None:
+                h.update(b"-")
+            else:
+                a = np.ascontiguousarray(a, dtype=float)
+                h.update(repr(a.shape).encode())
+                h.update(a.tobytes())
+        return h.digest()
+
+    def get(self, key):
+        with self._lock:
+            hit = self._store.pop(key, None)
+            if hit is None:
+                return None
+            self._store[key] = hit  # the most recent last
+        return tuple(a.copy() for a in hit)
+
+    def put(self, key, value) -> None:
+        with self._lock:
+            self._store.pop(key, None)
+            while len(self._store) >= self.SIZE:
+                self._store.pop(next(iter(self._store)))
+            self._store[key] = tuple(a.copy() for a in value)
+
+
 def _repeated(value, shape):
     """`value` of one point (an array, or a `BearingChange` of numbers) as the same for every point of a batch of
     `shape` (a fresh array each; a float, or None, stays as it is: the batch's own evaluation gives those)."""
@@ -471,6 +516,8 @@ class ForwardChain:
         self._shift = None
         self._packed = None  # the bearings' stacked slices for `forward.shifted` (`_compiled_states`)
         self._packed_held = None  # what the sources held when they were packed
+        # the load shift's states of the last large batches (`_StatesMemo`), shared with every chain made from this
+        self._states_memo = _StatesMemo() if _like is None else _like._states_memo
         if _like is not None:
             self._shift = _like._shift
         elif not statically_determinate(machine, self.rotor):  # 3+ supports: the loads follow the journals (flows)
@@ -799,9 +846,16 @@ class ForwardChain:
                 packed = self._packed = packed_stacks(stacks, angles)
             self._packed_held = tuple((src._held, src._held.table, len(src._held.table.slices))
                                       for src in self.sources) if stacks is not packed.stacks else held
+            rows = None if target is None else _rows(target, shape, (n, 2))
+            key = _StatesMemo.key(q, f, c, lf, reference, rows) if size >= _StatesMemo.POINTS else None
+            hit = None if key is None else self._states_memo.get(key)
+            if hit is not None:
+                out, factors, loads, served, missed = hit
+                break
             out, factors, loads, served, missed = shifted_states(
-                packed, q, f, c, lf, self._shift.k_s, reference, self._shift.loads, load_shift.STEPS,
-                None if target is None else _rows(target, shape, (n, 2)))
+                packed, q, f, c, lf, self._shift.k_s, reference, self._shift.loads, load_shift.STEPS, rows)
+            if key is not None and served.all():
+                self._states_memo.put(key, (out, factors, loads, served, missed))
             if served.all() or attempt == attempts - 1:
                 break
             # the slices a point missed: loaded (or built) for each bearing at once, and the loop run again
