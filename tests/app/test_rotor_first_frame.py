@@ -1,0 +1,57 @@
+"""The Rotor page's plots are made once, with the first response as their first frame (issue 38: the tab's first
+draw took 5.2 s, each plot built from an empty frame and then updated, and drawn twice in the browser), and no
+response's plots stay under an error (issue 38: "no stale plot under an error anywhere")."""
+
+from __future__ import annotations
+
+import asyncio
+
+import holoviews as hv
+import panel as pn
+from bokeh.document import Document
+
+from lubeviz.app import resources
+from lubeviz.app.rotor_page import RotorPage
+from lubeviz.model.operating import operating_point
+
+
+def _dynamic_maps(page):
+    return [p.object for p in page._layout.select(pn.pane.HoloViews) if isinstance(p.object, hv.DynamicMap)]
+
+
+def _started(page):
+    page.__panel__().get_root(Document())  # the tab shown: its models made
+    asyncio.run(page.start())
+    return page
+
+
+def test_before_the_first_response_the_page_says_what_is_coming_and_holds_no_empty_plot():
+    m = resources.machine()
+    page = RotorPage(m, operating_point(m))
+    page.__panel__().get_root(Document())
+    assert _dynamic_maps(page) == []
+    assert "Computing the rotor's response" in page._plots.objects[0].object
+
+
+def test_the_plots_first_frames_are_the_first_response():
+    m = resources.machine()
+    page = _started(RotorPage(m, operating_point(m)))
+    maps = _dynamic_maps(page)
+    # the machine, the orbit, its signals, the spectrum, the modes and one centreline per bearing
+    assert len(maps) == 5 + len(m.bearings)
+    assert page._pipe.data is not None
+    for dm in maps:
+        assert len(dm.data) == 1  # one frame made: the response's, not an empty one before it
+        (frame,) = dm.data.values()
+        assert frame is not None
+    spectrum = page._spectrum(page._pipe.data)
+    assert "Full spectrum at node 6" in spectrum.opts.get().kwargs["title"]
+
+
+def test_an_error_after_a_response_leaves_no_plot_of_it_on_the_page():
+    m = resources.machine()
+    page = _started(RotorPage(m, operating_point(m)))
+    assert page._summary.object
+    page._fail(ValueError("the films could not be solved"))
+    assert page._error.visible and "could not be solved" in page._error.object
+    assert page._pipe.data is None and page._summary.object == ""
