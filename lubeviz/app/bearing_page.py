@@ -54,7 +54,9 @@ The dashed curve is what a non-mass-conserving (half-Sommerfeld) model says at t
 position: it has no supply flow among its inputs, so it shows the same film at every Q — it cannot starve.
 """
 
-FIELD_OPTS = dict(cmap="viridis", colorbar=True, responsive=True, min_height=260, tools=["hover"],
+# height as min_height: the pane makes each figure stretch_width; HoloViews' stretch_both (responsive without a
+# height) at the first update after would relay the figures out in the browser
+FIELD_OPTS = dict(cmap="viridis", colorbar=True, responsive=True, height=260, min_height=260, tools=["hover"],
                   xlabel="α (deg, from the top, in the direction of rotation)", ylabel="z (mm)",
                   framewise=True, toolbar="above")
 COEF_COLORS = {"xx": "#1f77b4", "xy": "#ff7f0e", "yx": "#2ca02c", "yy": "#d62728"}
@@ -160,7 +162,7 @@ class BearingPage(pn.viewable.Viewer):
         locus = (hv.DynamicMap(self._locus, streams=[self._sweep_pipe])
                  * hv.DynamicMap(self._locus_marker, streams=[self._detail_pipe])).opts(
             frame_width=280, frame_height=280, **plotting.outside_legend("below", cols=2))
-        coef = dict(responsive=True, min_height=245, **plotting.outside_legend("right"))
+        coef = dict(responsive=True, height=245, min_height=245, **plotting.outside_legend("right"))  # as FIELD_OPTS
         coef_k = (hv.DynamicMap(lambda data: self._coefficients(data, "K"), streams=[self._sweep_pipe])
                   * hv.DynamicMap(self._q_line, streams=[self._detail_pipe])).opts(**coef)
         coef_c = (hv.DynamicMap(lambda data: self._coefficients(data, "C"), streams=[self._sweep_pipe])
@@ -170,10 +172,14 @@ class BearingPage(pn.viewable.Viewer):
             "### Bearing", self._bearing_select, self._slider_box, self._scale_select, self._summary, self.jobs,
             self.sweep_jobs, width=330)
         self._pressure_pane = pn.pane.HoloViews(pressure, css_classes=["lubeviz-pressure"], **pane)
-        fields = pn.Column(self._pressure_pane, pn.pane.HoloViews(theta, css_classes=["lubeviz-theta"], **pane),
-                          sizing_mode="stretch_width")
-        profiles = pn.Row(pn.pane.HoloViews(profile_p, **pane), pn.pane.HoloViews(profile_t, **pane),
-                          sizing_mode="stretch_width")
+        # The fields and the profiles are put on the page with the first film (`_show_first`), which is their first
+        # frame: built from empty frames, each was made twice on the server and drawn twice in the browser.
+        self._field_panes = [self._pressure_pane, pn.pane.HoloViews(theta, css_classes=["lubeviz-theta"], **pane)]
+        self._profile_panes = [pn.pane.HoloViews(profile_p, **pane), pn.pane.HoloViews(profile_t, **pane)]
+        fields = self._fields = pn.Column(
+            pn.pane.Markdown("Solving the film …", css_classes=["lubeviz-film-waiting"], margin=(10, 10)),
+            sizing_mode="stretch_width")
+        profiles = self._profiles = pn.Row(sizing_mode="stretch_width")
         # The coefficient plots stacked beside the locus: each as wide as the row allows, so their legends
         # fit at the right of the frames; the locus keeps its square frame (e/c equal on both axes). The row
         # wraps: below SWEEP_COEF_MIN_PX beside the locus (a narrow window) the coefficients go under it.
@@ -307,12 +313,25 @@ class BearingPage(pn.viewable.Viewer):
         # One walk of the session's models for all seven plots (see plotting.frozen), when the detail is sent.
         # Held over the pause: the fields' patch still leaves at once (a freeze defers only the walk), and one
         # freeze measured 0.33 s per step against 0.38 s for one per pipe (back to back, median of 10 each).
+        if self._fields.objects[0] is not self._pressure_pane:
+            await self._show_first(frame)
+            return
         with plotting.frozen(self._pressure_pane):
             self._frame_pipe.send(frame)
             self._summary.object = self._summary_text(frame)
             await asyncio.sleep(0.02)  # lets the server send the fields' patch on its own
             if self._frame is frame:
                 self._detail_pipe.send(frame)
+
+    async def _show_first(self, frame):
+        """The first film: the fields and then the profiles put on the page with it as their first frame (nothing
+        draws from the pipes before: sending only sets their data)."""
+        self._frame_pipe.send(frame)
+        self._detail_pipe.send(frame)
+        self._summary.object = self._summary_text(frame)
+        self._fields.objects = list(self._field_panes)
+        await asyncio.sleep(0.02)  # the fields' models leave on their own, as a later film's patch does
+        self._profiles.objects = list(self._profile_panes)
 
     async def _fill_sweep(self):
         k, speed = self.bearing, self.speed
@@ -427,7 +446,7 @@ class BearingPage(pn.viewable.Viewer):
         return field * _film_broken_outline(f)
 
     def _profile_pressure(self, data):
-        opts = dict(responsive=True, min_height=280, framewise=True, **plotting.outside_legend("above"),
+        opts = dict(responsive=True, height=280, min_height=280, framewise=True, **plotting.outside_legend("above"),
                     title="Mid-plane pressure" + ("" if data is None else f" at Q = {data.q / M3S_PER_MLMIN:.0f} ml/min"))
         fixed = dict(ylim=self._fixed("profile"))  # on both curves: framewise would follow the data
         deg, p, hs = [], [], []
@@ -441,7 +460,7 @@ class BearingPage(pn.viewable.Viewer):
                     color="gray", line_dash="dashed", **fixed)).opts(**opts)
 
     def _profile_theta(self, data):
-        opts = dict(responsive=True, min_height=280, xlabel="α (deg)", ylabel="θ and h/c (–)",
+        opts = dict(responsive=True, height=280, min_height=280, xlabel="α (deg)", ylabel="θ and h/c (–)",
                     title="Mid-plane θ and film thickness h/c", framewise=True,
                     **plotting.outside_legend("above"))
         fixed = dict(ylim=FILM_RATIO_RANGE if self.colour_scale == "fixed" else AUTO)

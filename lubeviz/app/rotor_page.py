@@ -565,8 +565,10 @@ class RotorPage(pn.viewable.Viewer):
             **opts)
 
     def _signals(self, data):
-        opts = dict(responsive=True, min_height=340, legend_position="top_right", framewise=True,
-                    title="Probe signals")
+        # height and min_width as the pane gives them to the figure when it is made: an update with other values
+        # (HoloViews' stretch_both without a width) relays the figures out in the browser, ~0.5 s each
+        opts = dict(responsive=True, height=340, min_height=340, min_width=300, legend_position="top_right",
+                    framewise=True, title="Probe signals")
         if not data:
             return (hv.Curve([], "t (ms)", "displacement (µm)", label="x (horizontal)")
                     * hv.Curve([], "t (ms)", "displacement (µm)", label="y (vertical)")).opts(**opts)  # as the orbit
@@ -578,7 +580,7 @@ class RotorPage(pn.viewable.Viewer):
                 ).opts(**opts)
 
     def _spectrum(self, data):
-        opts = dict(responsive=True, min_height=320, framewise=True)
+        opts = dict(responsive=True, height=320, min_height=320, min_width=HALF["min_width"], framewise=True)  # as _signals
         kd, vd = "frequency (Hz)", "amplitude (µm)"
         if not data:
             return (hv.Spikes([], kd, vd) * hv.Labels([], [kd, vd], "text")).opts(
@@ -596,7 +598,8 @@ class RotorPage(pn.viewable.Viewer):
 
     def _modes(self, data):
         kd, vd = "axial position x (mm)", "mode shape (–)"
-        opts = dict(responsive=True, min_height=320, **plotting.outside_legend("right"), framewise=True,
+        opts = dict(responsive=True, height=320, min_height=320, min_width=HALF["min_width"],  # as _signals
+                    **plotting.outside_legend("right"), framewise=True,
                     title="Damped mode shapes at the operating speed (horizontal component)")
         if not data:
             return hv.Overlay([hv.Curve([], kd, vd, label=f"mode {j + 1}") for j in range(4)]).opts(**opts)  # as the orbit

@@ -1,6 +1,7 @@
 """The Rotor page's plots are made once, with the first response as their first frame (issue 38: the tab's first
 draw took 5.2 s, each plot built from an empty frame and then updated, and drawn twice in the browser), and no
-response's plots stay under an error (issue 38: "no stale plot under an error anywhere")."""
+response's plots stay under an error (issue 38: "no stale plot under an error anywhere"); the Bearing page's fields
+and profiles likewise with the first film."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import panel as pn
 from bokeh.document import Document
 
 from lubeviz.app import resources
+from lubeviz.app.bearing_page import BearingPage
 from lubeviz.app.rotor_page import RotorPage
 from lubeviz.model.operating import operating_point
 
@@ -55,3 +57,23 @@ def test_an_error_after_a_response_leaves_no_plot_of_it_on_the_page():
     page._fail(ValueError("the films could not be solved"))
     assert page._error.visible and "could not be solved" in page._error.object
     assert page._pipe.data is None and page._summary.object == ""
+
+
+def test_the_bearing_page_puts_its_fields_and_profiles_on_with_the_first_film():
+    m = resources.machine()
+    page = BearingPage(m, operating_point(m))
+    page.__panel__().get_root(Document())
+    assert "Solving the film" in page._fields.objects[0].object and page._profiles.objects == []
+
+    async def first_film():
+        await page._threshold(0, page.speed)
+        await page._show_current()
+
+    asyncio.run(first_film())
+    assert page._fields.objects == page._field_panes and page._profiles.objects == page._profile_panes
+    assert page._frame_pipe.data is page._frame and page._detail_pipe.data is page._frame
+    for pane in page._field_panes + page._profile_panes:
+        (frame,) = pane.object.data.values()  # one frame made: the film's
+        assert frame is not None
+    title = page._profile_pressure(page._frame).opts.get().kwargs["title"]
+    assert f"at Q = {page._frame.q / 1e-6 * 60:.0f} ml/min" in title  # the first frame is the film at its flow
