@@ -34,13 +34,45 @@ def _unbalance(machine, scale):
     return tuple(Unbalance(u.node, u.moment * scale, u.phase) for u in machine_unbalance(machine))
 
 
-def test_the_periodic_orbit_is_the_time_integrations_orbit(coarse):
+@pytest.fixture(scope="module")
+def scaled(coarse):
+    """The balances at 0.05, 0.1 and 0.2 x the paper's unbalance on the coarse films, made once: the scaling
+    laws read all three, the time integration starts on the last."""
+    machine, rotor, bearings = coarse
+    return {s: orbit_balance(rotor, bearings, _unbalance(machine, s), nodes=NODES) for s in (0.05, 0.1, 0.2)}
+
+
+@pytest.fixture(scope="module")
+def half(coarse):
+    """The balance at half the paper's unbalance on the coarse films (tol 1e-8, inexact early films as by default),
+    made once, and the active-set steps its film solves took: the inexact films' orbit and work, the 5-harmonic
+    start of the finer balance and the linear-start reference of the mapped films are this one computation."""
+    import lubeviz.film.solver as film_solver
+    import lubeviz.rotor.orbit_balance as ob_module
+
+    machine, rotor, bearings = coarse
+    steps = []
+    real = film_solver.solve_active_set
+
+    def counting(*a, **kw):
+        sol = real(*a, **kw)
+        steps.append(sol.iterations)
+        return sol
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(ob_module, "solve_active_set", counting)
+        mp.setattr(film_solver, "solve_active_set", counting)
+        ob = orbit_balance(rotor, bearings, _unbalance(machine, 0.5), nodes=NODES, tol=1e-8)
+    return ob, sum(steps)
+
+
+def test_the_periodic_orbit_is_the_time_integrations_orbit(coarse, scaled):
     """Started on the harmonic-balance orbit, the time integration stays on it: 1X, the static shift and
     2X agree over three revolutions (the integrator's own error, first order in its step, is what is left:
     at dt = 1e-4 s the 2X of y differs by 30 %, at 2.5e-5 s by 8 %)."""
     machine, rotor, bearings = coarse
     ub = _unbalance(machine, 0.2)
-    hb = orbit_balance(rotor, bearings, ub, nodes=NODES)
+    hb = scaled[0.2]
     assert hb.harmonic_ratio(2) > 0.01  # a 2X the linear model lacks
     tr = film_time_response(rotor, bearings, ub, duration=0.04, dt=2.5e-5, nodes=NODES, start=hb.state(0.0))
     w = bearings.omega
@@ -55,10 +87,10 @@ def test_the_periodic_orbit_is_the_time_integrations_orbit(coarse):
         assert abs(two_x - 1) < 0.03 and abs(two_y - 1) < 0.15
 
 
-def test_harmonics_scale_as_powers_of_the_orbit(coarse):
+def test_harmonics_scale_as_powers_of_the_orbit(coarse, scaled):
     """A weak nonlinearity: 2X/1X grows as the orbit (x2 for x2 unbalance), the static shift as its square."""
     machine, rotor, bearings = coarse
-    r = [orbit_balance(rotor, bearings, _unbalance(machine, s), nodes=NODES) for s in (0.05, 0.1, 0.2)]
+    r = [scaled[s] for s in (0.05, 0.1, 0.2)]
     # the films kept for warm starts hold their fields, not their factorizations (48 per balance: GBs per fit)
     assert all(f.linear is None and f.P is not None for ob in r for films in ob.films for f in films)
     # on one thread the same orbit, to round-off (each film is solved alone from its own warm start)
@@ -79,7 +111,7 @@ def test_bad_settings_are_refused(coarse):
         orbit_balance(rotor, bearings, _unbalance(machine, 0.1), harmonics=4, points=8)
 
 
-def test_inexact_early_films_reach_the_same_orbit_for_less_work(coarse, monkeypatch):
+def test_inexact_early_films_reach_the_same_orbit_for_less_work(coarse, half, monkeypatch):
     """While the orbit still moves by more than INEXACT_ABOVE of its 1X, each film stops after INEXACT_STEPS
     active-set steps (an inexact Newton method); closer in every film is exact, so the orbit is the one with
     exact films at every step, to the balance's tolerance, and the active-set work is smaller (on 100 x 100
@@ -99,9 +131,7 @@ def test_inexact_early_films_reach_the_same_orbit_for_less_work(coarse, monkeypa
 
     monkeypatch.setattr(ob_module, "solve_active_set", counting)
     monkeypatch.setattr(film_solver, "solve_active_set", counting)
-    inexact = orbit_balance(rotor, bearings, ub, nodes=NODES, tol=1e-8)
-    work_inexact = sum(steps)
-    steps.clear()
+    inexact, work_inexact = half  # orbit_balance(rotor, bearings, ub, nodes=NODES, tol=1e-8), its steps counted
     monkeypatch.setattr(ob_module, "INEXACT_ABOVE", np.inf)  # every film exact from the first step
     exact = orbit_balance(rotor, bearings, ub, nodes=NODES, tol=1e-8)
     work_exact = sum(steps)
@@ -113,13 +143,13 @@ def test_inexact_early_films_reach_the_same_orbit_for_less_work(coarse, monkeypa
     assert work_inexact < work_exact
 
 
-def test_a_balance_with_more_harmonics_starts_from_one_with_fewer(coarse):
+def test_a_balance_with_more_harmonics_starts_from_one_with_fewer(coarse, half):
     """`start` with fewer harmonics and points: its harmonics padded with zeros, each phase point's film warm-started
     from its nearest one. The same orbit as from the linear one, for fewer film solves (a chain 5 -> 8 -> 12 -> 16
     -> 24 harmonics at the paper's point on these films: 28-35 s, against 65 s for 24 from 5 directly)."""
     machine, rotor, bearings = coarse
     ub = _unbalance(machine, 0.5)
-    five = orbit_balance(rotor, bearings, ub, nodes=NODES, tol=1e-8)
+    five = half[0]  # orbit_balance(rotor, bearings, ub, nodes=NODES, tol=1e-8)
     direct = orbit_balance(rotor, bearings, ub, nodes=NODES, harmonics=10, points=40, tol=1e-8)
     refined = orbit_balance(rotor, bearings, ub, nodes=NODES, harmonics=10, points=40, tol=1e-8, start=five)
     assert refined.harmonics == 10 and refined.films is not None and len(refined.films[0]) == 40
@@ -176,7 +206,7 @@ def test_the_flow_slope_is_the_balance_s_derivative_in_the_supply(coarse, flows_
     assert np.linalg.norm(an_0x - fd_0x) < 0.02 * np.linalg.norm(fd_0x)
 
 
-def test_an_orbit_on_another_mesh_starts_the_films_from_its_patterns(coarse, monkeypatch):
+def test_an_orbit_on_another_mesh_starts_the_films_from_its_patterns(coarse, half, monkeypatch):
     """Started from an orbit on coarser films, the balance takes that orbit's harmonics and, mapped cell by cell,
     its films' cavitation patterns (`orbit_balance._mapped_film`): the same orbit as from the linear one, in
     fewer Newton steps than with every film started at the equilibrium's pattern (the large-orbit fit's first
@@ -194,7 +224,7 @@ def test_an_orbit_on_another_mesh_starts_the_films_from_its_patterns(coarse, mon
     mapped = orbit_balance(rotor, bearings, ub, nodes=NODES, start=rough, tol=1e-8)
     monkeypatch.setattr(ob_module, "_mapped_film", lambda src, like: like)  # every film from the equilibrium
     plain = orbit_balance(rotor, bearings, ub, nodes=NODES, start=rough, tol=1e-8)
-    linear = orbit_balance(rotor, bearings, ub, nodes=NODES, tol=1e-8)
+    linear = half[0]  # orbit_balance(rotor, bearings, ub, nodes=NODES, tol=1e-8), from the linear orbit
     size = np.abs(linear.x[1]).max()
     for h in range(linear.harmonics + 1):
         np.testing.assert_allclose(mapped.x[h], linear.x[h], rtol=0, atol=1e-6 * size)
