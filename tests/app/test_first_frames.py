@@ -5,13 +5,13 @@ and profiles likewise with the first film."""
 
 from __future__ import annotations
 
-import asyncio
 
 import holoviews as hv
 import panel as pn
 from bokeh.document import Document
 
 from lubeviz.app import resources
+from tests.app.threads import run_coro
 from lubeviz.app.bearing_page import BearingPage
 from lubeviz.app.rotor_page import RotorPage
 from lubeviz.model.operating import operating_point
@@ -23,7 +23,7 @@ def _dynamic_maps(page):
 
 def _started(page):
     page.__panel__().get_root(Document())  # the tab shown: its models made
-    asyncio.run(page.start())
+    run_coro(page.start())
     return page
 
 
@@ -69,7 +69,7 @@ def test_the_bearing_page_puts_its_fields_and_profiles_on_with_the_first_film():
         await page._threshold(0, page.speed)
         await page._show_current()
 
-    asyncio.run(first_film())
+    run_coro(first_film())
     assert page._fields.objects == page._field_panes and page._profiles.objects == page._profile_panes
     assert page._frame_pipe.data is page._frame and page._detail_pipe.data is page._frame
     for pane in page._field_panes + page._profile_panes:
