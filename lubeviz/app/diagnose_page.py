@@ -36,7 +36,7 @@ from ..progress import Cancelled
 from ..signals.records import MAX_RECORD_BYTES, read_record_bytes
 from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
-from .jobs import JobPanel
+from .jobs import JobPanel, stopped_words
 from .session import SessionState
 from .text import TABLE_CSS, badge, file_label, plain, signs, table_html, truth_words, without_upload_dirs
 from .widgets import (RecordDropper, not_loaded_message, quantity_slider, record_warnings_markdown, refused_message,
@@ -222,7 +222,7 @@ class DiagnosePage(pn.viewable.Viewer):
         self.jobs.status = ""
 
     def _not_loaded(self, filename: str, problem: str):
-        self._show_error(not_loaded_message(filename, problem, self._record_name))
+        self._show_error(not_loaded_message(filename, problem, self._record_name) + stopped_words(self.jobs))
 
     def _loaded(self, record, measured, truth, name: str):
         """Make a record read or simulated here the session's (every page shows it: `_on_record`)."""
@@ -278,7 +278,7 @@ class DiagnosePage(pn.viewable.Viewer):
         self._message.visible = False
         try:
             loaded = await self.jobs.run(self._simulate, effect, theta, self.snr_db, self.seed,
-                                         label=f"simulating a sample with {effect.label()}")
+                                         label=f"simulating a sample with {effect.title()}", tell_stopped=True)
         except Cancelled:
             return
         except LubevizError as exc:
@@ -310,7 +310,8 @@ class DiagnosePage(pn.viewable.Viewer):
             return
         self._message.visible = False
         try:
-            loaded = await self.jobs.run(self._read, content, filename, label=f"reading {filename}", quiet=True)
+            loaded = await self.jobs.run(self._read, content, filename, label=f"reading {filename}", quiet=True,
+                                         tell_stopped=True)
         except Cancelled:
             return
         except LubevizError as exc:

@@ -32,7 +32,7 @@ from ..signals.records import MAX_RECORD_BYTES, read_record_bytes
 from ..signals.spectrum import full_spectrum
 from ..units import M3S_PER_MLMIN
 from . import plotting, resources  # noqa: F401 - plotting sets the HoloViews defaults
-from .jobs import JobPanel
+from .jobs import JobPanel, stopped_words
 from .session import SessionState
 from .text import TABLE_CSS, badge, file_label, plain, signs, table_html, truth_words, without_upload_dirs
 from .widgets import RecordDropper, not_loaded_message, record_warnings_markdown, refused_message
@@ -167,7 +167,7 @@ class IdentifyPage(pn.viewable.Viewer):
         self.jobs.status = ""
 
     def _not_loaded(self, filename: str, problem: str):
-        self._show_error(not_loaded_message(filename, problem, self._record_name))
+        self._show_error(not_loaded_message(filename, problem, self._record_name) + stopped_words(self.jobs))
 
     async def _load(self, content, filename: str, name: str | None = None) -> bool | None:
         """Read and show a record; `name` is what the page calls it (default: the file's name).
@@ -175,7 +175,7 @@ class IdentifyPage(pn.viewable.Viewer):
         self._message.visible = False
         try:
             record, measured = await self.jobs.run(self._read, content, filename, label=f"reading {filename}",
-                                                   quiet=True)
+                                                   quiet=True, tell_stopped=True)
         except Cancelled:
             return None
         except LubevizError as exc:
@@ -249,7 +249,8 @@ class IdentifyPage(pn.viewable.Viewer):
             return
         self._message.visible = False
         try:
-            record, measured = await self.jobs.run(self._simulated_sample, label="simulating a sample record")
+            record, measured = await self.jobs.run(self._simulated_sample, label="simulating a sample record",
+                                                   tell_stopped=True)
         except Cancelled:
             return
         except Exception as exc:  # noqa: BLE001 - shown on the page

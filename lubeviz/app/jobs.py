@@ -48,6 +48,7 @@ class Ticket:
     """One request: its cancel flag and its latest progress report (written by the worker thread)."""
 
     def __init__(self, label: str):
+        self.label = label
         self.cancelled = threading.Event()
         self.state = (0, 0, label)
         self.started = time.perf_counter()
@@ -67,6 +68,9 @@ class JobPanel(pn.viewable.Viewer):
     def __init__(self, **params):
         super().__init__(**params)
         self._ticket: Ticket | None = None
+        # what the last job started here stopped (the label of the job it replaced), or None: a record read while
+        # an identification or a diagnosis runs stops it, and the page says so (issue 38)
+        self.stopped: str | None = None
         self._bar = pn.indicators.Progress(value=0, max=100, active=False, width=220, height=18,
                                            visible=False, bar_color="info")
         self._text = pn.pane.Markdown("", margin=(0, 10), styles={"font-size": "0.9em"},
@@ -96,16 +100,19 @@ class JobPanel(pn.viewable.Viewer):
         self._text.object = plain(f"{label} …")
 
     async def run(self, fn, *args, label: str = "working", quiet: bool = False, process: bool = False,
-                  **kwargs):
+                  tell_stopped: bool = False, **kwargs):
         """`fn(*args, progress=..., **kwargs)` in the thread pool; returns its result.
 
         Raises progress.Cancelled if this request was cancelled or superseded. `quiet`: do not show the
         progress bar (for jobs expected to finish in well under a second), only the status text at the end.
         `process`: run `fn(*args, **kwargs)` (a picklable module-level function, no progress argument) in
         the process pool instead; its progress shows as indeterminate and Cancel discards its result.
+        `tell_stopped`: the status at the end names the job this one stopped, if it stopped one (`stopped`).
         """
+        self.stopped = None
         if self._ticket is not None:
             self._ticket.cancelled.set()  # latest wins
+            self.stopped = self._ticket.label
         ticket = self._ticket = Ticket(label)
         loop = asyncio.get_running_loop()
         if process:
@@ -130,7 +137,8 @@ class JobPanel(pn.viewable.Viewer):
             result = future.result()  # re-raises the worker's exception, Cancelled included
             if ticket.cancelled.is_set():
                 raise Cancelled("superseded")
-            self.status = f"{label}: done in {time.perf_counter() - ticket.started:.2f} s"
+            self.status = f"{label}: done in {time.perf_counter() - ticket.started:.2f} s" + (
+                f"; it stopped the job that was running ({self.stopped})" if tell_stopped and self.stopped else "")
             return result
         except Cancelled:
             if self._ticket is ticket:
@@ -146,3 +154,10 @@ class JobPanel(pn.viewable.Viewer):
                 self._bar.visible = self._cancel.visible = False
                 self._text.object = plain(self.status)
 
+
+
+def stopped_words(jobs: JobPanel) -> str:
+    """' Reading it stopped the job that was running (identification).' when the panel's last job (a record's read)
+    stopped one, else '': a refused file still stopped the job on the record before it (issue 38: no silent
+    cancellation)."""
+    return f" Reading it stopped the job that was running ({jobs.stopped})." if jobs.stopped else ""
