@@ -65,7 +65,7 @@ COEF_COLORS = {"xx": "#1f77b4", "xy": "#ff7f0e", "yx": "#2ca02c", "yy": "#d62728
 CHOSEN_CSS = """
 .bk-btn-group .bk-btn.bk-active { background-color: #2c5f8a !important; color: #ffffff !important;
   border-color: #2c5f8a !important; font-weight: 600; }
-.bk-btn-group .bk-btn:not(.bk-active) { background-color: #ffffff; color: #2c5f8a; }
+.bk-btn-group .bk-btn:not(.bk-active) { background-color: #ffffff !important; color: #2c5f8a !important; }
 """
 VIEW_START_DEG = -90.0  # fields shown over alpha in [-90, 270): the groove (0) and the loaded zone (180) whole
 AUTO = (math.nan, math.nan)  # HoloViews' "no limits": the colour or axis range follows the frame

@@ -155,3 +155,33 @@ def test_q_t_is_marked_on_the_slider_and_named_in_the_coefficient_legends(bearin
         "e => getComputedStyle(e, '::after').content")
     assert pattern.search(tick) and pattern.search(tick).group(1) == labels[0].group(1), tick
     expect(slider(bearing_page, SLIDER).locator(".bk-slider-title")).to_contain_text("Supply flow Q1 (ml/min)")
+
+
+BLUE, WHITE = "rgb(44, 95, 138)", "rgb(255, 255, 255)"  # bearing_page.CHOSEN_CSS: the chosen one filled blue
+
+
+def _fill(button) -> tuple[str, str]:
+    """(background, text colour) of a toggle button as drawn."""
+    return tuple(button.evaluate("b => { const s = getComputedStyle(b); return [s.backgroundColor, s.color]; }"))
+
+
+def _chosen(button) -> bool:
+    return _fill(button) == (BLUE, WHITE)
+
+
+def test_the_chosen_bearing_and_colour_scale_are_filled_and_the_others_are_not(bearing_page):
+    """Issue 38: "the selected bearing and scale toggles are not visibly selected". The chosen button is filled
+    blue with white text, the others white with blue text (without !important, Bokeh's own grey button won)."""
+    scale = bearing_page.locator(".lubeviz-colour-scale")
+    fixed, auto = (scale.get_by_role("button", name=n, exact=True) for n in ("fixed", "auto"))
+    assert _chosen(fixed) and _fill(auto) == (WHITE, BLUE), (_fill(fixed), _fill(auto))
+    auto.click()
+    try:
+        expect(auto).to_have_css("background-color", BLUE)
+        assert _chosen(auto) and _fill(fixed) == (WHITE, BLUE), (_fill(fixed), _fill(auto))
+    finally:
+        fixed.click()
+    expect(fixed).to_have_css("background-color", BLUE)
+    bearings = bearing_page.locator(".lubeviz-bearing-choice").get_by_role("button")
+    fills = [_fill(bearings.nth(i)) for i in range(bearings.count())]
+    assert fills[0] == (BLUE, WHITE) and all(f == (WHITE, BLUE) for f in fills[1:]), fills  # bearing 1 shown
