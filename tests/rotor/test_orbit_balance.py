@@ -42,6 +42,20 @@ def scaled(coarse):
     return {s: orbit_balance(rotor, bearings, _unbalance(machine, s), nodes=NODES) for s in (0.05, 0.1, 0.2)}
 
 
+def _counted(steps: list):
+    """The film's solve_active_set, appending each solve's active-set steps to `steps`."""
+    import lubeviz.film.solver as film_solver
+
+    real = film_solver.solve_active_set
+
+    def counting(*a, **kw):
+        sol = real(*a, **kw)
+        steps.append(sol.iterations)
+        return sol
+
+    return counting
+
+
 @pytest.fixture(scope="module")
 def half(coarse):
     """The balance at half the paper's unbalance on the coarse films (tol 1e-8, inexact early films as by default),
@@ -52,13 +66,7 @@ def half(coarse):
 
     machine, rotor, bearings = coarse
     steps = []
-    real = film_solver.solve_active_set
-
-    def counting(*a, **kw):
-        sol = real(*a, **kw)
-        steps.append(sol.iterations)
-        return sol
-
+    counting = _counted(steps)
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(ob_module, "solve_active_set", counting)
         mp.setattr(film_solver, "solve_active_set", counting)
@@ -122,13 +130,7 @@ def test_inexact_early_films_reach_the_same_orbit_for_less_work(coarse, half, mo
     machine, rotor, bearings = coarse
     ub = _unbalance(machine, 0.5)
     steps = []
-    real = film_solver.solve_active_set
-
-    def counting(*a, **kw):
-        sol = real(*a, **kw)
-        steps.append(sol.iterations)
-        return sol
-
+    counting = _counted(steps)
     monkeypatch.setattr(ob_module, "solve_active_set", counting)
     monkeypatch.setattr(film_solver, "solve_active_set", counting)
     inexact, work_inexact = half  # orbit_balance(rotor, bearings, ub, nodes=NODES, tol=1e-8), its steps counted
