@@ -384,6 +384,8 @@ class BearingPage(pn.viewable.Viewer):
     def _fail(self, exc: Exception):
         self._error.object = f"**Could not solve the film**: {plain(exc)}"
         self._error.visible = True
+        if self._fields.objects[0] is not self._pressure_pane:  # no line that says a film is coming
+            self._fields.objects[0].object = "No film solved (see the message above)."
 
     # --- events --------------------------------------------------------------------------------------
     async def _on_flow(self, event):

@@ -221,8 +221,10 @@ class DiagnosePage(pn.viewable.Viewer):
         self._message.visible = True
         self.jobs.status = ""
 
-    def _not_loaded(self, filename: str, problem: str):
-        self._show_error(not_loaded_message(filename, problem, self._record_name) + stopped_words(self.jobs))
+    def _not_loaded(self, filename: str, problem: str, read: bool = False):
+        """`read`: the file was read (a job that may have stopped another: then said); else refused before that."""
+        self._show_error(not_loaded_message(filename, problem, self._record_name)
+                         + (stopped_words(self.jobs) if read else ""))
 
     def _loaded(self, record, measured, truth, name: str):
         """Make a record read or simulated here the session's (every page shows it: `_on_record`)."""
@@ -315,12 +317,12 @@ class DiagnosePage(pn.viewable.Viewer):
         except Cancelled:
             return
         except LubevizError as exc:
-            self._not_loaded(filename, without_upload_dirs(exc))
+            self._not_loaded(filename, without_upload_dirs(exc), read=True)
             self._upload.rejected = True
             return
         except Exception as exc:  # noqa: BLE001 - never let a bad upload stop the app
             self._not_loaded(filename, f"{filename}: unexpected problem ({type(exc).__name__}): "
-                                       f"{without_upload_dirs(exc)}")
+                                       f"{without_upload_dirs(exc)}", read=True)
             self._upload.rejected = True
             return
         self._upload.rejected = False

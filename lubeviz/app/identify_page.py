@@ -166,8 +166,10 @@ class IdentifyPage(pn.viewable.Viewer):
         self._message.visible = True
         self.jobs.status = ""
 
-    def _not_loaded(self, filename: str, problem: str):
-        self._show_error(not_loaded_message(filename, problem, self._record_name) + stopped_words(self.jobs))
+    def _not_loaded(self, filename: str, problem: str, read: bool = False):
+        """`read`: the file was read (a job that may have stopped another: then said); else refused before that."""
+        self._show_error(not_loaded_message(filename, problem, self._record_name)
+                         + (stopped_words(self.jobs) if read else ""))
 
     async def _load(self, content, filename: str, name: str | None = None) -> bool | None:
         """Read and show a record; `name` is what the page calls it (default: the file's name).
@@ -179,11 +181,11 @@ class IdentifyPage(pn.viewable.Viewer):
         except Cancelled:
             return None
         except LubevizError as exc:
-            self._not_loaded(filename, without_upload_dirs(exc))
+            self._not_loaded(filename, without_upload_dirs(exc), read=True)
             return False
         except Exception as exc:  # noqa: BLE001 - never let a bad upload stop the app
             self._not_loaded(filename, f"{filename}: unexpected problem ({type(exc).__name__}): "
-                                       f"{without_upload_dirs(exc)}")
+                                       f"{without_upload_dirs(exc)}", read=True)
             return False
         self._use(record, measured, name or filename)
         return True

@@ -155,9 +155,8 @@ class JobPanel(pn.viewable.Viewer):
                 self._text.object = plain(self.status)
 
 
-
 def stopped_words(jobs: JobPanel) -> str:
-    """' Reading it stopped the job that was running (identification).' when the panel's last job (a record's read)
-    stopped one, else '': a refused file still stopped the job on the record before it (issue 38: no silent
-    cancellation)."""
+    """' Reading it stopped the job that was running (identification).' when the panel's last job (a record's read,
+    to be called right after it) stopped one, else '': a refused file still stopped the job on the record before it
+    (issue 38: no silent cancellation)."""
     return f" Reading it stopped the job that was running ({jobs.stopped})." if jobs.stopped else ""

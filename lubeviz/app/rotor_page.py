@@ -493,6 +493,8 @@ class RotorPage(pn.viewable.Viewer):
         if self._plots_built:  # no earlier response's plots under the error (issue 38): their empty frames
             with plotting.frozen(self._orbit_pane):
                 self._pipe.send(None)
+        else:  # nor a line that says a response is coming
+            self._plots.objects[0].object = "No response computed (see the message above)."
 
     # --- plots -------------------------------------------------------------------------------------------
     def _drawing(self, data):

@@ -77,3 +77,13 @@ def test_the_bearing_page_puts_its_fields_and_profiles_on_with_the_first_film():
         assert frame is not None
     title = page._profile_pressure(page._frame).opts.get().kwargs["title"]
     assert f"at Q = {page._frame.q / 1e-6 * 60:.0f} ml/min" in title  # the first frame is the film at its flow
+
+
+def test_an_error_before_the_first_result_does_not_say_one_is_coming():
+    m = resources.machine()
+    rotor = RotorPage(m, operating_point(m))
+    rotor._fail(ValueError("no tables"))
+    assert "Computing" not in rotor._plots.objects[0].object and "No response" in rotor._plots.objects[0].object
+    bearing = BearingPage(m, operating_point(m))
+    bearing._fail(ValueError("no film"))
+    assert "Solving" not in bearing._fields.objects[0].object and "No film" in bearing._fields.objects[0].object
