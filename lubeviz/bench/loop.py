@@ -90,7 +90,8 @@ REDRAWS = 20
 THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS",
                "VECLIB_MAXIMUM_THREADS", "NUMBA_NUM_THREADS")
 ROW_KEYS = ("id", "kind", "group", "strength", "truth", "speeds_hz", "q_mlmin", "static", "seed", "redraws",
-            "outcome", "added", "ambiguous", "named", "right_first", "right_in_set", "placement_right", "explained",
+            "outcome", "added", "ambiguous", "named", "right_first", "right_in_set", "not_seen", "said_unseen",
+            "placement_right", "explained",
             "held", "silent_wrong", "flow_error_pct_before", "flow_error_pct_after", "node", "seconds",
             "case_seconds", "verdict", "failed", "warnings", "truth_dof")
 
@@ -476,8 +477,13 @@ def judge(case: dict, d, q_mlmin) -> dict:
     held = _held(d, q / MLMIN_PER_M3S)
     final = fit_flows(d.final) * MLMIN_PER_M3S
     labels = ([added] if added else []) + list(d.ambiguous)
+    unseen = [u.label for u in getattr(d, "not_seen", ())]
+    unseen_names = {n for lab in unseen for n in _names(lab)}
+    # the truth told as a fault the (explained) record cannot see, in its place (`diagnose.loop._not_seen`)
+    said_unseen = bool(truth) and set(truth) <= unseen_names and _placement_right(case, unseen) is not False
     return {"q_mlmin": q.tolist(), "outcome": d.outcome, "added": added, "ambiguous": list(d.ambiguous),
-            "named": named, "right_first": right_first, "right_in_set": right_in_set,
+            "named": named, "right_first": right_first, "right_in_set": right_in_set, "not_seen": unseen,
+            "said_unseen": said_unseen,
             "placement_right": _placement_right(case, labels) if truth else None,
             "explained": bool(d.explained), "held": bool(held), "silent_wrong": bool(d.explained and not held),
             "flow_error_pct_before": (fit_flows(d.before) * MLMIN_PER_M3S / q * 100 - 100).tolist(),
@@ -562,6 +568,10 @@ def rates(rows) -> dict:
         # size does not show at the record's planes (a loose roller with no plane beside it)
         "library_unseen_and_held": _rate(not library_right(r) and r["outcome"] == "explained" and r["held"]
                                          for r in effects),
+        # ... or the record explained with the truth told as a fault of typical size it cannot see, in its place, and
+        # the flows held (a loose roller with no plane beside it: `diagnose.loop._not_seen`)
+        "library_right_or_said_unseen": _rate(library_right(r) or (r.get("said_unseen") and r["held"])
+                                              for r in effects),
         # bearing, plane or channel as well (a node is judged by the scan, below)
         "library_right_placement_included": _rate(library_right(r) and r["placement_right"] is not False
                                                   for r in effects),

@@ -264,6 +264,8 @@ DIAGNOSE = {
     "q2_interval_set_mlmin": ["number"],
     "node_scans": "list",  # issue 36: each effect that acts at a node, fitted at every node (none of them tried here)
     "asked_for": "null|dict",  # the plain model passed, but one candidate lowered chi2 beyond chance (session 52)
+    # faults of a typical size an explained record cannot tell from none (session 55; this record is not explained)
+    "not_seen": "list",
     "file": "str",
     "warnings": ["str"],
     "report": "str",  # --report
