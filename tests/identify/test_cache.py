@@ -71,7 +71,8 @@ def test_a_default_grid_table_with_its_dense_band_is_read_back(tmp_path, builds)
     """The default grid (a dense band around Q_T plus the sqrt(Q) grid) passes the cache's own grid check."""
     m = coarse_machine()
     first = cached_table(m, 0, directory=tmp_path)
-    assert first.q.size == tables.DEFAULT_POINTS
+    # DEFAULT_POINTS up to BASE_TOP x Q_T, then the coarser nodes to the span's end
+    assert first.q.size == tables.DEFAULT_POINTS + int(np.sum(tables.table_flows(1.0) > tables.BASE_TOP * (1 + 1e-12)))
     np.testing.assert_allclose(first.q, tables.table_flows(first.q_threshold), rtol=1e-14)
     with warnings.catch_warnings():
         warnings.simplefilter("error", StaleCacheWarning)
@@ -310,8 +311,10 @@ def test_parallel_build_equals_serial_build_and_reports_progress(tmp_path):
     for a, b in zip(serial, parallel):
         assert_same_table(a, b)
         assert a.key == b.key
-    assert seen[-1] == (SLICES * POINTS, SLICES * POINTS)
-    assert all(t == SLICES * POINTS for _, t in seen)
+    per = tables.table_flows(1.0, points=POINTS).size  # a slice's equilibria (POINTS up to BASE_TOP, more above)
+    assert per > POINTS
+    assert seen[-1] == (SLICES * per, SLICES * per)
+    assert all(t == SLICES * per for _, t in seen)
     assert [d for d, _ in seen] == sorted(d for d, _ in seen)
     # a second call builds nothing: both come from the cache
     assert_same_table(machine_tables(m, points=POINTS, directory=tmp_path / "parallel")[1], serial[1])

@@ -367,11 +367,13 @@ def _read(content: bytes, key: str, sommerfeld: float, span, points: int) -> Sli
     n = arrays["ratio"].shape[0] if arrays["ratio"].ndim == 1 else -1
     shapes = {"ratio": (n,), "values": (n, 10), "q_threshold": (), "sommerfeld": (), "seconds": ()}
     bad = [f"{k} {arrays[k].shape} (expected {s})" for k, s in shapes.items() if arrays[k].shape != s]
-    if n != points or bad:
-        raise _Untrusted(f"inconsistent shapes for {points} points: {', '.join(bad) or 'ratio'}")
+    grid = _dimensionless.ratio_grid(span, points)
+    if n != grid.size or bad:
+        raise _Untrusted(f"inconsistent shapes for the {grid.size} supply ratios of {points} points over {span}: "
+                         f"{', '.join(bad) or 'ratio'}")
     if not all(np.all(np.isfinite(a)) for a in arrays.values()):
         raise _Untrusted("non-finite values")
-    if not np.array_equal(arrays["ratio"], _dimensionless.ratio_grid(span, points)):
+    if not np.array_equal(arrays["ratio"], grid):
         raise _Untrusted("supply ratios are not the grid of the key's span and points")
     if float(arrays["sommerfeld"]) != float(sommerfeld) or not float(arrays["q_threshold"]) > 0.0:
         raise _Untrusted("Sommerfeld number or flooded threshold differs from the key's")
@@ -557,12 +559,13 @@ def _build_missing(nodes, missing, geometry, span, points, progress, workers, st
     workers = min(2 * len(missing), os.cpu_count() or 1) if workers is None else int(workers)
     if workers < 1:
         raise InputError(f"workers = {workers}; expected at least 1")
-    total = points * len(missing)
+    per = _dimensionless.ratio_grid(span, points).size  # a slice's equilibria
+    total = per * len(missing)
 
     if workers == 1:
         for j, i in enumerate(missing):
             def offset(done, _total, label="", j=j, i=i):
-                progress(j * points + done, total, f"S = {nodes[i]:.3g}: {label}")
+                progress(j * per + done, total, f"S = {nodes[i]:.3g}: {label}")
             store(i, _build_one(geometry, float(nodes[i]), span, points, offset))
         return
     _build_parallel(geometry, nodes, missing, span, points, progress, workers, total, store)

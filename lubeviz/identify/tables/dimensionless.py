@@ -254,7 +254,7 @@ def build_slice(geometry: dict, sommerfeld: float, *, span=DEFAULT_SPAN, points:
                              threshold=threshold)
     n = below["values"].shape[0]
     above = build_slice_part(geometry, sommerfeld, "above", span=span, points=points, threshold=threshold,
-                             progress=lambda done, total, label="": progress(n + done, points, label))
+                             progress=lambda done, total, label="": progress(n + done, n + total, label))
     return join_slice(sommerfeld, below, above, span=span, points=points)
 
 

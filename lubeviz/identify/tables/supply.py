@@ -2,7 +2,7 @@
 
 For a given load, speed and oil a bearing's coefficients depend on its own supply flow only, so the
 whole identification needs just one table per bearing: equilibria on a grid of flows spanning
-`span` x Q_T (default 25-200 %), interpolated with a cubic spline per entry (C2-smooth between kinks,
+`span` x Q_T (default 25-300 %), interpolated with a cubic spline per entry (C2-smooth between kinks,
 so a Newton search and its finite-difference Jacobian see smooth functions). The tables the
 identification uses are views of the dimensionless tables over (S, Q / Q_T) (`dimensionless.py`,
 cached by `cache.py`), on this module's grid in Q / Q_T; `build_table` / `bearing_table` solve a
@@ -42,7 +42,14 @@ from ...progress import ProgressFn, silent
 from ...rotor.statics import bearing_static_loads
 from ...units import MLMIN_PER_M3S
 
-DEFAULT_SPAN = (0.25, 2.0)
+DEFAULT_SPAN = (0.25, 3.0)
+# The grid is `points` nodes over the span up to BASE_TOP x Q_T, and beyond it (an oil thicker than declared lowers
+# Q_T: a flow of 1.8 Q_T at the declared oil is 2.2 Q_T at oil x1.27, where a table that ended at 2 Q_T held the
+# film at 2 Q_T, its K and C 6 % off at 2.16 and 15 % at 2.5 on the fan: session 55) further nodes at FAR_STEP
+# x the grid's last step in s = sqrt(Q / Q_T): the film is flooded there and smooth in the supply. The nodes up to
+# BASE_TOP are those of a table that ends there.
+BASE_TOP = 2.0
+FAR_STEP = 3.0
 # The band where the groove pressurizes, relative to Q_T, and its step (1.1 ml/min at Q_T =
 # 545 ml/min): 28 of the default points; the other 112 on the sqrt(Q) grid outside it. Chosen by
 # measurement (fb, phi vs direct solves, bearing 1 at 75 Hz, all midpoints; accuracy.py; max below
@@ -124,8 +131,9 @@ class CoefficientTable:
 
 
 def table_flows(q_threshold: float, span=DEFAULT_SPAN, points: int = DEFAULT_POINTS) -> np.ndarray:
-    """`points` flows (m^3/s): uniform steps of `DENSE_STEP` x Q_T across `DENSE_BAND` around Q_T
-    (Q_T itself a node), and a grid uniform in s = sqrt(Q / Q_T) over the rest of the span.
+    """`points` flows (m^3/s) up to BASE_TOP x Q_T: uniform steps of `DENSE_STEP` x Q_T across `DENSE_BAND` around
+    Q_T (Q_T itself a node), and a grid uniform in s = sqrt(Q / Q_T) over the rest; a span reaching past BASE_TOP
+    continues at FAR_STEP x the last step in s to its end (its last node there).
 
     The dense band is used when the span holds it and it takes at most half the points; otherwise
     (coarse tables, e.g. in tests) the sqrt grid covers everything, still with a node at Q_T.
@@ -133,6 +141,12 @@ def table_flows(q_threshold: float, span=DEFAULT_SPAN, points: int = DEFAULT_POI
     lo, hi = span
     if not (0 < lo < hi and points >= 8):
         raise InputError(f"table span {span!r} and points {points!r}: expected 0 < lo < hi and >= 8 points")
+    if lo < BASE_TOP < hi:
+        base = table_flows(1.0, (lo, BASE_TOP), points)
+        a, b = math.sqrt(base[-2]), math.sqrt(base[-1])
+        n_far = max(1, int(math.ceil((math.sqrt(hi) - b) / (FAR_STEP * (b - a)) - 1e-9)))
+        far = np.linspace(b, math.sqrt(hi), n_far + 1)[1:] ** 2
+        return q_threshold * np.concatenate([base, far])
     a, b = math.sqrt(lo), math.sqrt(hi)
     if not a < 1.0 < b:
         return q_threshold * np.linspace(a, b, points) ** 2
