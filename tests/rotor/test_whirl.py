@@ -69,9 +69,17 @@ ZETA_TOL = 0.01
 
 
 def test_above_the_threshold_oil_whirl_grows_at_the_rate_and_frequency_of_the_unstable_mode(coarse):
-    """100 Hz, 1.25 Q_T (threshold ~89 Hz): the first forward mode at ~0.47X grows. Measured: 7.9 / 7.9 1/s
-    against sigma = 8.6 1/s (damping ratio -0.027 against -0.029), 47.3 Hz against 47.24 Hz."""
-    stab, got = _disturbance(coarse, 100.0, 1.25, 0.15)
+    """100 Hz, 1.25 Q_T (threshold ~89 Hz): the first forward mode at ~0.47X grows. Measured over 0.1 s: 8.8 / 8.4
+    1/s against sigma = 8.6 1/s (damping ratio -0.030 / -0.028 against -0.029), 47.39 / 47.37 Hz against 47.24 Hz.
+
+    0.1 s, not 0.15 s: the eigenvalue is the rate of a small disturbance, and the whirl grows e-fold every 0.12 s;
+    over longer records the fitted rate falls (plane 1: 9.1, 8.8, 8.3, 7.9 1/s over 0.08, 0.10, 0.12, 0.15 s) as
+    the whirl leaves the small-disturbance range. The same integration, its fit over the first D s (late = t > 0.2
+    D), measured as the damping ratio's distance to the eigenvalue's at the two planes (bound 0.01) and the
+    frequency's relative distance (bound 0.01): D = 0.15 s 7.9 / 7.9 1/s, 0.0024 / 0.0025, 0.0021 / 0.0008;
+    0.12 s 0.0011 / 0.0021, 0.0030 / 0.0019; 0.10 s 0.0005 / 0.0010, 0.0031 / 0.0026; 0.08 s 0.0015 / 0.0002,
+    0.0028 / 0.0031 (measured, 50 x 50 films; 21 -> 14 s of integration on one core)."""
+    stab, got = _disturbance(coarse, 100.0, 1.25, 0.10)
     assert stab.unstable and stab.forward and 0.42 <= stab.order <= 0.5
     for growth, freq in got:
         assert growth > 0
