@@ -581,7 +581,8 @@ def _explained_outcome(chains, meas, before, names, budget, level, passing=()) -
     return out
 
 
-UNSEEN_CHI2 = 3.84  # a typical fault fits "as well" as none when its chi2 is within this of the plain fit's (95 %, 1 dof)
+# a typical fault fits "as well" as none when its chi2 is within this of the plain fit's (95 %, one parameter)
+UNSEEN_CHI2 = 3.84
 
 
 @dataclass(frozen=True)

@@ -54,9 +54,13 @@ def test_a_viscosity_far_from_declared_is_found_from_its_search_values(viscous, 
     res = _fit(viscous)
     assert res.chi2 <= at_truth.chi2 + 0.5 and 1.2 < res.values[-1] < 1.5 and _holds(res)
     assert _fit(viscous, screening=True, intervals=False).chi2 <= at_truth.chi2 + 0.5  # as a diagnosis ranks it
-    monkeypatch.setattr(Viscosity, "search", {})  # searched from x1 alone: a basin at x1.15, Q2 at its bound
-    stuck = _fit(viscous, screening=True, intervals=False)
-    assert stuck.chi2 > at_truth.chi2 + 5.0 and not stuck.explained
+    # Searched from x1 alone, the fit stopped in a basin at x1.15 with Q2 at its bound until session 55: Q2 there
+    # is past 2 Q_T of the thicker oil, where the tables ended and the lookup held the film at 2 Q_T. With the
+    # tables to 3 Q_T that basin is gone and x1 alone reaches the valley; the search values stay for the records
+    # whose valley is far from x1 (a thinner oil's).
+    monkeypatch.setattr(Viscosity, "search", {})
+    alone = _fit(viscous, screening=True, intervals=False)
+    assert alone.chi2 <= at_truth.chi2 + 0.5 and 1.2 < alone.values[-1] < 1.5
 
 
 def test_a_profile_point_below_the_optimum_restarts_the_fit(viscous, monkeypatch):

@@ -28,7 +28,8 @@ def test_bearing_b_far_above_its_threshold_is_the_film_s_own(factor):
     thick.bearings = [b.copy(viscosity=b.viscosity * factor) for b in thick.bearings]
     ratio = Q / flooded_thresholds(thick, 2 * np.pi * SPEED)
     assert ratio[1] > 2.1  # past the old tables' end
-    chain = ForwardChain(load_machine(FAN), SPEED, (7, 15, 23), effects=(Viscosity(bearing="all", factor=factor).hold(),))
+    oil = Viscosity(bearing="all", factor=factor).hold()
+    chain = ForwardChain(load_machine(FAN), SPEED, (7, 15, 23), effects=(oil,))
     theta = chain.start()
     theta[:3] = Q
     direct = film_bearings(thick, Q, 2 * np.pi * SPEED).equilibria

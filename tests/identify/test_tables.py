@@ -111,7 +111,7 @@ def regions(paper_table, paper_error):
     fills cell by cell (fb in %, φ in degrees)."""
     _, t = paper_table
     out = paper_error.regions(t.q_threshold)
-    assert all(r is not None and r["flows"] >= 20 for r in out.values())
+    assert all(r is not None and r["flows"] >= (10 if name == "far" else 20) for name, r in out.items())
     return out
 
 
@@ -142,3 +142,15 @@ def test_above_q_t_the_table_is_within_the_target_but_for_the_films_own_roughnes
     r = regions["above"]
     assert r["fb_pct_p90"] < FB_TARGET_PCT and r["phi_deg_p90"] < PHI_TARGET
     assert r["fb_pct_max"] < 2 * FB_TARGET_PCT and r["phi_deg_max"] < 2 * PHI_TARGET
+
+
+@pytest.mark.slow
+def test_past_twice_q_t_the_table_follows_the_film_to_within_the_noise_floor(regions):
+    """2-3 Q_T, where only an effect that lowers Q_T (thicker oil) takes a flow the identification's box allows,
+    at three times the last step in sqrt(Q / Q_T). The typical error meets the target; the max, a kink in the
+    direct solves at 2.0-2.3 Q_T (0.17 % at the finer step as well), stays within twice the noise floor (measured:
+    median 0.0019 % fb, max 0.48 % fb, 0.014 deg phi; below 2 Q_T unchanged: 0.023, 0.016, 0.064 % fb max). Held
+    at 2 Q_T, as the lookup was before, K and C were 6-15 % off on the fan (`test_far_supply.py`)."""
+    r = regions["far"]
+    assert r["fb_pct_median"] < FB_TARGET_PCT and r["phi_deg_max"] < 2 * PHI_TARGET
+    assert r["fb_pct_max"] < 2 * 100 * NOISE_FB_REL

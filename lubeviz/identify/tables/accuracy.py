@@ -106,11 +106,16 @@ class InterpolationError:
 
     def regions(self, q_threshold: float, band_mlmin=GROOVE_BAND_MLMIN) -> dict:
         """Median, 90th percentile and max of the fb (%) and phi (deg) errors below, across and above
-        the band Q_T + band_mlmin (ml/min) where the groove pressurizes; None for an empty region."""
+        the band Q_T + band_mlmin (ml/min) where the groove pressurizes, up to BASE_TOP x Q_T (the identification's
+        box), and "far" beyond it (reached when an effect lowers Q_T: thicker oil); None for an empty region."""
+        from .supply import BASE_TOP
+
         dq = (self.flows - q_threshold) * MLMIN_PER_M3S
+        far = self.flows > BASE_TOP * q_threshold * (1 + 1e-12)
         lo, hi = band_mlmin
         out = {}
-        for name, sel in (("below", dq < lo), ("band", (dq >= lo) & (dq <= hi)), ("above", dq > hi)):
+        for name, sel in (("below", dq < lo), ("band", (dq >= lo) & (dq <= hi)), ("above", (dq > hi) & ~far),
+                          ("far", far)):
             if not sel.any():
                 out[name] = None
                 continue
