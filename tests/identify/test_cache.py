@@ -71,8 +71,10 @@ def test_a_default_grid_table_with_its_dense_band_is_read_back(tmp_path, builds)
     """The default grid (a dense band around Q_T plus the sqrt(Q) grid) passes the cache's own grid check."""
     m = coarse_machine()
     first = cached_table(m, 0, directory=tmp_path)
-    # DEFAULT_POINTS up to BASE_TOP x Q_T, then the coarser nodes to the span's end
-    assert first.q.size == tables.DEFAULT_POINTS + int(np.sum(tables.table_flows(1.0) > tables.BASE_TOP * (1 + 1e-12)))
+    # DEFAULT_POINTS over BASE_BOTTOM-BASE_TOP x Q_T, then the nodes beyond it to the span's ends
+    r = tables.table_flows(1.0)
+    beyond = (r > tables.BASE_TOP * (1 + 1e-12)) | (r < tables.BASE_BOTTOM * (1 - 1e-12))
+    assert first.q.size == tables.DEFAULT_POINTS + int(beyond.sum()) and beyond.sum() > 0
     np.testing.assert_allclose(first.q, tables.table_flows(first.q_threshold), rtol=1e-14)
     with warnings.catch_warnings():
         warnings.simplefilter("error", StaleCacheWarning)

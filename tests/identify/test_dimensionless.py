@@ -81,7 +81,7 @@ def test_view_on_a_grid_slice_equals_the_direct_sweep(tmp_path):
     np.testing.assert_allclose(view.K, direct.K, rtol=1e-6, atol=1e-6 * np.abs(direct.K).max())
     np.testing.assert_allclose(view.C, direct.C, rtol=1e-6, atol=1e-6 * np.abs(direct.C).max())
     np.testing.assert_allclose(view.position, direct.position, rtol=1e-6, atol=1e-9 * b.clearance)
-    assert view.q_min == pytest.approx(0.25 * q_t, rel=1e-6) and view.q_max == pytest.approx(DEFAULT_SPAN[1] * q_t, rel=1e-6)
+    assert view.q_min == pytest.approx(DEFAULT_SPAN[0] * q_t, rel=1e-6) and view.q_max == pytest.approx(DEFAULT_SPAN[1] * q_t, rel=1e-6)
 
 
 def test_bearings_differing_in_viscosity_share_the_slices(tmp_path, builds):

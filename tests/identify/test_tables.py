@@ -7,8 +7,8 @@ import pytest
 from lubeviz.errors import InputError
 from lubeviz.film.sweep import sweep_supply
 from lubeviz.identify.tables.accuracy import NOISE_FB_REL, NOISE_PHI_DEG, interpolation_error
-from lubeviz.identify.tables.supply import (BASE_TOP, DEFAULT_POINTS, DEFAULT_SPAN, DENSE_BAND, DENSE_STEP, FAR_STEP,
-                                           build_table, table_flows)
+from lubeviz.identify.tables.supply import (BASE_BOTTOM, BASE_TOP, DEFAULT_POINTS, DEFAULT_SPAN, DENSE_BAND, DENSE_STEP,
+                                           FAR_STEP, LOW_STEP, build_table, table_flows)
 from lubeviz.model.machine import load_machine
 from lubeviz.rotor.statics import bearing_static_loads
 from lubeviz.units import MLMIN_PER_M3S
@@ -59,7 +59,7 @@ def test_table_spans_the_search_domain(coarse):
     np.testing.assert_array_equal(t.q, table_flows(t.q_threshold, points=9))
 
 
-@pytest.mark.parametrize("factor", [0.2, 3.05, np.nan])
+@pytest.mark.parametrize("factor", [0.08, 3.05, np.nan])
 def test_refuses_flows_outside_the_span(coarse, factor):
     _, t = coarse
     with pytest.raises(InputError, match=r"outside the table of bearing 1: \d+\.\d-\d+\.\d ml/min"):
@@ -77,15 +77,19 @@ def test_refuses_a_degenerate_span():
 
 def test_grid_is_uniform_and_dense_where_the_groove_fills():
     q = table_flows(1.0)
-    assert np.all(np.diff(q) > 0) and q[0] == DEFAULT_SPAN[0] and q[-1] == pytest.approx(DEFAULT_SPAN[1], rel=1e-15)
-    # up to BASE_TOP: the nodes of a table that ends there; above it, coarser steps in sqrt(Q / Q_T)
-    base = q[q <= BASE_TOP * (1 + 1e-12)]
-    np.testing.assert_array_equal(base, table_flows(1.0, (DEFAULT_SPAN[0], BASE_TOP)))
+    assert np.all(np.diff(q) > 0) and q[0] == pytest.approx(DEFAULT_SPAN[0], rel=1e-15) and q[-1] == pytest.approx(DEFAULT_SPAN[1], rel=1e-15)
+    # over BASE_BOTTOM-BASE_TOP: the nodes of a table over just that span; beyond it, steps in sqrt(Q / Q_T) of
+    # FAR_STEP (above) and LOW_STEP (below) x the grid's step at its edge
+    inside = (q >= BASE_BOTTOM * (1 - 1e-12)) & (q <= BASE_TOP * (1 + 1e-12))
+    base = q[inside]
+    np.testing.assert_array_equal(base, table_flows(1.0, (BASE_BOTTOM, BASE_TOP)))
     assert base.size == DEFAULT_POINTS
-    far = np.diff(np.sqrt(q[base.size - 1:]))
-    last = np.sqrt(base[-1]) - np.sqrt(base[-2])
-    np.testing.assert_allclose(far, far[0], rtol=1e-9)
-    assert 0.5 * FAR_STEP * last < far[0] <= FAR_STEP * last * (1 + 1e-12)
+    first = int(np.argmax(inside))
+    for ends, step, edge in ((q[first + base.size - 1:], FAR_STEP, np.sqrt(base[-1]) - np.sqrt(base[-2])),
+                             (q[:first + 1], LOW_STEP, np.sqrt(base[1]) - np.sqrt(base[0]))):
+        steps = np.diff(np.sqrt(ends))
+        np.testing.assert_allclose(steps, steps[0], rtol=1e-9)
+        assert 0.5 * step * edge < steps[0] <= step * edge * (1 + 1e-12)
     band = q[(q >= 1 + DENSE_BAND[0] - 1e-12) & (q <= 1 + DENSE_BAND[1] + 1e-12)]
     np.testing.assert_allclose(np.diff(band), DENSE_STEP, rtol=1e-9)
     assert np.any(np.abs(band - 1.0) < 1e-12)  # Q_T is a node: the splines split there

@@ -111,7 +111,7 @@ class InterpolationError:
         from .supply import BASE_TOP
 
         dq = (self.flows - q_threshold) * MLMIN_PER_M3S
-        far = self.flows > BASE_TOP * q_threshold * (1 + 1e-12)
+        far = self.flows > BASE_TOP * q_threshold * (1 + 1e-12)  # (below BASE_BOTTOM: in "below", and as accurate)
         lo, hi = band_mlmin
         out = {}
         for name, sel in (("below", dq < lo), ("band", (dq >= lo) & (dq <= hi)), ("above", (dq > hi) & ~far),

@@ -2,7 +2,7 @@
 
 For a given load, speed and oil a bearing's coefficients depend on its own supply flow only, so the
 whole identification needs just one table per bearing: equilibria on a grid of flows spanning
-`span` x Q_T (default 25-300 %), interpolated with a cubic spline per entry (C2-smooth between kinks,
+`span` x Q_T (default 10-300 %), interpolated with a cubic spline per entry (C2-smooth between kinks,
 so a Newton search and its finite-difference Jacobian see smooth functions). The tables the
 identification uses are views of the dimensionless tables over (S, Q / Q_T) (`dimensionless.py`,
 cached by `cache.py`), on this module's grid in Q / Q_T; `build_table` / `bearing_table` solve a
@@ -42,14 +42,19 @@ from ...progress import ProgressFn, silent
 from ...rotor.statics import bearing_static_loads
 from ...units import MLMIN_PER_M3S
 
-DEFAULT_SPAN = (0.25, 3.0)
-# The grid is `points` nodes over the span up to BASE_TOP x Q_T, and beyond it (an oil thicker than declared lowers
-# Q_T: a flow of 1.8 Q_T at the declared oil is 2.2 Q_T at oil x1.27, where a table that ended at 2 Q_T held the
-# film at 2 Q_T, its K and C 6 % off at 2.16 and 15 % at 2.5 on the fan: session 55) further nodes at FAR_STEP
-# x the grid's last step in s = sqrt(Q / Q_T): the film is flooded there and smooth in the supply. The nodes up to
-# BASE_TOP are those of a table that ends there.
-BASE_TOP = 2.0
+DEFAULT_SPAN = (0.1, 3.0)
+# The grid is `points` nodes over BASE_BOTTOM-BASE_TOP x Q_T, the identification's box at the declared machine, and
+# beyond it further nodes, where an effect takes a bearing's Q_T away from the declared one (session 55; a table
+# that ended at 0.25 and 2 Q_T held the film at its end, without a word):
+# - above BASE_TOP at FAR_STEP x the grid's last step in s = sqrt(Q / Q_T): an oil thicker than declared lowers
+#   Q_T, and a flow of 1.8 Q_T at the declared oil is 2.2 Q_T at oil x1.27 (the fan's bearing B: K and C 6 % off at
+#   2.16 Q_T, 15 % at 2.5). The film is flooded there and smooth in the supply.
+# - below BASE_BOTTOM at LOW_STEP x its first step: a worn bearing's Q_T grows faster than its clearance, and a flow
+#   of 0.34 Q_T at the declared clearance is 0.14 Q_T at x1.44 (the fan's bearing B: K 16 %, C 38 % off).
+# The nodes over BASE_BOTTOM-BASE_TOP are those of a table over just that span.
+BASE_BOTTOM, BASE_TOP = 0.25, 2.0
 FAR_STEP = 3.0
+LOW_STEP = 1.5
 # The band where the groove pressurizes, relative to Q_T, and its step (1.1 ml/min at Q_T =
 # 545 ml/min): 28 of the default points; the other 112 on the sqrt(Q) grid outside it. Chosen by
 # measurement (fb, phi vs direct solves, bearing 1 at 75 Hz, all midpoints; accuracy.py; max below
@@ -141,12 +146,14 @@ def table_flows(q_threshold: float, span=DEFAULT_SPAN, points: int = DEFAULT_POI
     lo, hi = span
     if not (0 < lo < hi and points >= 8):
         raise InputError(f"table span {span!r} and points {points!r}: expected 0 < lo < hi and >= 8 points")
-    if lo < BASE_TOP < hi:
-        base = table_flows(1.0, (lo, BASE_TOP), points)
-        a, b = math.sqrt(base[-2]), math.sqrt(base[-1])
-        n_far = max(1, int(math.ceil((math.sqrt(hi) - b) / (FAR_STEP * (b - a)) - 1e-9)))
-        far = np.linspace(b, math.sqrt(hi), n_far + 1)[1:] ** 2
-        return q_threshold * np.concatenate([base, far])
+    if lo < BASE_BOTTOM < hi or lo < BASE_TOP < hi:
+        base = table_flows(1.0, (max(lo, BASE_BOTTOM), min(hi, BASE_TOP)), points)
+        parts = [base]
+        if hi > BASE_TOP:
+            parts.append(_continued(base[-2], base[-1], hi, FAR_STEP))
+        if lo < BASE_BOTTOM:
+            parts.insert(0, _continued(base[1], base[0], lo, LOW_STEP)[::-1])
+        return q_threshold * np.concatenate(parts)
     a, b = math.sqrt(lo), math.sqrt(hi)
     if not a < 1.0 < b:
         return q_threshold * np.linspace(a, b, points) ** 2
@@ -163,6 +170,14 @@ def table_flows(q_threshold: float, span=DEFAULT_SPAN, points: int = DEFAULT_POI
     n_below = min(max(int(round((1.0 - a) / (b - a) * (points - 1))), 3), points - 4)
     s = np.concatenate([np.linspace(a, 1.0, n_below + 1), np.linspace(1.0, b, points - n_below)[1:]])
     return q_threshold * s**2
+
+
+def _continued(inner: float, edge: float, end: float, step: float) -> np.ndarray:
+    """Nodes from the grid's `edge` (excluded) to `end` (included), uniform in sqrt, at `step` x the grid's step
+    there (sqrt(edge) - sqrt(inner)) or just under it."""
+    a, b = math.sqrt(inner), math.sqrt(edge)
+    n = max(1, int(math.ceil((math.sqrt(end) - b) / (step * (b - a)) - 1e-9)))
+    return np.linspace(b, math.sqrt(end), n + 1)[1:] ** 2
 
 
 def build_table(machine, bearing: int, omega: float | None = None, *, span=DEFAULT_SPAN,
