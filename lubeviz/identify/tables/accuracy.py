@@ -369,6 +369,7 @@ def bench_table(machine_path=None, *, points: int = 200, seed: int = 0, identify
     from ...model.machine import load_machine
     from ...progress import silent
     from .cache import full_build
+    from .dimensionless import ratio_grid
 
     progress = silent if progress is None else progress
     machine = load_machine(machine_path)
@@ -378,7 +379,9 @@ def bench_table(machine_path=None, *, points: int = 200, seed: int = 0, identify
         files = list((Path(tmp) / "slices").glob("*.npz"))
         out.update({"full_build_cold_s": seconds, "slices": len(files),
                     "disk_mb": sum(f.stat().st_size for f in files) / 1e6,
-                    "sommerfeld_range": list(table.s_range), "ratio_points": table.points})
+                    "sommerfeld_range": list(table.s_range), "ratio_points": table.points,
+                    "ratio_nodes": int(ratio_grid(table.span, table.points).size),
+                    "ratio_span": [float(v) for v in table.span]})
         t0 = time.perf_counter()
         acc = range_accuracy(machine, points, rng=np.random.default_rng(seed), directory=tmp, progress=progress)
         out["accuracy"] = {**acc.summary(), "by_sommerfeld": acc.by_sommerfeld(), "worst": acc.worst(),
