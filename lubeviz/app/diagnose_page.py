@@ -23,7 +23,7 @@ import param
 from ..api import DiagnosisSettings, diagnose
 from ..diagnose import diagnosis_dict
 from ..diagnose.settings import REPORT_MAP_POINTS
-from ..diagnose.loop import interval_words, not_seen_words
+from ..diagnose.loop import interval_words, not_seen_sentence
 from ..diagnose.report import (AFTER_COLOUR as AFTER, BEFORE_COLOUR as BEFORE, WORK_ORDER_FIELDS, report_file_name,
                                report_html, report_maps, scan_svg)
 from ..effects import EFFECTS, label_title, quantity_words
@@ -438,11 +438,7 @@ class DiagnosePage(pn.viewable.Viewer):
         elif d.separated_by:
             lines += ["", f"To confirm it: {plain('; or '.join(d.separated_by))}."]
         if d.not_seen:  # faults of a typical size the record cannot tell from none
-            lines += ["", "**Not seen by this record**: it fits as well if "
-                          + plain("; or if ".join(not_seen_words(u) for u in d.not_seen)) + ". To see "
-                          f"{'it' if len(d.not_seen) == 1 else 'them'}: "
-                          + plain("; or ".join(dict.fromkeys(w for u in d.not_seen for w in u.candidate.separated_by)))
-                          + "."]
+            lines += ["", "**Not seen by this record**: " + plain(not_seen_sentence(d.not_seen))]
         if d.set_intervals is not None:  # an ambiguity, or an oil the record cannot pin (the verdict says which)
             lines += ["", "**Flows over every explanation that fits** (until a measurement separates them): "
                       f"{interval_words(d.set_intervals)}."]

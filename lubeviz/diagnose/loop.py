@@ -641,22 +641,28 @@ def _not_seen(chains, meas, before: Fit, passing, names, budget, level) -> list:
 
 def not_seen_words(u: NotSeen) -> str:
     """'constant support 1 has 0.5 times its declared stiffness and damping': the fault in words (its story's first
-    sentence), for the verdict, the page and the report."""
+    sentence)."""
     text = u.effect.told().split(". ")[0].rstrip(".")
     return text[:1].lower() + text[1:]
 
 
+def not_seen_sentence(unseen, said=not_seen_words) -> str:
+    """'it fits as well if <fault>; or if <fault>. To see it: <measurement>.': the faults a record cannot see
+    (`NotSeen`), each told by `said`, and what would see them; one text for the verdict, the page and the report."""
+    separated = tuple(dict.fromkeys(w for u in unseen for w in u.candidate.separated_by))
+    return ("it fits as well if " + "; or if ".join(said(u) for u in unseen)
+            + f". To see {'it' if len(unseen) == 1 else 'them'}: " + "; or ".join(separated) + ".")
+
+
 def _not_seen_words(before: Fit, unseen) -> str:
-    """The verdict's sentence on the faults the record cannot see (`_not_seen`)."""
+    """The verdict's sentence on the faults the record cannot see (`_not_seen`), with each one's chi2 and flows."""
     def said(u):
         flows = ("with other flows, " + _flows_text(u.fit)) if _outside(before, fit_flows(u.fit)) else \
             "with flows inside their intervals"
         return f"{not_seen_words(u)} (chi2 {u.fit.chi2:.1f}, {flows})"
 
-    separated = tuple(dict.fromkeys(w for u in unseen for w in u.candidate.separated_by))
-    return (f" This record cannot see {'a fault' if len(unseen) == 1 else 'faults'} of typical size: it fits as well "
-            f"as with the machine as declared (chi2 {before.chi2:.1f}) if " + "; or if ".join(said(u) for u in unseen)
-            + f". To see {'it' if len(unseen) == 1 else 'them'}: " + "; or ".join(separated) + ".")
+    return (f" This record cannot see {'a fault' if len(unseen) == 1 else 'faults'} of typical size (the machine as "
+            f"declared: chi2 {before.chi2:.1f}): " + not_seen_sentence(unseen, said))
 
 
 def _unpinned(chains, meas, effects=()) -> list:

@@ -25,7 +25,7 @@ import numpy as np
 
 from .. import __version__
 from ..identify.forward.budget import ModelBudget
-from .loop import fit_flows, fit_flows_std, fitted_effects, interval_words, not_seen_words
+from .loop import fit_flows, fit_flows_std, fitted_effects, interval_words, not_seen_sentence
 from ..effects import EFFECTS, label_title, parse_effect, quantity_words
 from ..words import signs
 from ..identify.fit.result import VERDICT_BAND as BAND
@@ -152,12 +152,7 @@ def _actions(d, nodes) -> list[str]:
         out.append(f"<b>The model needed {escape(d.added.title)}</b>: {story} Confirm it"
                    + (f" by {sep}." if sep else "."))
     if d.not_seen:  # faults of a typical size the explained record cannot tell from none
-        out.append("<b>Not seen by this record</b>: it fits as well if "
-                   + escape("; or if ".join(not_seen_words(u) for u in d.not_seen)) + ". This record does not clear "
-                   + ("it" if len(d.not_seen) == 1 else "them") + "; to see " + ("it" if len(d.not_seen) == 1 else
-                                                                                 "them") + ": "
-                   + escape("; or ".join(dict.fromkeys(w for u in d.not_seen for w in u.candidate.separated_by)))
-                   + ".")
+        out.append("<b>Not seen by this record</b>, so not cleared by it: " + escape(not_seen_sentence(d.not_seen)))
     if d.set_intervals is not None and outcome != "ambiguous":  # an explanation the record cannot rule out
         out.append("<b>Other explanations fit as well</b> (the verdict says which): over all of them the flows are "
                    "known only within " + escape(interval_words(d.set_intervals)) + ". Take one of the measurements "

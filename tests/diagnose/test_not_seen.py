@@ -60,8 +60,8 @@ def test_a_loose_support_no_plane_sees_is_told_as_not_seen_with_what_would_see_i
     assert u.effect.factor == SupportStiffness.search["factor"][0]  # the typical fault's size, held
     assert "factor" not in u.effect.free
     assert u.fit.explained and u.fit.chi2 <= d.before.chi2 + UNSEEN_CHI2
-    assert "cannot see a fault of typical size: it fits as well" in d.verdict
-    assert "if constant support 1 has 0.5 times its declared stiffness" in d.verdict
+    assert "cannot see a fault of typical size" in d.verdict
+    assert "it fits as well if constant support 1 has 0.5 times its declared stiffness" in d.verdict
     assert "a vibration measurement on the support's housing" in d.verdict
     # the flows with the support held loose are inside the interval the verdict reports (set or plain)
     iv = d.set_intervals if d.set_intervals is not None else [d.before.intervals[f"q{k + 1}"] for k in range(3)]
