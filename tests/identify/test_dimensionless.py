@@ -188,8 +188,11 @@ def test_a_cancelled_build_keeps_its_finished_slices(tmp_path, builds, workers):
     b = coarse_bearing()
     load = load_for(b, 1.9)
 
+    per = dimensionless.ratio_grid(DEFAULT_SPAN, POINTS).size  # a slice's equilibria (more than POINTS: the span's
+    # ends past 0.25 and 2 Q_T)
+
     def cancel_after_two_slices(done, total, label=""):
-        if done > 2 * POINTS + 1:
+        if done > 2 * per + 1:
             raise Cancelled("stop")
 
     with pytest.raises(Cancelled):
