@@ -630,7 +630,9 @@ def _not_seen(chains, meas, before: Fit, passing, names, budget, level) -> list:
                 continue
             held = e.copy(**{free[0]: float(size)}).hold(free[0])
             try:
-                f = fit([ch.adding(held) for ch in chains], meas, names=names, budget=budget, level=level)
+                # (no profile intervals: the set's interval takes a member's flows +- 1.96 sigma, `_set_intervals`)
+                f = fit([ch.adding(held) for ch in chains], meas, names=names, budget=budget, level=level,
+                        intervals=False)
             except LubevizError:
                 continue
             if f.explained and f.chi2 <= before.chi2 + UNSEEN_CHI2:

@@ -136,9 +136,10 @@ class CoefficientTable:
 
 
 def table_flows(q_threshold: float, span=DEFAULT_SPAN, points: int = DEFAULT_POINTS) -> np.ndarray:
-    """`points` flows (m^3/s) up to BASE_TOP x Q_T: uniform steps of `DENSE_STEP` x Q_T across `DENSE_BAND` around
-    Q_T (Q_T itself a node), and a grid uniform in s = sqrt(Q / Q_T) over the rest; a span reaching past BASE_TOP
-    continues at FAR_STEP x the last step in s to its end (its last node there).
+    """`points` flows (m^3/s) over the span's part within BASE_BOTTOM-BASE_TOP x Q_T: uniform steps of `DENSE_STEP`
+    x Q_T across `DENSE_BAND` around Q_T (Q_T itself a node), and a grid uniform in s = sqrt(Q / Q_T) over the
+    rest; a span reaching past BASE_TOP continues at FAR_STEP x the last step in s to its end, one reaching below
+    BASE_BOTTOM at LOW_STEP x the first step down to its start (the span's ends are nodes).
 
     The dense band is used when the span holds it and it takes at most half the points; otherwise
     (coarse tables, e.g. in tests) the sqrt grid covers everything, still with a node at Q_T.
