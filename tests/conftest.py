@@ -20,6 +20,12 @@ from lubeviz.film.feed import Feed
 from lubeviz.model.bearing import Bearing
 from lubeviz.model.machine import load_machine
 
+if os.environ.get("PYTEST_XDIST_WORKER"):  # each worker has a core: the balance's film solves one at a time (its two
+    # threads per worker oversubscribed the cores: the three balance-heavy files took 138 s, 130 s with one)
+    import lubeviz.rotor.orbit_balance as _orbit_balance
+
+    _orbit_balance.FILM_THREADS = 1
+
 PAPER_LOAD = np.array([0.0, -3272.8])  # the paper's static share of the rotor weight (N)
 OMEGA_75HZ = 2.0 * math.pi * 75.0
 

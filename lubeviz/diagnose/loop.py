@@ -296,6 +296,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
             verdict += (" Above the threshold the machine is not in a steady state (the whirl grows on top of the "
                         "unbalance orbit): the flows above rest on the 1X part of a transient and on a steady model, "
                         "so take them as indicative; their intervals do not carry this.")
+    verdict += _past_tables_words(out["after"] if out["after"] is not None else before)
     completed = _complete_scans(scans, out["added"], out["ambiguous"])
     verdict += _scan_words(completed, out["added"], out["ambiguous"]) + _widen_over_places(out, scans, completed)
     scans = completed
@@ -639,6 +640,12 @@ def _not_seen(chains, meas, before: Fit, passing, names, budget, level) -> list:
                 out.append(NotSeen(candidate=c, effect=held, fit=f))
                 break
     return out
+
+
+def _past_tables_words(f: Fit) -> str:
+    """The fit's sentences on flows past their tables' ends (`least_squares._past_tables_text`), for the verdict."""
+    said = [w for w in f.warnings if "past the tables' end" in w]
+    return "".join(f" {w[:1].upper()}{w[1:]}." for w in said)
 
 
 def not_seen_words(u: NotSeen) -> str:

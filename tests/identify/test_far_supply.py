@@ -64,3 +64,39 @@ def test_a_worn_bearing_far_below_its_threshold_is_the_film_s_own(clearance_um):
     assert np.abs(K - d.coefficients.K).max() <= 0.01 * np.abs(d.coefficients.K).max()
     assert np.abs(C - d.coefficients.C).max() <= 0.01 * np.abs(d.coefficients.C).max()
     assert np.hypot(*(pos - d.position)) <= 0.01 * np.hypot(*d.position)
+
+
+@pytest.mark.slow
+def test_a_flow_past_the_tables_end_is_found_and_the_fit_says_so():
+    """Past 3 Q_T (oil x1.5 and bearing B fed 1.3 x the case's flow: 3.2 x the thick oil's Q_T) the lookups hold the
+    film at the tables' end. The chain finds such a bearing (`past_tables`, its Q_T the thick oil's own, as the film
+    has it), finds none inside, and a fit whose answer lies there says its flow is not to be trusted."""
+    from lubeviz.identify.fit.least_squares import fit
+    from lubeviz.identify.forward.chain import simulate
+    from lubeviz.identify.forward.measured import measure
+
+    factor = 1.5
+    thick = load_machine(FAN)
+    thick.bearings = [b.copy(viscosity=b.viscosity * factor) for b in thick.bearings]
+    q_t = flooded_thresholds(thick, 2 * np.pi * SPEED)
+    oil = Viscosity(bearing="all", factor=factor).hold()
+    chain = ForwardChain(load_machine(FAN), SPEED, (7, 15, 23), effects=(oil,))
+    theta = chain.start()
+    theta[:3] = Q
+    assert chain.past_tables(theta) == []  # 2.49 Q_T: inside
+    theta[1] = 1.3 * Q[1]
+    past = chain.past_tables(theta)
+    assert [p[0] for p in past] == [1]
+    k, q, threshold, end = past[0]
+    assert q == theta[1]
+    assert threshold == pytest.approx(q_t[1], rel=0.01)  # the thick oil's Q_T, not the declared oil's
+    assert end == pytest.approx(3.0 * threshold, rel=1e-6)
+    assert q / threshold > 3.0
+    res = fit(chain, measure(simulate(chain, theta, snr_db=30.0, rng=np.random.default_rng(2))), upper=2.5)
+    assert res.flow_values()[1] / threshold > 3.0
+    said = [w for w in res.warnings if "past the tables' end" in w]
+    assert len(said) == 1 and said[0].startswith("bearing 2's flow") and "not to be trusted" in said[0]
+    # ... and a diagnosis's verdict carries it (`diagnose.loop` adds the final fit's sentence)
+    from lubeviz.diagnose.loop import _past_tables_words
+
+    assert _past_tables_words(res) == f" {said[0][:1].upper()}{said[0][1:]}."

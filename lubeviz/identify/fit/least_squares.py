@@ -37,6 +37,7 @@ from ...errors import InputError
 from ..forward.budget import ModelBudget, model_sensitivity, set_covariance
 from ..forward.model import feature_plane, wrap_difference
 from ...units import MLMIN_PER_M3S
+from ..tables.supply import DEFAULT_SPAN
 from .result import Z95, FitParameter, flow_parameter, summary  # noqa: F401 - Z95 is read from here too
 
 STATUS = {
@@ -529,7 +530,8 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
         refined = sorted(refined + more, key=lambda t: t[0])
     p = float(stats.chi2.sf(chi2, dof)) if dof > 0 else None
     explained = p is None or p > level
-    warnings = [_clipped_text(ref, k, known[k]) for k in clipped]
+    warnings = [_clipped_text(ref, k, known[k]) for k in clipped] + (
+        [] if screening else _past_tables_text(chains, theta))
     std = np.sqrt(np.maximum(np.diag(cov), 0.0))
     if not explained:
         warnings.append(f"the model does not explain the record (chi2 = {chi2:.1f} for {dof} dof, p = {p:.2g} "
@@ -566,10 +568,24 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
 
 
 def _clipped_text(chain, k: int, held: float) -> str:
-    """The tables span 25-200 % of Q_T: a known supply beyond is taken at their edge, and said so."""
+    """A known supply past the tables' span (`tables.supply.DEFAULT_SPAN` x Q_T) is taken at its end, and said so."""
+    lo, hi = DEFAULT_SPAN
     return (f"bearing {k + 1}'s known supply {chain.machine.bearings[k].supply_flow * MLMIN_PER_M3S:.0f} "
-            f"ml/min lies outside 25-200 % of its Q_T ({chain.q_threshold[k] * MLMIN_PER_M3S:.0f} ml/min): "
-            f"held at {held * MLMIN_PER_M3S:.0f} ml/min, the tables' edge")
+            f"ml/min lies outside {lo:g}-{hi:g} x its Q_T ({chain.q_threshold[k] * MLMIN_PER_M3S:.0f} ml/min), "
+            f"the tables' span: held at {held * MLMIN_PER_M3S:.0f} ml/min, the tables' edge")
+
+
+def _past_tables_text(chains, theta) -> list[str]:
+    """A sentence for each bearing whose answer lies past its table's ends at some speed (`past_tables`): its
+    coefficients there are the end's, so the flow is not to be trusted."""
+    out = []
+    for chain in chains:
+        for k, q, q_t, end in chain.past_tables(theta):
+            out.append(f"bearing {k + 1}'s flow {q * MLMIN_PER_M3S:.0f} ml/min is {q / q_t:.2f} x its Q_T as the "
+                       f"fitted model has it ({q_t * MLMIN_PER_M3S:.0f} ml/min at {chain.speed_hz:g} Hz), past the "
+                       f"tables' end at {end / q_t:.2g} x Q_T: its film is taken as at that end, so this flow is "
+                       "not to be trusted")
+    return list(dict.fromkeys(out))
 
 
 def _alternatives(others, theta, chi2: float, crit: float, inflation: float, q_threshold) -> list:

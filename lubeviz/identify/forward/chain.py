@@ -47,7 +47,7 @@ from ...rotor import load_shift
 from ...rotor.statics import bearing_static_loads
 from .model import feature_plane, feature_vector, is_static
 from .shifted import packed_stacks, shifted_states
-from ..tables.supply import CoefficientTable
+from ..tables.supply import DEFAULT_SPAN, CoefficientTable
 from ...units import MLMIN_PER_M3S
 
 
@@ -77,8 +77,8 @@ class BearingSource:
 
     The declared bearing is served by its coefficient table (`lubeviz.identify.tables.cache`); a bearing with
     another viscosity or clearance by the table of that bearing, which the dimensionless (S, Q/Q_T)
-    tables give without a film solve when they cover it. Flows are clipped to the table's span (25-200 %
-    of that bearing's own Q_T): the search box's edge.
+    tables give without a film solve when they cover it. Flows are clipped to the table's span
+    (`tables.supply.DEFAULT_SPAN` x that bearing's own Q_T; `ForwardChain.past_tables` finds an answer there).
     """
 
     def __init__(self, machine, index: int, omega: float, table: CoefficientTable | None = None, *,
@@ -594,9 +594,9 @@ class ForwardChain:
     @property
     def known_flows(self) -> dict[int, float]:
         """{bearing (0-based): flow (m^3/s)} of the bearings whose supply the model file gives (SPEC §8
-        `supply_mlmin`): held in a fit, at most the tables' span (25-200 % of its Q_T: above, the film is flooded
-        and the coefficients barely change)."""
-        lo, hi = 0.25 * self.q_threshold, 2.0 * self.q_threshold
+        `supply_mlmin`): held in a fit, within the tables' span (`tables.supply.DEFAULT_SPAN` x its Q_T; a flow
+        beyond is held at the end, and the fit says so)."""
+        lo, hi = DEFAULT_SPAN[0] * self.q_threshold, DEFAULT_SPAN[1] * self.q_threshold
         return {k: float(np.clip(b.supply_flow, lo[k], hi[k])) for k, b in enumerate(self.machine.bearings)
                 if getattr(b, "supply", "unknown") == "known"}
 
@@ -703,6 +703,24 @@ class ForwardChain:
             return [(_repeated(change, shape), tuple(_repeated(a, shape) for a in state))
                     for change, state in self._states(theta[(0,) * len(shape)], ())[0]]
         return self._states(theta, shape)[0]
+
+    def past_tables(self, theta) -> list[tuple[int, float, float, float]]:
+        """The bearings whose flow at parameters theta (one point) lies past their own table's ends: (bearing k,
+        flow (m^3/s), its Q_T as the effects change it, the end it is held at). The lookups hold such a flow at the
+        table's end (`tables.scaled.value_at`, `BearingSource.evaluate`): an effect that moves Q_T (thicker oil, a
+        worn bearing) can take a flow there inside the search box, and the answer then rests on the end's
+        coefficients, not the flow's."""
+        theta = np.asarray(theta, dtype=float)
+        out = []
+        for k, (change, _state) in enumerate(self.bearing_states(theta)):
+            try:
+                view = self.sources[k].view(*change.as_floats())
+            except InputError:  # a Sommerfeld number off the grid: held at its end too (`_within_grid`)
+                continue
+            q = float(theta[k])
+            if q < view.q_min * (1 - 1e-6) or q > view.q_max * (1 + 1e-6):
+                out.append((k, q, float(view.q_threshold), view.q_min if q < view.q_min else view.q_max))
+        return out
 
     def static_loads(self, theta) -> np.ndarray:
         """Each bearing's static load (..., N, 2), N, at parameters theta: the flooded statics' moved by the
