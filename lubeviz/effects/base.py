@@ -98,6 +98,12 @@ class Effect(param.Parameterized):
     # `values`: trial values of the free continuous parameters ({name: array of the batch `shape`}; see
     # `as_array`), so one call evaluates a whole batch of trial points.
 
+    def typical_values(self, pname: str, chain) -> tuple[float, ...]:
+        """Sizes of `pname` a fault of this kind typically has on `chain`'s machine (`search`'s by default): a
+        diagnosis says when a record explained by the plain model cannot see the effect at such a size
+        (`diagnose.loop._not_seen`)."""
+        return tuple(float(v) for v in self.search.get(pname, ()))
+
     # bearings stage (and any effect that moves the bearings' static loads: the chain asks every stage)
     def bearing_change(self, k: int, values: dict, shape) -> dict:
         """What this effect changes of bearing `k` (0-based): {'viscosity_factor': x, 'clearance': m,

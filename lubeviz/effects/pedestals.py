@@ -58,6 +58,15 @@ class Pedestals(Effect):
         return tuple(float(values.get(p, getattr(self, p))) for p in ("mass_kg", "stiffness_n_m", "damping_ns_m"))
 
 
+    def typical_values(self, pname: str, chain) -> tuple[float, ...]:
+        """A pedestal as stiff as the film it carries (the mean of the declared film's direct stiffnesses at Q_T over
+        the bearings it stands under): the two in series halve the support's stiffness."""
+        if pname != "stiffness_n_m":
+            return ()
+        k = [np.trace(src.nominal.coefficients(qt)[0]) / 2 for i, (src, qt) in
+             enumerate(zip(chain.sources, chain.q_threshold)) if self.applies(i)]
+        return (float(np.mean(k)),) if k else ()
+
     def bind(self, machine) -> "Pedestals":
         check_bearing_choice(self.bearing, machine, self.effect_name)
         return self
