@@ -544,7 +544,10 @@ def rates(rows) -> dict:
     ok = [r for r in rows if not r["failed"]]
     kind = {k: [r for r in ok if r["kind"] == k] for k in KINDS}
     effects = kind["effect"]
-    placed = [r for r in ok if r["node"] and r["node"]["identifiable"] is not None]
+    # the node scans of records of one library effect; on a pair's record the scanned single also takes up its
+    # partner's part (an unbalance beside a probe's gain placed at node 1 for 21): counted apart
+    placed = [r for r in ok if r["node"] and r["node"]["identifiable"] is not None and r["kind"] == "effect"]
+    placed_pairs = [r for r in ok if r["node"] and r["node"]["identifiable"] is not None and r["kind"] == "pair"]
     side = [r for r in effects if r["group"] == "side_load"]
     hot = [r for r in kind["set"] if r["group"] == "hot oil"]
     worn = [r for r in kind["set"] if r["group"] == "worn bearing"]
@@ -578,6 +581,8 @@ def rates(rows) -> dict:
         "node_within_1_where_identifiable": _rate(r["node"]["within_1"] for r in placed if r["node"]["identifiable"]),
         "node_profile_identifiable": _rate(r["node"]["identifiable"] for r in placed),
         "node_truth_among_fitting": _rate(r["node"]["truth_fits"] for r in placed),
+        "node_within_1_where_identifiable_pairs": _rate(r["node"]["within_1"] for r in placed_pairs
+                                                        if r["node"]["identifiable"]),
         "side_load_named_or_in_set_and_held": _rate(library_right(r) and r["held"] for r in side),
         "pairs_right": _rate(r["right_in_set"] for r in kind["pair"]),
         # over the pairs whose records hold enough features to name them (`truth_dof`, PAIR_DOF): one record of two
