@@ -928,8 +928,19 @@ def _look_alikes(before: Fit, passing) -> list:
     return out
 
 
+def _load_alikes(best, c) -> bool:
+    """Whether `c` moves the bearings' static loads as the single winner `best` does, by another cause (a side load
+    and a bearing out of line): what the films see of either is their loads, so a passing one is an alternative
+    whatever its AIC. On three supports a force and a couple shift the loads every way a bearing's move does, so
+    the side load's extra parameter takes up the model's small differences from the machine: a bearing lowered by
+    22 um on the fan read as a side load of AIC 5.9 lower, the move passing too with flows nearer the truth (the fan
+    loop's case 149, session 56)."""
+    return (not best.partners and not c.partners and best.effect.static_load and c.effect.static_load
+            and c.effect.effect_name != best.effect.effect_name)
+
+
 def _added_outcome(chains, before, best, after, passing, ambiguity_aic) -> dict:
-    close = [c for c in passing if c is not best and c.aic - best.aic < ambiguity_aic]
+    close = [c for c in passing if c is not best and (c.aic - best.aic < ambiguity_aic or _load_alikes(best, c))]
     ambiguous = tuple(c.label for c in close)
     separated = tuple(dict.fromkeys(w for c in [best, *close] for w in c.separated_by))
     set_intervals = None

@@ -135,7 +135,12 @@ class SideLoad(Effect):
         return out
 
     def at_limit(self) -> list[int]:
-        """The bearings (1-based) whose load change at the current values reaches past LOAD_FACTOR_RANGE."""
+        """The bearings (1-based) whose load change at the current values reaches past LOAD_FACTOR_RANGE, where the
+        load factor is held to it (two supports). On 3+ supports the loads are not held there (the films' Sommerfeld
+        numbers are held on the tables' grid, `ForwardChain._within_grid`): none (it told a fan's bearing at x0.37
+        of its load that the fit had stopped at x0.5, session 56)."""
+        if self.indeterminate:
+            return []
         _, loads = self._bound()
         factor = 1.0 + self.load_changes() / loads
         return [k + 1 for k, f in enumerate(factor) if not LOAD_FACTOR_RANGE[0] <= f <= LOAD_FACTOR_RANGE[1]]

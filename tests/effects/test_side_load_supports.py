@@ -30,6 +30,39 @@ def test_on_three_supports_it_changes_the_load_vectors_and_on_two_a_factor(fan, 
     assert set(paper.bearing_change(0, {}, ())) == {"load_factor"}
 
 
+def test_a_load_past_half_its_declared_is_said_held_only_where_it_is(fan, machine):
+    """Two supports: a bearing's load factor is held to LOAD_FACTOR_RANGE, and the verdict says so. On three the loads
+    are not held there (the films' Sommerfeld numbers are kept on the tables' grid instead): nothing is said. It told
+    the fan's bearing A at 0.37 of its load that the fit had stopped at 0.5 (the fan loop's case 149)."""
+    from lubeviz.effects.side_load import LOAD_FACTOR_RANGE
+
+    paper = parse_effect("side_load:node=6,force_n=-3000").bind(machine)  # lifts bearing 1 past half its load
+    factor = 1.0 + paper.load_changes() / paper._bound()[1]
+    assert factor[0] < LOAD_FACTOR_RANGE[0]
+    assert paper.at_limit() == [1]
+    assert paper.bearing_change(0, {}, ())["load_factor"] == LOAD_FACTOR_RANGE[0]
+    assert "the fit stopped there" in paper.told(machine=machine)
+    e = parse_effect("side_load:node=1,force_n=-17970,moment_nm=-2945").bind(fan)  # the fan's case 149 answer
+    shares, loads = e._bound()
+    assert (1.0 + e.load_changes() / loads)[0] < LOAD_FACTOR_RANGE[0]
+    assert e.at_limit() == [] and "stopped" not in e.told(machine=fan)
+
+
+def test_a_side_load_and_a_bearing_out_of_line_are_each_other_s_alternative():
+    """What the films see of a side load or of a bearing out of line is their loads: a passing one is an alternative
+    to the other whatever its AIC (`diagnose.loop._load_alikes`); not to a pair, nor to another effect."""
+    from lubeviz.diagnose.loop import Candidate, _load_alikes
+
+    def cand(text, partners=()):
+        return Candidate(label=text, effect=parse_effect(text), partners=tuple(map(parse_effect, partners)), fit=None)
+
+    side, moved = cand("side_load:node=1"), cand("misalignment:bearing=1")
+    assert _load_alikes(side, moved) and _load_alikes(moved, side)
+    assert not _load_alikes(side, cand("side_load:node=5"))  # the same effect elsewhere: the node scan's business
+    assert not _load_alikes(side, cand("clearance:bearing=1"))
+    assert not _load_alikes(side, cand("misalignment:bearing=1", ("probe_gain:channel=x1",)))
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("text,within", [("side_load:node=10,force_n=600", 0.005),
                                          ("side_load:node=17,force_n=-400,moment_nm=300", 0.1)])
