@@ -841,22 +841,9 @@ def _pairs_after_effect(out: dict, chains, meas, best, tried, names, budget, lev
         pair = Candidate(label=f"{best.label} + {c.label}", effect=best.effect, partners=(c.effect,), fit=res)
         effects = [e for e, _ in fitted_effects(pair, res)]
         found.append(Candidate(label=pair.label, effect=effects[0], partners=tuple(effects[1:]), fit=res))
-    if not found:
-        return
-    own = out["set_intervals"] or tuple(after.intervals.get(n) for n in _flow_names(after))
-    pairs = _set_intervals(after, found)
-    joined = tuple(None if own[k] is None and pairs[k] is None else union_interval(own[k], pairs[k])
-                   for k in range(len(pairs)))
-    out["ambiguous"] = out["ambiguous"] + tuple(c.label for c in found)
-    out["set_intervals"] = joined
-    out["separated_by"] = tuple(dict.fromkeys((*out["separated_by"], *(w for c in found for w in c.separated_by))))
-    shown = sorted(found, key=lambda c: c.fit.chi2)[:LOOK_ALIKES_TOLD]
-    more = f" and {len(found) - len(shown)} more" if len(found) > len(shown) else ""
-    out["verdict"] += (" But with a second effect beside it, " + "; ".join(f"{c.title} ({_flows_text(c.fit)}, chi2 "
-                                                                           f"{c.fit.chi2:.1f})" for c in shown)
-                       + more + f" fit{'s' if len(found) == 1 else ''} the record at least as well (chi2 "
-                       f"{after.chi2:.1f} alone) with other flows: until a measurement tells them apart the flows are "
-                       f"known only within {interval_words(joined)}.")
+    if found:
+        _join_pairs(out, after, sorted(found, key=lambda c: c.fit.chi2), " But with a second effect beside it, ",
+                    f" the record at least as well (chi2 {after.chi2:.1f} alone) with other flows")
 
 
 def _rival_pairs(out: dict, chains, meas, best, tried, names, budget, level, before) -> None:
@@ -888,8 +875,16 @@ def _rival_pairs(out: dict, chains, meas, best, tried, names, budget, level, bef
         pair = Candidate(label=f"{a.label} + {b.label}", effect=a.effect, partners=(b.effect,), fit=res)
         effects = [e for e, _ in fitted_effects(pair, res)]
         found.append(Candidate(label=pair.label, effect=effects[0], partners=tuple(effects[1:]), fit=res))
-    if not found:
-        return
+    if found:
+        _join_pairs(out, after, sorted(found, key=lambda c: c.fit.aic), " Or two faults at once: ",
+                    f" the record as well, counting {'its' if len(found) == 1 else 'their'} extra parameters (AIC), "
+                    "with other flows")
+
+
+def _join_pairs(out: dict, after: Fit, found, lead: str, how: str) -> None:
+    """Pairs that fit as well as the named effect (`found`, best first) join its ambiguity and widen the flows'
+    interval (their +-1.96 sigma, `_set_intervals`); the verdict tells the best LOOK_ALIKES_TOLD of them: `lead`,
+    each pair with its flows and chi2, "fit(s)" + `how`, and the interval."""
     own = out["set_intervals"] or tuple(after.intervals.get(n) for n in _flow_names(after))
     pairs = _set_intervals(after, found)
     joined = tuple(None if own[k] is None and pairs[k] is None else union_interval(own[k], pairs[k])
@@ -897,13 +892,11 @@ def _rival_pairs(out: dict, chains, meas, best, tried, names, budget, level, bef
     out["ambiguous"] = out["ambiguous"] + tuple(c.label for c in found)
     out["set_intervals"] = joined
     out["separated_by"] = tuple(dict.fromkeys((*out["separated_by"], *(w for c in found for w in c.separated_by))))
-    shown = sorted(found, key=lambda c: c.fit.aic)[:LOOK_ALIKES_TOLD]
+    shown = found[:LOOK_ALIKES_TOLD]
     more = f" and {len(found) - len(shown)} more" if len(found) > len(shown) else ""
-    out["verdict"] += (" Or two faults at once: " + "; ".join(f"{c.title} ({_flows_text(c.fit)}, chi2 {c.fit.chi2:.1f})"
-                                                             for c in shown)
-                       + more + f" fit{'s' if len(found) == 1 else ''} the record as well, counting "
-                       f"{'its' if len(found) == 1 else 'their'} extra parameters (AIC), with other flows: until a "
-                       f"measurement tells them apart the flows are known only within {interval_words(joined)}.")
+    out["verdict"] += (lead + "; ".join(f"{c.title} ({_flows_text(c.fit)}, chi2 {c.fit.chi2:.1f})" for c in shown)
+                       + more + f" fit{'s' if len(found) == 1 else ''}{how}: until a measurement tells them apart the "
+                       f"flows are known only within {interval_words(joined)}.")
 
 
 def _outside(f: Fit, flows) -> bool:
