@@ -829,18 +829,13 @@ def _pairs_after_effect(out: dict, chains, meas, best, tried, names, budget, lev
     partners += [b for _a, b, _dof in screen(chains, meas, names, before, others, dof_min=1, lead=best,
                                              gain_min=0.5 * stats.chi2.ppf(PAIR_ASKED, 1))[:PAIR_LINEAR]]
     found = []
-    for c in partners:
-        try:
-            res = fit([ch.adding(*(e.candidate() for e in best.effects), c.effect.candidate()) for ch in chains], meas,
-                      names=names, budget=budget, level=level, intervals=False, screening=True)
-        except LubevizError:
+    for pair in _fit_pairs(chains, meas, [(best, c) for c in partners], names, budget, level):
+        res = pair.fit
+        if res is None:
             continue
         asks = stats.chi2.ppf(PAIR_ASKED, max(after.dof - res.dof, 1))  # the record asks for the second effect
-        if res.dof < 1 or not res.chi2 <= after.chi2 - asks or _at_bound(res) or not _outside(after, fit_flows(res)):
-            continue
-        pair = Candidate(label=f"{best.label} + {c.label}", effect=best.effect, partners=(c.effect,), fit=res)
-        effects = [e for e, _ in fitted_effects(pair, res)]
-        found.append(Candidate(label=pair.label, effect=effects[0], partners=tuple(effects[1:]), fit=res))
+        if res.dof >= 1 and res.chi2 <= after.chi2 - asks and not _at_bound(res) and _outside(after, fit_flows(res)):
+            found.append(pair)
     if found:
         _join_pairs(out, after, sorted(found, key=lambda c: c.fit.chi2), " But with a second effect beside it, ",
                     f" the record at least as well (chi2 {after.chi2:.1f} alone) with other flows")
@@ -862,19 +857,10 @@ def _rival_pairs(out: dict, chains, meas, best, tried, names, budget, level, bef
     after = out["after"]
     singles = [c for c in tried if c.fit is not None and c.defect is None and not c.partners and c is not best
                and not c.effect.static_load]
-    found = []
-    for a, b, _dof in screen(chains, meas, names, before, singles, dof_min=1)[:RIVAL_PAIRS]:
-        try:
-            res = fit([ch.adding(a.effect.candidate(), b.effect.candidate()) for ch in chains], meas, names=names,
-                      budget=budget, level=level, intervals=False, screening=True)
-        except LubevizError:
-            continue
-        if res.dof < 1 or not res.explained or _at_bound(res) or res.aic > after.aic + RIVAL_AIC \
-                or not _outside(after, fit_flows(res)):
-            continue
-        pair = Candidate(label=f"{a.label} + {b.label}", effect=a.effect, partners=(b.effect,), fit=res)
-        effects = [e for e, _ in fitted_effects(pair, res)]
-        found.append(Candidate(label=pair.label, effect=effects[0], partners=tuple(effects[1:]), fit=res))
+    ranked = [(a, b) for a, b, _dof in screen(chains, meas, names, before, singles, dof_min=1)[:RIVAL_PAIRS]]
+    found = [c for c in _fit_pairs(chains, meas, ranked, names, budget, level)
+             if c.fit is not None and c.fit.dof >= 1 and c.fit.explained and not _at_bound(c.fit)
+             and c.fit.aic <= after.aic + RIVAL_AIC and _outside(after, fit_flows(c.fit))]
     if found:
         _join_pairs(out, after, sorted(found, key=lambda c: c.fit.aic), " Or two faults at once: ",
                     f" the record as well, counting {'its' if len(found) == 1 else 'their'} extra parameters (AIC), "
