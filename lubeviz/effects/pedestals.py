@@ -57,7 +57,6 @@ class Pedestals(Effect):
     def housing(self, values: dict) -> tuple[float, float, float]:
         return tuple(float(values.get(p, getattr(self, p))) for p in ("mass_kg", "stiffness_n_m", "damping_ns_m"))
 
-
     def typical_values(self, pname: str, chain) -> tuple[float, ...]:
         """A pedestal as stiff as the film it carries (the mean of the declared film's direct stiffnesses at Q_T over
         the bearings it stands under): the two in series halve the support's stiffness."""
