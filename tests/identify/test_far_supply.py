@@ -100,3 +100,29 @@ def test_a_flow_past_the_tables_end_is_found_and_the_fit_says_so():
     from lubeviz.diagnose.loop import _past_tables_words
 
     assert _past_tables_words(res) == f" {said[0][:1].upper()}{said[0][1:]}."
+
+
+def test_a_film_past_the_sommerfeld_grid_is_found_on_two_supports_and_on_three():
+    """`ForwardChain.off_grid`: the lookups hold a film's Sommerfeld number at the tables' grid ends (`_on_grid`,
+    `_within_grid`) as they hold a flow at its table's; the chain finds such a bearing. On the paper's machine,
+    bearing 1's oil x2 and clearance halved (S x8, past the grid's top); on the fan, a couple that leaves bearing C a
+    fifth of its load (on three supports the shifted load sets S)."""
+    from lubeviz.effects import SideLoad
+    from lubeviz.identify.tables.dimensionless import sommerfeld_nodes
+
+    top = sommerfeld_nodes()[-1]
+    paper = load_machine()
+    chain = ForwardChain(paper, 75.0, (6, 20), effects=(Viscosity(bearing=1, factor=2.0).hold(),
+                                                        Clearance(bearing=1, clearance_um=60.0).hold()))
+    found = chain.off_grid(chain.start())
+    assert [k for k, _s, _end in found] == [0] and found[0][1] > top and found[0][2] == top
+    assert ForwardChain(paper, 75.0, (6, 20), effects=(Viscosity(bearing=1, factor=2.0).hold(),)).off_grid(
+        chain.start()) == []
+    fan = load_machine(FAN)
+    side = SideLoad(node=18, force_n=0.0).bind(fan)
+    shares, loads = side._bound()
+    for share, past in ((0.8, True), (0.2, False)):  # the couple that takes this share of bearing C's load away
+        held = side.copy(moment_nm=-share * loads[2] / shares[2, 1]).hold()
+        c = ForwardChain(fan, SPEED, (7, 15, 23), effects=(held,))
+        got = c.off_grid(c.start())
+        assert ([k for k, _s, _end in got] == [2]) is past, (share, got)

@@ -576,8 +576,9 @@ def _clipped_text(chain, k: int, held: float) -> str:
 
 
 def _past_tables_text(chains, theta) -> list[str]:
-    """A sentence for each bearing whose answer lies past its table's ends at some speed (`past_tables`): its
-    coefficients there are the end's, so the flow is not to be trusted."""
+    """A sentence for each bearing whose answer lies past its table's ends at some speed (`past_tables`), or whose
+    film's Sommerfeld number lies past the tables' grid (`off_grid`): its coefficients there are the end's, so the
+    flows are not to be trusted."""
     out = []
     for chain in chains:
         for k, q, q_t, end in chain.past_tables(theta):
@@ -585,6 +586,10 @@ def _past_tables_text(chains, theta) -> list[str]:
                        f"fitted model has it ({q_t * MLMIN_PER_M3S:.0f} ml/min at {chain.speed_hz:g} Hz), past the "
                        f"tables' end at {end / q_t:.2g} x Q_T: its film is taken as at that end, so this flow is "
                        "not to be trusted")
+        for k, s, end in chain.off_grid(theta):
+            out.append(f"bearing {k + 1}'s film has a Sommerfeld number of {s:.3g} as the fitted model has it (at "
+                       f"{chain.speed_hz:g} Hz), past the tables' end at {end:.3g}: its film is taken as at that end, "
+                       "so the flows are not to be trusted")
     return list(dict.fromkeys(out))
 
 

@@ -722,6 +722,27 @@ class ForwardChain:
                 out.append((k, q, float(view.q_threshold), view.q_min if q < view.q_min else view.q_max))
         return out
 
+    def off_grid(self, theta) -> list[tuple[int, float, float]]:
+        """The bearings whose film at parameters theta (one point) has a Sommerfeld number past the tables' grid:
+        (bearing k, its S, the grid's end it is held at). The effects' viscosity and clearance and the static load
+        (on 3+ supports the load the journals' positions shift it to, `static_loads`) set S; the lookups hold it at
+        the grid's end (`_within_grid`, `_on_grid`), as they hold a flow at its table's."""
+        from ..tables.dimensionless import sommerfeld_nodes, sommerfeld_number
+
+        theta = np.asarray(theta, dtype=float)
+        grid = sommerfeld_nodes()
+        loads = self.static_loads(theta) if self._shift is not None else None
+        out = []
+        for k, src in enumerate(self.sources):
+            f, c, lf = (float(v) for v in self.bearing_changes(k, theta))
+            if loads is not None:  # the shifted load against the declared one (what `load_factor` scales)
+                lf *= float(np.linalg.norm(loads[k]) / np.linalg.norm(self.loads[k]))
+            s = sommerfeld_number(src._seen, src._seen_load, self.omega) * f / max(lf, 1e-300) * (
+                src.bearing.clearance / c) ** 2
+            if s > grid[-1] * (1 + 1e-6) or s < grid[0] * (1 - 1e-6):
+                out.append((k, float(s), float(grid[-1] if s > grid[-1] else grid[0])))
+        return out
+
     def static_loads(self, theta) -> np.ndarray:
         """Each bearing's static load (..., N, 2), N, at parameters theta: the flooded statics' moved by the
         journals' positions at the flows (3+ supports; `LoadShift`), the declared ones otherwise."""
