@@ -727,18 +727,16 @@ class ForwardChain:
         (bearing k, its S, the grid's end it is held at). The effects' viscosity and clearance and the static load
         (on 3+ supports the load the journals' positions shift it to, `static_loads`) set S; the lookups hold it at
         the grid's end (`_within_grid`, `_on_grid`), as they hold a flow at its table's."""
-        from ..tables.dimensionless import sommerfeld_nodes, sommerfeld_number
+        from ..tables.dimensionless import sommerfeld_nodes
 
         theta = np.asarray(theta, dtype=float)
         grid = sommerfeld_nodes()
         loads = self.static_loads(theta) if self._shift is not None else None
         out = []
-        for k, src in enumerate(self.sources):
-            f, c, lf = (float(v) for v in self.bearing_changes(k, theta))
-            if loads is not None:  # the shifted load against the declared one (what `load_factor` scales)
-                lf *= float(np.linalg.norm(loads[k]) / np.linalg.norm(self.loads[k]))
-            s = sommerfeld_number(src._seen, src._seen_load, self.omega) * f / max(lf, 1e-300) * (
-                src.bearing.clearance / c) ** 2
+        for k in range(self.n_flows):
+            # the shifted load against the declared one (what `load_factor` scales), or none moved
+            moved = 1.0 if loads is None else float(np.linalg.norm(loads[k]) / np.linalg.norm(self.loads[k]))
+            s = float(self._sommerfeld(k, self.bearing_changes(k, theta), moved))
             if s > grid[-1] * (1 + 1e-6) or s < grid[0] * (1 - 1e-6):
                 out.append((k, float(s), float(grid[-1] if s > grid[-1] else grid[0])))
         return out
@@ -826,19 +824,26 @@ class ForwardChain:
             return changes
         return [ch._replace(load_factor=ch.load_factor * factors[..., k]) for k, ch in enumerate(changes)]
 
+    def _sommerfeld(self, k: int, change: BearingChange, factor=1.0):
+        """Bearing k's film Sommerfeld number under `change` (its viscosity, clearance and load factor) with its load
+        x `factor` more (a shifted load's)."""
+        from ..tables.dimensionless import sommerfeld_number
+
+        src = self.sources[k]
+        c = src.bearing.clearance if change.clearance is None else change.clearance
+        return sommerfeld_number(src._seen, src._seen_load, self.omega) * np.asarray(change.viscosity_factor) / (
+            np.asarray(change.load_factor) * factor) * (src.bearing.clearance / np.asarray(c)) ** 2
+
     def _within_grid(self, factors, changes) -> np.ndarray:
         """The shifted loads' factors (..., N) with each film's Sommerfeld number held on the tables' grid
         (`forward.shifted`'s `_within_grid`, which the compiled loop applies the same way)."""
-        from ..tables.dimensionless import sommerfeld_nodes, sommerfeld_number
+        from ..tables.dimensionless import sommerfeld_nodes
 
         grid = sommerfeld_nodes()
         top, bottom = grid[-1] * (1.0 - 1e-9), grid[0] * (1.0 + 1e-9)
         out = np.array(factors, dtype=float, copy=True)
-        for k, (src, ch) in enumerate(zip(self.sources, changes)):
-            c = src.bearing.clearance if ch.clearance is None else ch.clearance
-            s0 = sommerfeld_number(src._seen, src._seen_load, self.omega)
-            s = s0 * np.asarray(ch.viscosity_factor) / (np.asarray(ch.load_factor) * out[..., k]) * (
-                src.bearing.clearance / np.asarray(c)) ** 2
+        for k, ch in enumerate(changes):
+            s = self._sommerfeld(k, ch, out[..., k])
             out[..., k] = np.where(s > top, out[..., k] * s / top, np.where(s < bottom, out[..., k] * s / bottom,
                                                                           out[..., k]))
         return out
