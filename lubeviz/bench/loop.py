@@ -17,8 +17,9 @@ the time, two of them):
 - sets of three speeds (the same flows): hot oil (viscosity x0.8) at 60, 75, 90 Hz and a worn bearing 1 (165 um)
   at 60, 70, 80 Hz (it whirls above);
 - pairs: two library effects at once;
-- out of the library: a seal (cross-coupled and direct stiffness at a node) and a horizontal side load (the
-  diagnosis's tables hold vertical loads only).
+- a side load 60-90 deg from down (a belt's pull, a volute's force), drawn among the out-of-library cases, which
+  it was until the side load had a direction (session 57): judged as a library effect, its direction too;
+- out of the library: a seal (cross-coupled and direct stiffness at a node).
 
 Effect, pair and out-of-library records are, like the clean ones, 50-100 Hz and 30-180 % Q_T, a third of them
 with the static position. A draw whose slowest mode does not decay before the kept window (the oil whirl near
@@ -82,6 +83,9 @@ PAIRS = (("viscosity", "probe_rotation"), ("clearance", "probe_gain"), ("side_lo
          ("bow", "probe_rotation"), ("side_load", "clearance"), ("viscosity", "pedestals"),
          ("probe_rotation", "clearance"), ("bow", "viscosity"), ("unbalance2", "probe_rotation"))
 OUT_OF_LIBRARY = ("seal", "side_load horizontal")
+# drawn among the out-of-library cases (their draws, and so every case's, unchanged), judged as library effects since
+# the side load has a direction (session 57): a belt's or a volute's force 60-90 deg from down
+NOW_IN_LIBRARY = {"side_load horizontal": "side_load"}
 # the effects whose node a diagnosis scans (`Effect.scan_nodes`); a bow is one sine between the bearings whatever its
 # node, and with two bearings a side load's force and couple at any node load them alike: neither has a place to find
 NODE_PLACED = ("unbalance2",)
@@ -321,7 +325,9 @@ def draw_cases(machine_path=None, *, n_clean: int = 40, per_strength: int = 5, n
     for i in range(n_out):
         group = OUT_OF_LIBRARY[i % len(OUT_OF_LIBRARY)]
         text = _out_text(group, rng, machine, sc)
-        outs[i % len(OUT_OF_LIBRARY)].append(_single("out", group, None, (text,), (), rng, mp))
+        named = NOW_IN_LIBRARY.get(group)
+        outs[i % len(OUT_OF_LIBRARY)].append(_single("effect" if named else "out", group, None, (text,),
+                                                     (named,) if named else (), rng, mp))
 
     by_kind = [clean, _interleave(effects), _interleave(sets), pairs, _interleave(outs)]
     cases = _interleave(by_kind)
@@ -380,6 +386,10 @@ def _placement_right(case, labels) -> bool | None:
         places = [_placements(lab).get(name) for lab in labels]
         places = [p for p in places if p is not None]
         keys = [k for k in ("bearing", "support", "plane", "channel") if k in params]
+        if name == "side_load" and places:  # its direction within 45 deg of the truth's, or fitted (the fit's own)
+            verdicts.append(any(p.get("direction") == "fitted"
+                                or abs(float(p.get("angle_deg", 0.0)) - float(params.get("angle_deg", 0.0))) <= 45.0
+                                for p in places))
         if not places or not keys:
             continue
         verdicts.append(any(all(str(p.get(k)) == str(params[k]) for k in keys) for p in places))
@@ -549,6 +559,7 @@ def rates(rows) -> dict:
     placed = [r for r in ok if r["node"] and r["node"]["identifiable"] is not None and r["kind"] == "effect"]
     placed_pairs = [r for r in ok if r["node"] and r["node"]["identifiable"] is not None and r["kind"] == "pair"]
     side = [r for r in effects if r["group"] == "side_load"]
+    across = [r for r in effects if r["group"] == "side_load horizontal"]
     hot = [r for r in kind["set"] if r["group"] == "hot oil"]
     worn = [r for r in kind["set"] if r["group"] == "worn bearing"]
 
@@ -584,6 +595,9 @@ def rates(rows) -> dict:
         "node_within_1_where_identifiable_pairs": _rate(r["node"]["within_1"] for r in placed_pairs
                                                         if r["node"]["identifiable"]),
         "side_load_named_or_in_set_and_held": _rate(library_right(r) and r["held"] for r in side),
+        "side_load_horizontal_named_or_in_set_held_and_placed": _rate(library_right(r) and r["held"]
+                                                                      and r["placement_right"] is not False
+                                                                      for r in across),
         "pairs_right": _rate(r["right_in_set"] for r in kind["pair"]),
         # over the pairs whose records hold enough features to name them (`truth_dof`, PAIR_DOF): one record of two
         # planes without the DC gap has 6 features, so two flows and a pair of 1 + 2 parameters leave 1

@@ -37,7 +37,7 @@ from ..identify.fit.least_squares import Z95, Fit, fit
 from ..identify.fit.result import lubrication_verdict, parameter, union_interval
 from ..identify.forward.chain import bearing_changes
 from .pairs import screen
-from .scan import SCREEN_STRIDE, NodeSweep
+from .scan import SCREEN_STRIDE, NodeSweep, family
 from ..progress import ProgressFn, silent
 from ..units import MLMIN_PER_M3S
 
@@ -236,7 +236,8 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
         return Diagnosis(**{**common, "seconds": time.perf_counter() - t0}, candidates=(), added=None, after=None,
                          explained=False, ambiguous=(), verdict=_fault_words(before, broken))
     oil_known = _oil_declared(chains)
-    pool, orbit = _candidate_pool(candidates, oil_known, chains[0].rotor, n_planes=len(chains[0].nodes))
+    rich = len(chains) > 1 or any(getattr(m, "static_names", ()) for m in meas)
+    pool, orbit = _candidate_pool(candidates, oil_known, chains[0].rotor, n_planes=len(chains[0].nodes), rich=rich)
     tried, scans = [], []
     total, done = sum(len(e) if isinstance(e, list) else 1 for e in pool), 0
     for e in pool:
@@ -248,7 +249,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
 
         if isinstance(e, list):  # where along the shaft: every 2nd node now, all of them if the verdict names it
             sweep = NodeSweep(e, fit_one)
-            best, profile = sweep.run(SCREEN_STRIDE)
+            best, profile = sweep.run(SCREEN_STRIDE * getattr(e[0], "screen_stride", 1))
             tried.append(best)
             scans.append((sweep, profile))
         else:
@@ -308,15 +309,17 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
                      q_threshold_plain=plain_qt, scans=tuple(scans), asked=asked, **out)
 
 
-def _named_effects(added, ambiguous) -> set:
-    named = {e.effect_name for e in added.effects} if added is not None else set()
-    return named | {part.split("[", 1)[0] for label in ambiguous for part in label.split(" + ")}
+def _named_families(added, ambiguous) -> set:
+    """The scanned sweeps (`scan.family`: a label without its node) the verdict names or keeps in an ambiguity: a
+    side load along the weight and one of fitted direction are two sweeps of one effect."""
+    labels = ([added.label] if added is not None else []) + list(ambiguous)
+    return {family(part) for label in labels for part in label.split(" + ")}
 
 
 def _complete_scans(scans, added, ambiguous) -> list:
-    """Each scan's profile; at every node for the effects the verdict names or keeps in an ambiguity."""
-    named = _named_effects(added, ambiguous)
-    return [sweep.run(1, screening=False)[1] if profile.effect_name in named else profile for sweep, profile in scans]
+    """Each scan's profile; at every node for the sweeps the verdict names or keeps in an ambiguity."""
+    named = _named_families(added, ambiguous)
+    return [sweep.run(1, screening=False)[1] if profile.family in named else profile for sweep, profile in scans]
 
 
 def _widen_over_places(out: dict, sweeps, profiles) -> str:
@@ -328,10 +331,10 @@ def _widen_over_places(out: dict, sweeps, profiles) -> str:
     after = out["after"]
     if after is None or out["added"] is None or out["added"].defect is not None:
         return ""
-    named = _named_effects(out["added"], out["ambiguous"])
+    named = _named_families(out["added"], out["ambiguous"])
     members = []
     for (sweep, _), profile in zip(sweeps, profiles):
-        if profile.effect_name not in named:
+        if profile.family not in named:
             continue
         places = set(profile.fitting)
         members += [c for i, c in sweep.found[False].items() if int(sweep.effects[i].node) in places
@@ -347,8 +350,8 @@ def _widen_over_places(out: dict, sweeps, profiles) -> str:
 
 def _scan_words(scans, added, ambiguous) -> str:
     """Where a named (or ambiguous) effect that acts at a node sits, as far as the record says."""
-    named = _named_effects(added, ambiguous)
-    words = [s.words() for s in scans if s.effect_name in named]
+    named = _named_families(added, ambiguous)
+    words = [s.words() for s in scans if s.family in named]
     return "".join(f" Where: {w}." for w in words)
 
 
@@ -359,10 +362,11 @@ def _fault_words(before: Fit, broken) -> str:
             "record (or leave that plane out) and diagnose again.")
 
 
-def _candidate_pool(candidates, oil_known: bool, rotor, *, n_planes: int) -> tuple[list, object]:
+def _candidate_pool(candidates, oil_known: bool, rotor, *, n_planes: int, rich: bool = False) -> tuple[list, object]:
     """Every placement of every candidate a diagnosis fits (an effect scanned over nodes, `Effect.scan_nodes`: a
     list of it at each node), and the response-model candidate (large orbits, tried only when the record shows
-    their 2X), or None."""
+    their 2X), or None. `rich`: the records hold the static shaft position or several speeds (an effect may fit
+    more of itself there: a side load's direction)."""
     from ..effects import EFFECTS
 
     pool, orbit = [], None
@@ -376,19 +380,21 @@ def _candidate_pool(candidates, oil_known: bool, rotor, *, n_planes: int) -> tup
         if oil_known and e.oil_viscosity:  # an oil temperature reading settles the viscosity
             continue
         nodes = e.scan_nodes(rotor)
-        if nodes:
-            pool.append([e.copy(node=n) for n in nodes])
+        if nodes:  # each placement scanned on its own (a side load along the weight, one across it)
+            pool.extend([p.copy(node=n) for n in nodes] for p in _placements(e, rotor, n_planes, rich)
+                        if p.placeable(rotor))
         else:
-            pool.extend(p for p in _placements(e, rotor, n_planes) if p.placeable(rotor))
+            pool.extend(p for p in _placements(e, rotor, n_planes, rich) if p.placeable(rotor))
     return pool, orbit
 
 
-def _placements(e, rotor, n_planes: int) -> list:
+def _placements(e, rotor, n_planes: int, rich: bool = False) -> list:
     """`e.placements` over the machine's parts, given the counts its signature takes (an effect written before
-    `n_supports` was one takes the bearings and planes only)."""
+    `n_supports` was one takes the bearings and planes only; `rich` goes to those that take it)."""
     import inspect
 
-    counts = {"n_bearings": len(rotor.bearing_nodes), "n_planes": n_planes, "n_supports": len(rotor.supports)}
+    counts = {"n_bearings": len(rotor.bearing_nodes), "n_planes": n_planes, "n_supports": len(rotor.supports),
+              "rich": rich}
     params = inspect.signature(e.placements).parameters
     if not any(p.kind == p.VAR_KEYWORD for p in params.values()):
         counts = {k: v for k, v in counts.items() if k in params}

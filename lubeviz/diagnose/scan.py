@@ -13,6 +13,7 @@ identifiable from this record and which nodes fit.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,6 +32,7 @@ class NodeScan:
     effect_name: str
     nodes: tuple[int, ...]
     chi2: tuple[float, ...]  # of each node's fit (inf: no fit there)
+    family: str = ""  # the candidates' label without the node (`family`): one effect may be scanned in two forms
 
     @property
     def best(self) -> int:
@@ -51,6 +53,8 @@ class NodeScan:
         """Where the effect acts, as far as this record says."""
         fit = _ranges(self.fitting)
         kind = EFFECTS[self.effect_name].kind() if self.effect_name in EFFECTS else self.effect_name
+        if self.family and self.family != self.effect_name:  # 'a static side load (direction fitted)'
+            kind += f" ({self.family.split('[', 1)[1].rstrip(']').replace('=', ' ').replace('_deg', '')})"
         if self.identifiable:
             return (f"{kind} fits best at node {self.best} (nodes {fit} within chi2 + {SCAN_DCHI2:g} of "
                     "it)")
@@ -59,9 +63,16 @@ class NodeScan:
                 "can act")
 
     def as_dict(self) -> dict:
-        return {"effect": self.effect_name, "nodes": list(self.nodes),
+        return {"effect": self.effect_name, "family": self.family or self.effect_name, "nodes": list(self.nodes),
                 "chi2": [None if not math.isfinite(c) else c for c in self.chi2], "best_node": self.best,
                 "fitting_nodes": list(self.fitting), "identifiable": self.identifiable, "delta_chi2": SCAN_DCHI2}
+
+
+def family(label: str) -> str:
+    """A candidate's label without its node: 'side_load[node=5,direction=fitted]' -> 'side_load[direction=fitted]',
+    'unbalance2[node=3]' -> 'unbalance2' (the sweep a scanned candidate belongs to)."""
+    out = re.sub(r"node=[^,\]]*,?", "", label.strip()).replace(",]", "]")
+    return out[:-2] if out.endswith("[]") else out
 
 
 def _ranges(nodes) -> str:
@@ -180,4 +191,4 @@ class NodeSweep:
         best = min(keep, key=lambda i: found[i].aic)
         nodes = tuple(int(self.effects[i].node) for i in keep)
         chi2 = tuple(found[i].fit.chi2 if found[i].fit is not None else math.inf for i in keep)
-        return found[best], NodeScan(self.effects[0].effect_name, nodes, chi2)
+        return found[best], NodeScan(self.effects[0].effect_name, nodes, chi2, family(self.effects[0].label()))

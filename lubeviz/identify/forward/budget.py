@@ -37,6 +37,7 @@ its uncertainty is then inflated (Birge) and a diagnosis suggested: the calibrat
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import param
@@ -207,6 +208,26 @@ def set_covariance(blocks, correlation: float, n_bearings: int, n_planes: int) -
     return cov
 
 
+# A film whose load leans off its table's line is the table's film turned with it (`forward.chain._turned`), its
+# grooves held where the table has them. Against the film solved at the leaning load (the independent fine mesh, the
+# paper's bearing 1 at 75 Hz, 6 and 10 deg) that leaves, per radian of lean, up to this share of |K| and |C|: flooded
+# (1.2 Q_T) 0.45 for K and 0.34 for C, at and below Q_T 0.15 (0.9 Q_T, C at 6 deg) and less. Carried as a common scale error
+# of K and of C beside the mesh's, between the two as the mesh's flooded part is (tests/effects/
+# test_side_load_direction.py measures it)
+TURN_ERROR_PER_RAD = 0.45
+TURN_ERROR_PER_RAD_STARVED = 0.2
+
+
+def _turn_error(src, q: float, bearing) -> float:
+    """The rigid turn's share of |K| and |C| for a film at flow q leaning `bearing.lean` off its table's line."""
+    lean = abs(float(bearing.lean))
+    if lean == 0.0:
+        return 0.0
+    u = float(np.clip((q / src.view(*bearing).q_threshold - 1.0) / 0.1, 0.0, 1.0))
+    return lean * (TURN_ERROR_PER_RAD_STARVED + (TURN_ERROR_PER_RAD - TURN_ERROR_PER_RAD_STARVED)
+                   * u * u * (3.0 - 2.0 * u))
+
+
 def _dynamic_perturbations(chain, theta, budget: ModelBudget) -> list[np.ndarray]:
     """Unit perturbations dB (2N, 2N) of the bearings' dynamic stiffness, each scaled to its 1-sigma size, in
     a fixed order (the same physical term at every speed, so joint fits over a set correlate them)."""
@@ -224,7 +245,9 @@ def _dynamic_perturbations(chain, theta, budget: ModelBudget) -> list[np.ndarray
         else:
             u = 0.0
         mesh = budget.calibration * (1.0 - (1.0 - budget.flooded_mesh) * u * u * (3.0 - 2.0 * u))
-        for M, s, scale in ((K, budget.coefficient_k * mesh, 1.0), (C, budget.coefficient_c * mesh, 1j * w)):
+        turn = _turn_error(src, theta[k], bearing)
+        for M, s, scale in ((K, math.hypot(budget.coefficient_k * mesh, turn), 1.0),
+                            (C, math.hypot(budget.coefficient_c * mesh, turn), 1j * w)):
             d = np.zeros((2 * nb, 2 * nb), dtype=complex)
             d[sl, sl] = s * scale * M
             out.append(d)  # common scale error (the mesh moves all entries together)

@@ -99,14 +99,16 @@ class BearingSource:
             self._views[self._key(1.0, self.bearing.clearance)] = table
 
     @staticmethod
-    def _key(factor: float, clearance: float, load_factor: float = 1.0):
+    def _key(factor: float, clearance: float, load_factor: float = 1.0, lean: float = 0.0):
+        """A view's key: a turn of the load (`lean`) leaves the table as it is (`evaluate` turns the states)."""
         return (round(float(factor), 12), round(float(clearance), 15), round(float(load_factor), 12))
 
-    def view(self, factor: float = 1.0, clearance: float | None = None, load_factor: float = 1.0, *,
-             progress: ProgressFn | None = None) -> CoefficientTable:
+    def view(self, factor: float = 1.0, clearance: float | None = None, load_factor: float = 1.0, lean: float = 0.0,
+             *, progress: ProgressFn | None = None) -> CoefficientTable:
         """The coefficient table of this bearing with viscosity x `factor`, radial clearance `clearance` (m) and
         static load x `load_factor` (`BearingChange`); `progress` reports a table build when one is needed
-        (default: the source's own callback)."""
+        (default: the source's own callback). A load turned by `lean` has the same table (a rigid turn, `_turned`:
+        its Q_T and its flows' range are the film's own), so `lean` only completes a `BearingChange`."""
         clearance = self.bearing.clearance if clearance is None else float(clearance)
         key = self._key(factor, clearance, load_factor)
         if key not in self._views:
@@ -192,12 +194,18 @@ class BearingSource:
     def nominal(self) -> CoefficientTable:
         return self.view()
 
-    def evaluate(self, q, factor=1.0, clearance=None, load_factor=1.0):
+    def evaluate(self, q, factor=1.0, clearance=None, load_factor=1.0, lean=0.0):
         """K, C (... 2, 2) and journal position (..., 2) at flows q (m^3/s) with the given bearing changes
-        (`BearingChange`: each a number or an array of the batch's shape). The declared bearing from its view; a
+        (`BearingChange`: each a number or an array of the batch's shape), the film turned by `lean` (rad) when its
+        load leans that much further than its table's (`_turned`: a horizontal side load on two supports). The
+        declared bearing from its view; a
         changed one straight from the slices in memory (`scaled.SliceStack`: a fit with the oil or the loads free
         asks for another bearing at every evaluation and every Jacobian column), or from its own view when they do
         not hold it yet (which loads or builds them)."""
+        state = self._evaluate(q, factor, clearance, load_factor)
+        return state if np.ndim(lean) == 0 and lean == 0.0 else _turned(state, lean)
+
+    def _evaluate(self, q, factor, clearance, load_factor):
         q = np.asarray(q, dtype=float)
         declared = self.bearing.clearance
         if np.ndim(factor) == 0 and np.ndim(clearance) == 0 and np.ndim(load_factor) == 0:  # one bearing for all
@@ -347,12 +355,15 @@ def _repeated(value, shape):
 
 class BearingChange(NamedTuple):
     """What the bearings-stage effects change of one bearing: its oil's viscosity (x `viscosity_factor`), its
-    radial clearance (m) and the static load it carries (x `load_factor`); numbers, or arrays of a batch's shape.
-    `BearingSource.view(*change)` and `.evaluate(q, *change)` take it as it is."""
+    radial clearance (m), the static load it carries (x `load_factor`) and that load's turn from the declared one's
+    line (`lean`, rad, from straight down towards +X: a horizontal side load on two supports; on 3+ supports the
+    load shift turns the films); numbers, or arrays of a batch's shape. `BearingSource.view(*change)` and
+    `.evaluate(q, *change)` take it as it is."""
 
     viscosity_factor: object
     clearance: object
     load_factor: object = 1.0
+    lean: object = 0.0
 
     def as_floats(self) -> "BearingChange":
         return BearingChange(*(float(v) for v in self))
@@ -363,14 +374,15 @@ def bearing_changes(effects, k: int, declared_clearance: float, values=lambda e:
     moves the static loads: a support stiffer than declared): viscosity and load factors multiply, the last
     clearance given wins. `values(effect)` gives trial values of its free parameters (default: none, i.e. the
     effects' own values)."""
-    factor, clearance, load = 1.0, declared_clearance, 1.0
+    factor, clearance, load, lean = 1.0, declared_clearance, 1.0, 0.0
     for e in effects:
         change = e.bearing_change(k, values(e), shape)
         if change:
             factor = factor * change.get("viscosity_factor", 1.0)
             clearance = change.get("clearance", clearance)
             load = load * change.get("load_factor", 1.0)
-    return BearingChange(factor, clearance, load)
+            lean = lean + change.get("lean", 0.0)
+    return BearingChange(factor, clearance, load, lean)
 
 
 def _rows(a, shape, tail) -> np.ndarray:
