@@ -142,21 +142,9 @@ class SideLoad(Effect):
         return new
 
     def bind(self, machine) -> "SideLoad":
-        from ..rotor.assembly import rotor_from_machine
-        from ..rotor.statics import bearing_static_loads, statically_determinate
-
-        rotor = rotor_from_machine(machine)
-        node = self.node
-        if node is None:
-            z = rotor.node_z
-            ends = [z[n - 1] for n in (min(rotor.bearing_nodes), max(rotor.bearing_nodes))]
-            node = int(np.argmin(np.abs(z - 0.5 * sum(ends)))) + 1
-        if not 1 <= node <= rotor.n_nodes:
-            raise InputError(f"effect side_load: node {node} is not a node of the rotor (1..{rotor.n_nodes})")
-        declared = bearing_static_loads(machine)
-        bound = self.copy(vectors=np.stack([_unit_changes(rotor, node, a) for a in (0.0, 90.0)]),
-                          load_vectors=declared, loads=np.linalg.norm(declared, axis=-1),
-                          indeterminate=not statically_determinate(machine, rotor))
+        vectors, declared, indeterminate = _bound_arrays(machine, self.node)
+        bound = self.copy(vectors=vectors, load_vectors=declared, loads=np.linalg.norm(declared, axis=-1),
+                          indeterminate=indeterminate)
         bound._free = self._free
         return bound
 
@@ -316,6 +304,39 @@ def _load_words(w) -> str:
     lean = float(np.degrees(np.arctan2(w[0], -w[1])))
     size = f"{float(np.hypot(*w)):.0f} N"
     return size if abs(lean) < 0.5 else f"{size} leaning {abs(lean):.0f}° towards {'+X' if lean > 0 else '-X'}"
+
+
+_BOUND: dict = {}  # (machine's statics key, node) -> `_bound_arrays`: a diagnosis binds ~70 side loads of one machine
+BOUND_KEPT = 256
+
+
+def _bound_arrays(machine, node):
+    """(unit changes along the weight and across it (2, n, 2, 2), the declared loads (n, 2), on 3+ supports) of a side
+    load at `node` (None: midway between the outermost bearings), kept by the machine's content
+    (`rotor.statics._statics_key`): each costs a rotor assembly and eight static solves (0.77 s of a fan's
+    diagnosis, session 57)."""
+    from ..rotor.assembly import rotor_from_machine
+    from ..rotor.statics import _statics_key, bearing_static_loads, statically_determinate
+
+    key = (_statics_key(machine), node)
+    hit = _BOUND.get(key)
+    if hit is not None:
+        return hit
+    rotor = rotor_from_machine(machine)
+    if node is None:
+        z = rotor.node_z
+        ends = [z[n - 1] for n in (min(rotor.bearing_nodes), max(rotor.bearing_nodes))]
+        node = int(np.argmin(np.abs(z - 0.5 * sum(ends)))) + 1
+    if not 1 <= node <= rotor.n_nodes:
+        raise InputError(f"effect side_load: node {node} is not a node of the rotor (1..{rotor.n_nodes})")
+    out = (np.stack([_unit_changes(rotor, node, a) for a in (0.0, 90.0)]), bearing_static_loads(machine),
+           not statically_determinate(machine, rotor))
+    for a in out[:2]:
+        a.flags.writeable = False
+    if len(_BOUND) >= BOUND_KEPT:
+        _BOUND.pop(next(iter(_BOUND)))
+    _BOUND[key] = out
+    return out
 
 
 def _unit_changes(rotor, node: int, angle_deg: float) -> np.ndarray:

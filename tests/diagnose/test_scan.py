@@ -118,3 +118,59 @@ def test_a_second_unbalance_off_the_discs_is_in_the_set_with_its_node_among_thos
     assert np.abs(d.final.values[:2] * MLMIN_PER_M3S / np.array(q) - 1).max() < 0.01
     scans = diagnosis_dict(d)["node_scans"]
     assert {s["effect"] for s in scans} == {"unbalance2"}
+
+
+def test_a_sweep_s_family_is_its_label_without_the_node():
+    """One effect scanned in two forms (a side load along the weight, and one whose direction is fitted) makes two
+    sweeps; the verdict completes and quotes the one it names (`diagnose.loop._named_families`)."""
+    from lubeviz.diagnose.loop import _complete_scans, _named_families
+    from lubeviz.diagnose.scan import family
+
+    assert family("side_load[node=5,direction=fitted]") == "side_load[direction=fitted]"
+    assert family("side_load[node=None]") == family("side_load[node=12]") == "side_load"
+    assert family("bow[span=2]") == "bow[span=2]" and family("unbalance2[node=3]") == "unbalance2"
+
+    class _Named:
+        label = "side_load[node=7,direction=fitted]"
+
+    assert _named_families(_Named(), ("unbalance2[node=3] + probe_gain[channel=x1]",)) == {
+        "side_load[direction=fitted]", "unbalance2", "probe_gain[channel=x1]"}
+
+    class _Sweep:
+        def __init__(self, fam):
+            self.fam, self.completed = fam, False
+
+        def run(self, stride, screening=True):
+            self.completed = True
+            return None, NodeScan("side_load", (1, 2), (0.0, 1.0), self.fam)
+
+    along, across = _Sweep("side_load"), _Sweep("side_load[direction=fitted]")
+    scans = [(along, NodeScan("side_load", (1,), (0.0,), "side_load")),
+             (across, NodeScan("side_load", (1,), (0.0,), "side_load[direction=fitted]"))]
+    _complete_scans(scans, _Named(), ())
+    assert across.completed and not along.completed
+
+
+def test_a_node_far_worse_than_both_neighbours_is_fitted_from_its_own_starts():
+    """A spike in the profile (the fan loop's case 168: nodes 17, 19, 21 at chi2 305, 4596, 82 from warm starts) is a
+    node in a basin of its own; from its own starts it fits (5.0 there, the truth beside it). A profile without
+    spikes costs no extra fits."""
+    def sweep_of(profile, own):
+        def fit_one(e, start, screening=True):
+            return _C(e.node, own[e.node] if start is None else profile[e.node], float(e.node))
+        return NodeSweep([_Fake(n) for n in sorted(profile)], fit_one)
+
+    warm = {1: 300.0, 2: 305.0, 3: 4596.0, 4: 82.0, 5: 90.0}
+    own = {1: 300.0, 2: 305.0, 3: 5.0, 4: 82.0, 5: 90.0}
+    best, scan = sweep_of(warm, own).run(1)
+    assert scan.best == 3 and best.fit.chi2 == 5.0
+
+    smooth = {1: 300.0, 2: 200.0, 3: 150.0, 4: 82.0, 5: 90.0}
+    fitted = []
+    sweep = sweep_of(smooth, smooth)
+    inner = sweep.fit_one
+    sweep.fit_one = lambda e, start, screening=True: fitted.append((e.node, start is None)) or inner(e, start, screening)
+    sweep.run(1)
+    # node 3 between 200 and 82 at 150 is no spike: fitted from its neighbours only (1 is the first node fitted, 4 the
+    # best, 2 and 5 the middles of runs that do not fit, `_reach_gaps`)
+    assert sorted(n for n, own_start in fitted if own_start) == [1, 2, 4, 5]
