@@ -143,7 +143,8 @@ class NodeSweep:
         """A node that fits far worse than both its neighbours (SPIKE x their chi2 and SPIKE_DCHI2 more), after both
         their answers were tried there, sits in a basin of its own: it is fitted from its own starts. The profile is
         smooth in the node (a side load on the fan between nodes 17 at chi2 305 and 21 at 82 left node 19 at 4596,
-        where its own starts find 5.0 and the truth, node 18, sits: the loop's case 168, session 57)."""
+        where its own starts find 5.0 and the truth, node 18, sits: the loop's case 168, session 57). After the gaps
+        (`_reach_gaps`): node 21 was at 3741 before its own starts there."""
         found = self.found[screening]
         for a, i, b in zip(keep, keep[1:], keep[2:]):
             if i in self._own_started() or found[i].fit is None:
@@ -201,8 +202,8 @@ class NodeSweep:
         best = min(keep, key=lambda i: found[i].aic)
         if math.isfinite(found[best].aic) and best not in self._own_started():
             self._fit(best, None, screening)
-        self._lift_spikes(keep, screening)
         self._reach_gaps(keep, screening)
+        self._lift_spikes(keep, screening)
         best = min(keep, key=lambda i: found[i].aic)
         nodes = tuple(int(self.effects[i].node) for i in keep)
         chi2 = tuple(found[i].fit.chi2 if found[i].fit is not None else math.inf for i in keep)

@@ -39,9 +39,9 @@ class SideLoad(Effect):
     moved, and records at several speeds tell it from a 1X force. A load off the vertical also turns each film's
     load line: the film is turned with it (`identify.forward.chain._turned`, the grooves held where the table has
     them; tests/effects/test_side_load_direction.py measures what that costs). A diagnosis tries a load along the
-    weight, and one whose direction it fits (`placements`, `candidate`). Changes the bearings stage. `node` None: midway between the outermost
-    bearings (with two bearings a force and a couple at any node load them the same way: where it acts is not
-    identifiable from them).
+    weight and one across it, whose direction it fits where the records can tell it (`placements`, `candidate`).
+    Changes the bearings stage. `node` None: midway between the outermost bearings (with two bearings a force and a
+    couple at any node load them the same way: where it acts is not identifiable from them).
     """
 
     effect_name = "side_load"
@@ -143,10 +143,8 @@ class SideLoad(Effect):
 
     def bind(self, machine) -> "SideLoad":
         vectors, declared, indeterminate = _bound_arrays(machine, self.node)
-        bound = self.copy(vectors=vectors, load_vectors=declared, loads=np.linalg.norm(declared, axis=-1),
-                          indeterminate=indeterminate)
-        bound._free = self._free
-        return bound
+        return self.copy(vectors=vectors, load_vectors=declared, loads=np.linalg.norm(declared, axis=-1),
+                         indeterminate=indeterminate)
 
     def bounds(self, pname: str) -> tuple[float, float]:
         """Off the weight's line, the force and the couple each within what leans the most sensitive bearing's load

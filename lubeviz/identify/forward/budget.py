@@ -210,10 +210,10 @@ def set_covariance(blocks, correlation: float, n_bearings: int, n_planes: int) -
 
 # A film whose load leans off its table's line is the table's film turned with it (`forward.chain._turned`), its
 # grooves held where the table has them. Against the film solved at the leaning load (the independent fine mesh, the
-# paper's bearing 1 at 75 Hz, 6 and 10 deg) that leaves, per radian of lean, up to this share of |K| and |C|: flooded
-# (1.2 Q_T) 0.45 for K and 0.34 for C, at and below Q_T 0.15 (0.9 Q_T, C at 6 deg) and less. Carried as a common scale error
-# of K and of C beside the mesh's, between the two as the mesh's flooded part is (tests/effects/
-# test_side_load_direction.py measures it)
+# paper's bearing 1 at 75 Hz, 6 and 10 deg) that leaves, per radian of lean, up to this share of |K| and |C|:
+# flooded (1.2 Q_T) 0.45 for K and 0.34 for C, at and below Q_T 0.15 (0.9 Q_T, C at 6 deg) and less. Carried as a
+# common scale error of K and of C beside the mesh's, between the two as the mesh's flooded part is
+# (tests/effects/test_side_load_direction.py measures it)
 TURN_ERROR_PER_RAD = 0.45
 TURN_ERROR_PER_RAD_STARVED = 0.2
 

@@ -198,10 +198,9 @@ class BearingSource:
         """K, C (... 2, 2) and journal position (..., 2) at flows q (m^3/s) with the given bearing changes
         (`BearingChange`: each a number or an array of the batch's shape), the film turned by `lean` (rad) when its
         load leans that much further than its table's (`_turned`: a horizontal side load on two supports). The
-        declared bearing from its view; a
-        changed one straight from the slices in memory (`scaled.SliceStack`: a fit with the oil or the loads free
-        asks for another bearing at every evaluation and every Jacobian column), or from its own view when they do
-        not hold it yet (which loads or builds them)."""
+        declared bearing from its view; a changed one straight from the slices in memory (`scaled.SliceStack`: a fit
+        with the oil or the loads free asks for another bearing at every evaluation and every Jacobian column), or
+        from its own view when they do not hold it yet (which loads or builds them)."""
         state = self._evaluate(q, factor, clearance, load_factor)
         return state if np.ndim(lean) == 0 and lean == 0.0 else _turned(state, lean)
 
