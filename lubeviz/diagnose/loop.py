@@ -249,7 +249,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
 
         if isinstance(e, list):  # where along the shaft: every 2nd node now, all of them if the verdict names it
             sweep = NodeSweep(e, fit_one)
-            best, profile = sweep.run(SCREEN_STRIDE * getattr(e[0], "screen_stride", 1))
+            best, profile = sweep.run(SCREEN_STRIDE)
             tried.append(best)
             scans.append((sweep, profile))
         else:

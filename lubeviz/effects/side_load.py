@@ -121,18 +121,14 @@ class SideLoad(Effect):
         direction is fitted from horizontal: a load at 68 deg read as a horizontal one took up its vertical part
         with Q1 3 % off, outside its interval (the paper's loop, case 10, session 57). On one record of the 1X alone
         it stays horizontal: fitted there, a direction left a degree of freedom, and a load of any direction took
-        up two other faults at once, flows 26-30 % off (the same loop, cases 29 and 33). A given direction stays as
-        given."""
-        if float(self.angle_deg) != 0.0:
+        up two other faults at once, flows 26-30 % off (the same loop, cases 29 and 33). On a shaft held at three or
+        more places the load's node is scanned as well, and one record of the 1X alone (6 features for 3 flows on the
+        fan) cannot carry that: a horizontal load took the place of a turned probe with thinner oil, its interval
+        missing Q1 (tests/diagnose/test_pairs.py, the fan loop's case 4): tried there on `rich` records only. A given
+        direction stays as given."""
+        if float(self.angle_deg) != 0.0 or (n_bearings + n_supports > 2 and not rich):
             return [self]
         return [self, self.copy(angle_deg=90.0, direction_fitted=bool(rich))]
-
-    @property
-    def screen_stride(self) -> int:
-        """How much coarser a diagnosis screens this placement's node scan than others (`diagnose.scan`): off the
-        weight's line twice (a second sweep of the side load; the one its verdict names is completed at every
-        node). The fan's diagnosis took 5.2 s in median with both at every second node, 3.1 s before (session 57)."""
-        return 1 if float(self.angle_deg) == 0.0 else 2
 
     def candidate(self) -> "SideLoad":
         """As a diagnosis tries it: the force and the couple free, and the direction too where `direction_fitted`."""

@@ -32,15 +32,19 @@ def _flow_errors(fit, q=Q):
     return np.abs(fit.values[:2] * MLMIN_PER_M3S / np.array(q) - 1) * 100
 
 
-@pytest.mark.parametrize("effect, named", [
-    ("probe_rotation:plane=1,angle_deg=6", "probe_rotation[plane=1]"),
-    ("pedestals:bearing=2,mass_kg=50,stiffness_n_m=1e8,damping_ns_m=1e4", "pedestals[bearing=2]"),
-    ("probe_gain:channel=y2,gain=1.15", "probe_gain[channel=y2]"),
+@pytest.mark.parametrize("effect, named, alike", [
+    # a film turned by a horizontal load turns the orbit as a turned probe does: from the 1X at one speed alone the
+    # two are alike (session 57), and the verdict says what tells them apart
+    ("probe_rotation:plane=1,angle_deg=6", "probe_rotation[plane=1]", ("side_load[node=None,angle_deg=90]",)),
+    ("pedestals:bearing=2,mass_kg=50,stiffness_n_m=1e8,damping_ns_m=1e4", "pedestals[bearing=2]", ()),
+    ("probe_gain:channel=y2,gain=1.15", "probe_gain[channel=y2]", ()),
 ])
-def test_an_undeclared_effect_is_named_and_the_flows_recovered(chain, effect, named):
+def test_an_undeclared_effect_is_named_and_the_flows_recovered(chain, effect, named, alike):
     d = _diagnose(chain, (effect,))
     assert not d.before.explained  # (a) the residual is significant
-    assert d.added is not None and d.added.label == named and not d.ambiguous  # (b) named first
+    assert d.added is not None and d.added.label == named and set(d.ambiguous) <= set(alike)  # (b) named first
+    if d.ambiguous:
+        assert "static shaft position" in d.verdict
     assert d.explained and d.after.explained  # (c) back to noise + model level
     assert _flow_errors(d.after).max() < 1.0
     out = diagnosis_dict(d)
