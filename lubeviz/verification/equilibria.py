@@ -10,7 +10,7 @@ against 0.45 s at 100 x 100 refinement 4 and 2.3 s at 200 x 200 refinement 4.
 
 Cache: `<lubeviz cache_dir()>/independent/<sha256>.npz`, the key a sha256 of every input (the
 bearing's parameters including mesh, load, speed, supply, coefficient method, format version and a
-hash of the film package's source, `film_code_version()`). A file is used only if its stored key
+hash of the film package's code, `film_code_version()`: its statements, not its docstrings). A file is used only if its stored key
 equals the key asked for, and its arrays have the right shapes and are finite; anything else is
 deleted with a warning and solved again. Files are written atomically (temporary file + os.replace).
 """
@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..code_key import feed_code
 from ..errors import ConvergenceError
 from ..film.equilibrium import find_equilibrium, flooded_threshold
 from ..film.feed import Feed
@@ -76,13 +77,13 @@ def film_code_version() -> str:
 
 @functools.lru_cache(maxsize=8)
 def code_version(*packages: str) -> str:
-    """sha256 of the source of these sub-packages of lubeviz (e.g. "film", "rotor"), in the order given."""
+    """sha256 of the code of these sub-packages of lubeviz (e.g. "film", "rotor"), in the order given: their
+    statements, not their docstrings or comments (`code_key`)."""
     root = Path(__file__).resolve().parents[1]
     h = hashlib.sha256()
     for name in packages:
         package = root / name
-        for f in sorted(package.rglob("*.py")):
-            h.update(f.relative_to(package).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
+        feed_code(h, package, sorted(package.rglob("*.py")))
     return h.hexdigest()
 
 

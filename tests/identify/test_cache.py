@@ -145,9 +145,38 @@ def test_key_ignores_what_does_not_affect_the_table():
         assert table_key(_variant(change), 0, points=POINTS) == base
 
 
-def test_solver_version_hashes_the_film_sources():
-    digest = cache.solver_version()
-    assert len(digest) == 64 and int(digest, 16) >= 0
+def test_solver_version_follows_the_film_code_not_its_wording(monkeypatch):
+    """The slices' key hashes the film's code (`lubeviz.code_key`): an edit to a statement of the solver changes
+    it, a reworded docstring or a new comment does not (session 56: a reworded docstring had made every seed
+    stale)."""
+    import pathlib
+
+    from lubeviz.film import solver
+
+    original = pathlib.Path.read_bytes
+    text = original(pathlib.Path(solver.__file__))
+    doc = b'"""'
+
+    def version_with(source):
+        monkeypatch.setattr(pathlib.Path, "read_bytes",
+                            lambda path: source if path.name == "solver.py" and path.parent.name == "film"
+                            else original(path))
+        cache.solver_version.cache_clear()
+        try:
+            return cache.solver_version()
+        finally:
+            monkeypatch.setattr(pathlib.Path, "read_bytes", original)
+            cache.solver_version.cache_clear()
+
+    base = version_with(text)
+    assert len(base) == 64
+    reworded = text.replace(doc, doc + b"Reworded. ", 1).replace(b"class PatternSystem:\n    " + doc,
+                                                                  b"class PatternSystem:\n    " + doc + b"Reworded. ")
+    assert reworded.count(b"Reworded. ") == 2
+    assert version_with(reworded) == base  # the module's docstring and a class's
+    assert version_with(text + b"\n# a comment\n") == base
+    assert version_with(text + b"\nAN_EDIT = 1\n") != base
+    assert version_with(text.replace(b"MAX_SWITCHED = ", b"MAX_SWITCHED_ = ", 1)) != base  # a name
 
 
 # --- untrustworthy files ----------------------------------------------------------------------------

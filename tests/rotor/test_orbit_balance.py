@@ -8,10 +8,11 @@ import pytest
 from lubeviz.errors import ConvergenceError, InputError
 from lubeviz.rotor import rotor_from_machine
 from lubeviz.rotor.film_bearings import film_bearings
-from lubeviz.rotor.film_transient import amplitude_ratio, film_time_response
+from lubeviz.rotor.film_transient import amplitude_ratio
 from lubeviz.rotor.orbit_balance import orbit_balance
 from lubeviz.rotor.response import Unbalance, machine_unbalance
 from lubeviz.units import MLMIN_PER_M3S
+from tests.memo import time_response
 
 pytestmark = pytest.mark.slow
 
@@ -82,7 +83,7 @@ def test_the_periodic_orbit_is_the_time_integrations_orbit(coarse, scaled):
     ub = _unbalance(machine, 0.2)
     hb = scaled[0.2]
     assert hb.harmonic_ratio(2) > 0.01  # a 2X the linear model lacks
-    tr = film_time_response(rotor, bearings, ub, duration=0.04, dt=2.5e-5, nodes=NODES, start=hb.state(0.0))
+    tr = time_response(rotor, bearings, ub, duration=0.04, dt=2.5e-5, nodes=NODES, start=hb.state(0.0))
     w = bearings.omega
     for k, node in enumerate(NODES):
         x, y = tr.node_xy(node)
@@ -256,8 +257,8 @@ def test_at_the_paper_s_point_the_time_integration_bounds_the_balance_s_truncati
     rotor = rotor_from_machine(machine)
     ub = _unbalance(machine, scale)
     hb = orbit_balance(rotor, bearings, ub, nodes=NODES, tol=1e-8)
-    tr = film_time_response(rotor, bearings, ub, duration=0.08, dt=2.5e-5, nodes=NODES, start=hb.state(0.0),
-                            implicit=True)
+    tr = time_response(rotor, bearings, ub, duration=0.08, dt=2.5e-5, nodes=NODES, start=hb.state(0.0),
+                       implicit=True)
     w = bearings.omega
     last = tr.t >= tr.t[-1] - 3 * 2 * np.pi / w - 1e-12  # the last three revolutions
     td, ours, lin = [], [], []

@@ -16,10 +16,19 @@ from lubeviz.rotor.film_bearings import film_bearings, flooded_thresholds
 from lubeviz.rotor.orbit_balance import orbit_balance
 from lubeviz.rotor.response import machine_unbalance
 from lubeviz.rotor.whirl import equilibrium_stability, reach_time, whirl_onset
+from tests.memo import integration_memoized
 
 pytestmark = pytest.mark.slow
 
 NODES = (6, 20)
+
+
+@pytest.fixture(autouse=True)
+def _integration_kept(monkeypatch):
+    """The time integration each test compares with is run once and kept (`tests.memo`, a seed)."""
+    import lubeviz.rotor.whirl as whirl
+
+    integration_memoized(monkeypatch, whirl)
 
 
 @pytest.fixture(scope="module")

@@ -301,7 +301,7 @@ def test_orbit_balance_cache_round_trips_is_keyed_and_rebuilt(tmp_path, monkeypa
 def test_an_edit_to_the_benches_keeps_the_orbit_records_an_edit_to_their_code_does_not(monkeypatch):
     """The orbit records' key hashes the film, rotor and verification sources, not the benches (lubeviz/bench,
     outside them): a bench edit keeps nothing stored in them and must not throw away hours of time-integration
-    records; an edit to the code that makes them must."""
+    records; an edit to the code that makes them must, and an edit to its wording must not."""
     import pathlib
 
     from lubeviz.verification import equilibria, orbit_record
@@ -309,11 +309,11 @@ def test_an_edit_to_the_benches_keeps_the_orbit_records_an_edit_to_their_code_do
     spec = IndependentSpec(speed_hz=75.0, q1_mlmin=460.0, q2_mlmin=600.0, seed=5)
     original = pathlib.Path.read_bytes
 
-    def key_with_edit(name, folder=None):
+    def key_with_edit(name, folder=None, edit=b"\nAN_EDIT = 1\n"):
         def edited(path):
             data = original(path)
             hit = path.name == name and (folder is None or path.parent.name == folder)
-            return data + b"\n# an edit\n" if hit else data
+            return data + edit if hit else data
 
         monkeypatch.setattr(pathlib.Path, "read_bytes", edited)
         equilibria.code_version.cache_clear()
@@ -327,6 +327,19 @@ def test_an_edit_to_the_benches_keeps_the_orbit_records_an_edit_to_their_code_do
     assert key_with_edit("records.py", "bench") == before
     assert key_with_edit("orbit_record.py") != before
     assert key_with_edit("orbit_balance.py") != before  # the rotor's balance
+    # wording is not code (`lubeviz.code_key`): a comment, or a docstring reworded, keeps the records
+    assert key_with_edit("orbit_balance.py", edit=b"\n# a comment\n") == before
+    doc = b'"""'
+    reworded = original(pathlib.Path(orbit_record.__file__)).replace(doc, doc + b"Reworded. ", 1)
+    assert key_with_edit("orbit_record.py", edit=b"") == before  # (the helper itself, unedited)
+    monkeypatch.setattr(pathlib.Path, "read_bytes",
+                        lambda path: reworded if path.name == "orbit_record.py" else original(path))
+    equilibria.code_version.cache_clear()
+    try:
+        assert orbit_record._balance_key(spec, 1.0, "time") == before
+    finally:
+        monkeypatch.setattr(pathlib.Path, "read_bytes", original)
+        equilibria.code_version.cache_clear()
 
 
 def test_the_orbit_bench_counts_a_balance_that_does_not_settle_as_a_miss():

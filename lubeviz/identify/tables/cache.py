@@ -68,6 +68,7 @@ import platformdirs
 
 import lubeviz
 
+from ...code_key import feed_code
 from ...errors import ConvergenceError, InputError
 from ...model.bearing import Bearing
 from ...progress import Cancelled, ProgressFn, silent
@@ -81,9 +82,9 @@ TABLE_FORMAT_VERSION = 2
 
 # Modules whose source decides the numbers in a slice: the film model and its solvers, the
 # equilibrium and coefficient method, the ratio grid and the reference point of a slice, and the
-# rotor statics that give a view's load. Their source text is hashed into the key
-# (`solver_version`), so any edit to them invalidates every cached slice: a version constant that
-# someone must remember to bump would be trusted after a change nobody bumped it for.
+# rotor statics that give a view's load. Their code (without docstrings and comments, `code_key`) is
+# hashed into the key (`solver_version`), so any edit to a statement invalidates every cached slice: a
+# version constant that someone must remember to bump would be trusted after a change nobody bumped it for.
 _SOLVER_MODULES = ("film", "identify/tables/supply.py", "identify/tables/dimensionless.py", "rotor/statics.py",
                    "rotor/assembly.py", "rotor/elements.py")
 
@@ -145,14 +146,13 @@ def _slices_dir(directory) -> Path:
 
 @functools.lru_cache(maxsize=1)
 def solver_version() -> str:
-    """sha256 of the source of the modules that compute a table (`_SOLVER_MODULES`)."""
+    """sha256 of the code of the modules that compute a table (`_SOLVER_MODULES`): their statements, not their
+    docstrings or comments (`code_key`)."""
     package = Path(lubeviz.__file__).resolve().parent
     h = hashlib.sha256()
     for entry in _SOLVER_MODULES:
         path = package / entry
-        files = sorted(path.rglob("*.py")) if path.is_dir() else [path]
-        for f in files:
-            h.update(f.relative_to(package).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
+        feed_code(h, package, sorted(path.rglob("*.py")) if path.is_dir() else [path])
     return h.hexdigest()
 
 
