@@ -215,8 +215,14 @@ def _effect_text(name: str, strength: str, rng, machine, sc: _Scales) -> str:
         return (f"bow:node={int(rng.integers(a + 1, b))},amplitude_um={share * _split(rng, 30, 100, strength):.4g},"
                 f"phase_deg={rng.uniform(0, 360):.4g},from_node={a},to_node={b}")
     if name == "pedestals":  # weak: the stiffer pedestal
-        k = (2e8 + 8e7 - _split(rng, 8e7, 2e8, strength)) * sc.stiffness
-        return f"pedestals:bearing={int(rng.integers(1, nb + 1))},mass_kg=50,stiffness_n_m={k:.4g},damping_ns_m=1e4"
+        u = _split(rng, 8e7, 2e8, strength)
+        b = int(rng.integers(1, nb + 1))
+        declared = getattr(machine.bearings[b - 1], "pedestal", None)
+        if declared is not None:  # the pedestal its file declares, softer: 0.85-0.53 (weak) or 0.53-0.2 of it
+            k = declared.stiffness * (0.85 - 0.65 * (u - 8e7) / 1.2e8)
+            return (f"pedestals:bearing={b},mass_kg={declared.mass:.6g},stiffness_n_m={k:.4g},"
+                    f"damping_ns_m={declared.damping:.6g}")
+        return f"pedestals:bearing={b},mass_kg=50,stiffness_n_m={(2e8 + 8e7 - u) * sc.stiffness:.4g},damping_ns_m=1e4"
     if name == "probe_rotation":  # on the first or second plane: every record holds those
         return (f"probe_rotation:plane={int(rng.integers(1, 3))},"
                 f"angle_deg={_sign(rng) * _split(rng, 3, 8, strength):.4g}")

@@ -145,6 +145,16 @@ class Effect(param.Parameterized):
         of the assembled system (`ForwardChain.direct_output`)."""
         raise NotImplementedError(f"{type(self).__name__} puts a support under a bearing but declares no housing")
 
+    # rotor stage: a pedestal the model file declares under a fluid-film bearing, other than declared
+    def changes_housing(self, k: int) -> bool:
+        """Whether this effect changes the pedestal the model file declares under bearing `k` (0-based)."""
+        return False
+
+    def housing_change(self, k: int, omega: float, values: dict, shape):
+        """(..., 2, 2) complex change of the dynamic stiffness to ground (k - Omega^2 m + i Omega c) of the pedestal
+        declared under bearing `k`, or None."""
+        return None
+
     # rotor stage: a constant support (the model file's [[supports]]) stiffer or softer than declared
     def changes_support(self, j: int) -> bool:
         """Whether this effect changes constant support `j` (0-based, in the model file's order)."""
@@ -245,8 +255,8 @@ class Effect(param.Parameterized):
         return [self]
 
     def placeable(self, rotor) -> bool:
-        """Whether this placement can act on `rotor` (True: the default). A pedestal cannot go under a bearing
-        whose model file declares one."""
+        """Whether this placement can act on `rotor` (True: the default): a constant support's change needs the
+        support."""
         return True
 
     def scan_nodes(self, rotor) -> tuple[int, ...]:

@@ -20,6 +20,13 @@ class Pedestals(Effect):
     (plane 1 with bearing 1, plane 2 with bearing 2). A soft pedestal lowers the critical speed and
     eats damping; the fb and phi it produces look like a change of the film. Changes the rotor stage.
     (ROSS models the same with a point mass on a support linked to the journal by `n_link`.)
+
+    Under a bearing whose model file declares a pedestal (SPEC §8), the effect is that pedestal with another
+    stiffness: `stiffness_n_m` replaces the declared one (grout cracked, a bolt loose, a base plate corroded), the
+    mass and damping stay as declared (the effect's `mass_kg`, `damping_ns_m` are not used there). The change is a
+    spring to ground at the housing's DOFs, which the model already holds (`changes_housing`, `housing_change`).
+    The static loads are the declared ones: on two supports they do not depend on a pedestal; on three or more a
+    softer one sheds some of its load, which this effect leaves out.
     """
 
     effect_name = "pedestals"
@@ -40,8 +47,23 @@ class Pedestals(Effect):
     damping_ns_m = Quantity(1e4, unit="N*s/m", bounds=(0.0, 1e8),
                             doc="Pedestal damping to ground, each direction (N*s/m)")
 
+    declared_stiffness = param.Parameter(None, precedence=-1,
+                                         doc="Stiffness (N/m) of each pedestal the model file declares, by bearing "
+                                             "(0-based); set when bound to a machine")
+
     def applies(self, k: int) -> bool:
-        return on_bearing(self.bearing, k)
+        """Whether this effect puts a pedestal under bearing `k` (one its model file does not declare)."""
+        return on_bearing(self.bearing, k) and k not in (self.declared_stiffness or {})
+
+    def changes_housing(self, k: int) -> bool:
+        return on_bearing(self.bearing, k) and k in (self.declared_stiffness or {})
+
+    def housing_change(self, k: int, omega: float, values: dict, shape):
+        """The declared pedestal's stiffness to ground replaced by `stiffness_n_m` (its mass and damping kept)."""
+        if not self.changes_housing(k):
+            return None
+        s = as_array(values, self, "stiffness_n_m", shape)
+        return (s - self.declared_stiffness[k])[..., None, None] * np.eye(2)
 
     def support(self, k: int, B: np.ndarray, omega: float, values: dict, shape):
         """(B_eff, T) for bearing k (0-based), or None: the film B in series with the pedestal."""
@@ -64,15 +86,32 @@ class Pedestals(Effect):
             return ()
         k = [np.trace(src.nominal.coefficients(qt)[0]) / 2 for i, (src, qt) in
              enumerate(zip(chain.sources, chain.q_threshold)) if self.applies(i)]
+        k += [0.5 * s for i, s in (self.declared_stiffness or {}).items() if self.changes_housing(i)]  # declared: half
         return (float(np.mean(k)),) if k else ()
+
+    def told(self, std: dict | None = None, machine=None) -> str:
+        """On pedestals the model file declares: 'The pedestal under bearing 2 has stiffness 5.1e+07 +- 3e+06 N/m
+        (declared 3e+08 N/m): softer than declared.'; elsewhere the story's words."""
+        effect = self.bind(machine) if machine is not None else self
+        changed = [k for k in range(len(machine.bearings) if machine is not None else 0) if effect.changes_housing(k)]
+        if not changed:
+            return super().told(std, machine)
+        s = (std or {}).get("stiffness_n_m")
+        value = f"{self.stiffness_n_m:.3g}{'' if s is None else f' +- {s:.2g}'} N/m"
+        declared = " and ".join(f"{effect.declared_stiffness[k]:.3g} N/m" for k in changed)
+        where = " and ".join(f"bearing {k + 1}" for k in changed)
+        side = "softer" if all(self.stiffness_n_m < effect.declared_stiffness[k] for k in changed) else \
+            "stiffer" if all(self.stiffness_n_m > effect.declared_stiffness[k] for k in changed) else "other"
+        return (f"The pedestal{'s' if len(changed) > 1 else ''} under {where} {'have' if len(changed) > 1 else 'has'} "
+                f"stiffness {value} (declared {declared}): {side} than declared.")
 
     def bind(self, machine) -> "Pedestals":
         check_bearing_choice(self.bearing, machine, self.effect_name)
-        return self
-
-    def placeable(self, rotor) -> bool:
-        return not any(self.applies(k) and rotor.housing("bearing", k) is not None
-                       for k in range(len(rotor.bearing_nodes)))
+        declared = {k: float(b.pedestal.stiffness) for k, b in enumerate(machine.bearings)
+                    if getattr(b, "pedestal", None) is not None}
+        if declared == (self.declared_stiffness or {}):
+            return self
+        return self.copy(declared_stiffness=declared or None)
 
     def placements(self, *, n_bearings: int, n_planes: int, n_supports: int = 0):
         return [self.copy(bearing=b) for b in (every_bearing_word(n_bearings), *range(1, n_bearings + 1))]

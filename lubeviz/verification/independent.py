@@ -325,6 +325,31 @@ def _misaligned(machine, effects):
     return moved
 
 
+def _pedestals_as_found(machine, effects):
+    """`machine` with each `pedestals` effect on a bearing whose model file declares a pedestal taken as that pedestal's
+    stiffness (its mass and damping as declared): the statics (its sag under the film's load) and the dynamics then
+    take the pedestal as it is. The file's machine itself when there is none; two such effects on one pedestal are
+    refused."""
+    bearings = list(machine.bearings)
+    changed = set()
+    for name, p in effects:
+        if name != "pedestals":
+            continue
+        for k in _bearings_of(p, len(bearings)):
+            if getattr(bearings[k], "pedestal", None) is None:
+                continue
+            if k in changed:
+                raise InputError(f"effect pedestals: the pedestal of bearing {k + 1} is changed twice")
+            changed.add(k)
+            bearings[k] = bearings[k].copy(pedestal=dataclasses.replace(bearings[k].pedestal,
+                                                                        stiffness=float(p["stiffness_n_m"])))
+    if not changed:
+        return machine
+    found = load_machine(Path(machine.source)) if machine.source else load_machine()
+    found.bearings = bearings
+    return found
+
+
 def _bearings_of(params, n: int) -> tuple[int, ...]:
     """0-based bearing indices an effect with a `bearing` parameter applies to: `both` is every one of the
     machine's n fluid-film bearings."""
@@ -467,13 +492,14 @@ def _system(spec: IndependentSpec, rotor: Rotor, machine, omega: float, films) -
     peds = {k: {"mass_kg": b.pedestal.mass, "stiffness_n_m": b.pedestal.stiffness,
                 "damping_ns_m": b.pedestal.damping}
             for k, b in enumerate(machine.bearings) if getattr(b, "pedestal", None) is not None}
-    declared = set(peds)
+    declared = set(peds)  # (an effect on one of these is already in `machine`: `_pedestals_as_found`)
     for name, p in spec.effects:
         if name == "pedestals":
             for k in _bearings_of(p, len(rotor.bearing_nodes)):
+                if k in declared:
+                    continue
                 if k in peds:
-                    raise InputError(f"effect pedestals: bearing {k + 1} is given a pedestal twice"
-                                     + (" (its model file declares one)" if k in declared else ""))
+                    raise InputError(f"effect pedestals: bearing {k + 1} is given a pedestal twice")
                 peds[k] = p
     n_r = rotor.n_dof
     n = n_r + 2 * len(peds)
@@ -683,7 +709,7 @@ def static_equilibrium(machine: str | None = None, speed_hz: float | None = None
         raise InputError(f"static_equilibrium: q_mlmin = {q_mlmin!r}; expected every fluid-film bearing's flow "
                          "(ml/min) in file order")
     spec = IndependentSpec(speed_hz=speed, q_mlmin=tuple(q_mlmin), effects=effects, machine=machine)
-    m = _misaligned(m, spec.effects)
+    m = _pedestals_as_found(_misaligned(m, spec.effects), spec.effects)
     rotor = split_rotor(machine, effects=spec.effects)
     omega = 2.0 * math.pi * spec.speed_hz
     bearings = _film_bearings(m, _bearing_changes(spec.effects, m), mesh)
@@ -729,7 +755,7 @@ def _resolve(readings, declared_deg):
 
 def _prepare(spec: IndependentSpec, use_cache: bool):
     """Films, the linear system and its eigenvalues (first-order form) of one spec."""
-    machine = _misaligned(_machine(spec.machine), spec.effects)
+    machine = _pedestals_as_found(_misaligned(_machine(spec.machine), spec.effects), spec.effects)
     _check_machine(machine)
     rotor = split_rotor(spec.machine, effects=spec.effects)
     for node in spec.nodes:

@@ -84,17 +84,55 @@ def test_the_chain_on_declared_pedestals_reads_what_the_effect_reads_on_the_bare
     assert np.max(np.abs(bare.x - ref.x) / np.abs(ref.x)) > 1e-2
 
 
-def test_a_pedestal_effect_on_a_declared_pedestal_is_refused_and_not_a_candidate(machine):
+@pytest.mark.parametrize("speed_hz", SPEEDS_HZ)
+def test_a_pedestal_effect_on_a_declared_pedestal_is_that_pedestal_at_its_stiffness(machine, speed_hz):
+    """On a bearing whose file declares a pedestal, `pedestals` is that pedestal with the effect's stiffness (its mass
+    and damping as declared: `Pedestals.housing_change`, a rank-2 change of the housing's spring to ground). It must
+    read what the chain of a file declaring the pedestal at that stiffness reads (the housing assembled into the
+    rotor), through the update and the direct solve, with the other bearing's effect pedestal beside it; at the
+    declared stiffness it is the declared machine; it is a candidate on every bearing."""
+    import dataclasses
+
     from lubeviz.errors import InputError
 
     m = on_pedestals(machine, (PEDESTALS[0], None))
-    omega = 2 * math.pi * 75.0
+    omega = 2 * math.pi * speed_hz
     tables = [flat_table(0, omega), flat_table(1, omega)]
-    with pytest.raises(InputError, match="declares"):
-        ForwardChain(m, 75.0, (6, 20), (parse_effect("pedestals:bearing=1").hold(),), tables=tables)
+    soft = dataclasses.replace(PEDESTALS[0], stiffness=0.3 * PEDESTALS[0].stiffness)
+    other = parse_effect("pedestals:bearing=2,mass_kg=30,stiffness_n_m=2e8,damping_ns_m=2e4").hold()
+    for nodes in ((6, 20), (5, 21)):
+        ref = ForwardChain(on_pedestals(machine, (soft, PEDESTALS[1])), speed_hz, nodes, (), tables=tables)
+        theta = ref.start()
+        want = ref.output(theta)
+        for spec in (f"pedestals:bearing=1,stiffness_n_m={soft.stiffness}",  # mass and damping: the declared ones
+                     f"pedestals:bearing=both,mass_kg=30,stiffness_n_m={soft.stiffness},damping_ns_m=2e4"):
+            # (`both` with bearing 2's own pedestal of the same values: bearing 1's declared one takes the stiffness)
+            if "both" in spec:
+                ref2 = ForwardChain(on_pedestals(machine, (soft, None)), speed_hz, nodes,
+                                    (parse_effect(f"pedestals:bearing=2,mass_kg=30,stiffness_n_m={soft.stiffness},"
+                                                  "damping_ns_m=2e4").hold(),), tables=tables)
+                target, effects = ref2.output(theta), (parse_effect(spec).hold(),)
+            else:
+                target, effects = want, (parse_effect(spec).hold(), other)
+            chain = ForwardChain(m, speed_hz, nodes, effects, tables=tables)
+            for path, out in (("output", chain.output(theta)), ("direct", chain.direct_output(theta))):
+                for a, b in ((out.x, target.x), (out.y, target.y)):
+                    assert np.max(np.abs(a - b) / np.abs(b)) < 1e-9, (speed_hz, nodes, spec, path)
+    # at the declared stiffness the effect is no change; the softer pedestal moves the reading by far more than 1e-9
+    at = ForwardChain(m, speed_hz, (6, 20), (parse_effect(f"pedestals:bearing=1,stiffness_n_m="
+                                                          f"{PEDESTALS[0].stiffness}").hold(),), tables=tables)
+    plain = ForwardChain(m, speed_hz, (6, 20), (), tables=tables)
+    theta = plain.start()
+    np.testing.assert_allclose(at.output(theta).x, plain.output(theta).x, rtol=1e-12)
+    softer = ForwardChain(m, speed_hz, (6, 20), (parse_effect(f"pedestals:bearing=1,stiffness_n_m="
+                                                              f"{soft.stiffness}").hold(),), tables=tables)
+    assert np.max(np.abs(softer.output(theta).x - plain.output(theta).x) / np.abs(plain.output(theta).x)) > 1e-2
+    with pytest.raises(InputError, match="twice"):
+        ForwardChain(m, speed_hz, (6, 20), (parse_effect("pedestals:bearing=1").hold(),
+                                            parse_effect("pedestals:bearing=both").hold()), tables=tables)
     rotor = rotor_from_machine(m)
     placed = [e.bearing for e in parse_effect("pedestals").placements(n_bearings=2, n_planes=2) if e.placeable(rotor)]
-    assert placed == [2]
+    assert placed == ["both", 1, 2]
 
 
 def test_the_time_response_reads_the_probes_against_the_housing_as_the_steady_response_does(machine):

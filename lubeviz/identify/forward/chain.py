@@ -498,11 +498,11 @@ class ForwardChain:
                 raise InputError(f"{e!r} is not an effect (no stage)")
         self.effects = tuple(e.bind(machine) for e in effects)
         for k in range(len(machine.bearings)):  # supports act in series with one film: one pedestal per bearing
-            on_k = [e.label() for e in self.effects if e.applies(k)]
+            on_k = [e.label() for e in self.effects if e.applies(k) or e.changes_housing(k)]
             if len(on_k) > 1:
                 raise InputError(f"bearing {k + 1} is given a pedestal twice ({', '.join(on_k)}); "
                                  "one pedestals effect per bearing")
-            if on_k and self.rotor.housing("bearing", k) is not None:
+            if any(e.applies(k) for e in self.effects) and self.rotor.housing("bearing", k) is not None:
                 raise InputError(f"bearing {k + 1} stands on the pedestal its model file declares; {on_k[0]} would "
                                  "put a second one under it")
         if tables is None:
@@ -956,18 +956,24 @@ class ForwardChain:
                 self._forcing.append((e, len(shapes), len(cols)))
                 shapes.extend(cols)
         # the rank update's pairs of DOFs: each film (journal; its declared pedestal's DOFs or None), then each
-        # constant support an effect changes (`Effect.changes_support`: its node; its pedestal's or None)
+        # constant support an effect changes (`Effect.changes_support`: its node; its pedestal's or None), then each
+        # declared pedestal an effect changes (`Effect.changes_housing`: its housing's DOFs, to ground)
         self._changed_supports = tuple(j for j in range(len(rotor.supports))
                                        if any(e.changes_support(j) for e in self.effects))
+        self._changed_housings = tuple(k for k in range(len(rotor.bearing_nodes))
+                                       if rotor.housing("bearing", k) is not None
+                                       and any(e.changes_housing(k) for e in self.effects))
         pairs = [film_dofs(rotor, n) for n in rotor.bearing_nodes]
         for j in self._changed_supports:
             h = rotor.housing("support", j)
             pairs.append((node_dofs(rotor.supports[j][0])[[X, Y]], None if h is None else np.array(h.dofs)))
+        for k in self._changed_housings:
+            pairs.append((np.array(rotor.housing("bearing", k).dofs), None))
         self._U = np.concatenate([p for p, _ in pairs])
         self._eye_U = np.eye(self._U.size)
         out = np.concatenate([node_dofs(n)[[X, Y]] for n in self.nodes])
         nf = len(shapes)
-        nu = self._U.size  # 2 (N + changed supports)
+        nu = self._U.size  # 2 (N + changed supports + changed declared pedestals)
         rhs = np.zeros((rotor.n_dof, nf + nu), dtype=complex)
         rhs[:, :nf] = np.stack(shapes, axis=1)
         rhs[self._U, nf + np.arange(nu)] = 1.0
@@ -1032,6 +1038,12 @@ class ForwardChain:
             a = 2 * (nb + i)
             for e in self.effects:
                 d = e.support_change(j, omega, self._values(theta, e), shape)
+                if d is not None:
+                    dB[..., a:a + 2, a:a + 2] += d
+        for i, k in enumerate(self._changed_housings):  # declared pedestals changed by an effect
+            a = 2 * (nb + len(self._changed_supports) + i)
+            for e in self.effects:
+                d = e.housing_change(k, omega, self._values(theta, e), shape)
                 if d is not None:
                     dB[..., a:a + 2, a:a + 2] += d
         if dB_extra is not None:  # on the films' blocks
@@ -1137,6 +1149,10 @@ class ForwardChain:
                 D[np.ix_(hd, hd)] += d
                 D[np.ix_(sd, hd)] -= d
                 D[np.ix_(hd, sd)] -= d
+        for k in self._changed_housings:  # a declared pedestal an effect changes: its spring to ground
+            hd = list(rotor.housing("bearing", k).dofs)
+            D[np.ix_(hd, hd)] += sum(e.housing_change(k, omega, self._values(theta, e), ()) for e in self.effects
+                                     if e.changes_housing(k))
         rhs = np.zeros(n, dtype=complex)
         rhs[:n0] = F
         q = np.linalg.solve(D, rhs)
