@@ -61,7 +61,6 @@ def plain_bearing(l_over_d: float, n_circ: int = 120, n_axial: int = 40) -> Bear
 # order matters. A file renamed or gone from here stops the run (UsageError), so that the list cannot drift.
 LONG_FILES = {  # seconds at 8da80f2 with the seeds (docs/notes/test-suite-time.md)
     "tests/app/test_start_and_layout.py": 149,
-    "tests/rotor/test_orbit_balance.py": 130,
     "tests/identify/test_orbit_fit_balance.py": 109,
     "tests/diagnose/test_loop.py": 108,
     # the time integration's record (a seed): the 5- and 16-harmonic fits (22 + 85 s), the time rounds' loop in a
@@ -69,9 +68,8 @@ LONG_FILES = {  # seconds at 8da80f2 with the seeds (docs/notes/test-suite-time.
     "tests/identify/test_orbit_fit.py": 107,
     "tests/identify/test_answer_independent_of_cache.py": 107,  # cold caches, by design
     "tests/app/test_consistency.py": 100,
-    "tests/rotor/test_whirl.py": 98,
     "tests/app/test_pages.py": 78,
-    "tests/rotor/test_film_transient.py": 58,
+    "tests/rotor/test_orbit_balance.py": 60,  # the time integrations kept (tests/memo.py, session 58)
     "tests/diagnose/test_broken_records.py": 53,
     "tests/app/test_uploads.py": 53,
     "tests/app/test_hostile_browser.py": 45,
