@@ -264,11 +264,28 @@ def _planes(rng, sc: _Scales) -> list[int]:
     return sorted(sc.planes[int(i)] for i in pick)
 
 
+FLOODED_OVER_QT = 1.5  # the flow of a bearing its model file declares flooded (fed above its Q_T)
+
+
+def _declared_supplies(q, qt, machine_path) -> np.ndarray:
+    """The drawn flows `q` (ml/min) with each bearing whose model file gives its supply at that supply: a known one's
+    `supply_mlmin`, a flooded one's FLOODED_OVER_QT x its Q_T `qt` (the others, the unknown ones, as drawn)."""
+    from ..model.machine import load_machine
+
+    q = np.array(q, dtype=float)
+    for k, b in enumerate(load_machine(machine_path).bearings):
+        if b.supply == "known":
+            q[k] = b.supply_flow * MLMIN_PER_M3S
+        elif b.supply == "flooded":
+            q[k] = FLOODED_OVER_QT * qt[k]
+    return q
+
+
 def _single(kind, group, strength, effects, truth, rng, machine_path, static=None) -> dict:
     sc = _scales(machine_path)
     speed = float(rng.uniform(*sc.speeds))
     qt = _qt(speed, machine_path)
-    q = qt * rng.uniform(*FLOWS_OVER_QT, sc.n_bearings)
+    q = _declared_supplies(qt * rng.uniform(*FLOWS_OVER_QT, sc.n_bearings), qt, machine_path)
     return {"kind": kind, "group": group, "strength": strength, "effects": list(effects), "truth": list(truth),
             "speeds_hz": [speed], "q_mlmin": q.tolist(), "qt_mlmin": qt.tolist(), "flow_range": list(FLOWS_OVER_QT),
             "static": bool(rng.random() < 1.0 / 3.0) if static is None else bool(static),
@@ -317,7 +334,7 @@ def draw_cases(machine_path=None, *, n_clean: int = 40, per_strength: int = 5, n
     qt_op = _qt(sc.op, mp)
     for i in range(n_sets):
         group, text, speeds, flows = set_conditions(sc)[i % len(SET_CONDITIONS)]
-        q = qt_op * rng.uniform(*flows, sc.n_bearings)
+        q = _declared_supplies(qt_op * rng.uniform(*flows, sc.n_bearings), qt_op, mp)
         sets[i % len(SET_CONDITIONS)].append(
             {"kind": "set", "group": group, "strength": None, "effects": [text], "truth": [text.split(":")[0]],
              "speeds_hz": list(speeds), "q_mlmin": q.tolist(), "qt_mlmin": qt_op.tolist(), "flow_range": list(flows),
@@ -466,7 +483,7 @@ def _diagnose_case(case, mp) -> dict:
             speed = float(rng.uniform(*_scales(mp).speeds))
             qt = _qt(speed, mp)
             case = {**case, "speeds_hz": [speed]}
-        q = qt * rng.uniform(*case["flow_range"], len(qt))
+        q = _declared_supplies(qt * rng.uniform(*case["flow_range"], len(qt)), qt, mp)
         specs = _specs(case, q, mp)
     if len(specs) > 1:
         records = [r.record for r in make_set(specs, f"bench-loop-{case['id']}")]

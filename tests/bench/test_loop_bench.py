@@ -315,3 +315,30 @@ def test_the_confusion_matrix_and_the_silent_wrong_list_agree_with_the_rows(run)
     s = run["summary"]
     assert s["silent_wrong"] == len(run["silent_wrong_cases"])
     assert 0.0 < s["diagnose_seconds_median"] <= s["diagnose_seconds_max"]
+
+
+def test_a_supply_the_model_file_gives_is_drawn_as_given_and_not_judged(tmp_path):
+    """A bearing whose file gives its supply (known: `supply_mlmin`; flooded: fed above its Q_T) is drawn at that
+    supply, the others as before (the same draws); its flow is no parameter of the fit, so only the identified flows'
+    intervals are judged."""
+    from lubeviz.bench.loop import FLOODED_OVER_QT
+    from lubeviz.model.machine import MODELS_DIR
+
+    pump = (MODELS_DIR / "overhung_pump.toml").read_text()
+    anchor = 'name = "bearing 1 (coupling end)"\n'
+    path = tmp_path / "pump_known.toml"
+    path.write_text(pump.replace(anchor, anchor + 'supply = "known"\nsupply_mlmin = 40.0\n', 1))
+    flooded = tmp_path / "pump_flooded.toml"
+    flooded.write_text(pump.replace(anchor, anchor + 'supply = "flooded"\n', 1))
+    plain = draw_cases(str(MODELS_DIR / "overhung_pump.toml"), n_clean=4, per_strength=0, n_sets=2, n_pairs=0,
+                       n_out=0, seed=5)
+    for given, first in ((path, lambda c: 40.0), (flooded, lambda c: FLOODED_OVER_QT * c["qt_mlmin"][0])):
+        for c, p in zip(draw_cases(str(given), n_clean=4, per_strength=0, n_sets=2, n_pairs=0, n_out=0, seed=5),
+                        plain):
+            assert c["q_mlmin"][0] == pytest.approx(first(c), rel=1e-12)
+            assert c["q_mlmin"][1] == p["q_mlmin"][1]
+    d = _diagnosis("explained", q=(500.0, 500.0))
+    d.final.names = ("q2",)  # q1 given: the fit holds it
+    d.final.intervals = {"q2": d.final.intervals["q2"]}
+    assert judge({"truth": [], "effects": []}, d, [40.0, 501.0])["held"]
+    assert not judge({"truth": [], "effects": []}, d, [40.0, 520.0])["held"]
