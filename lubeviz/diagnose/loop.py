@@ -531,6 +531,19 @@ def fit_flows(f: Fit) -> np.ndarray:
     return f.flow_values() if hasattr(f, "flow_values") else np.asarray(f.values[:2], dtype=float)
 
 
+def chain_theta(chain, f: Fit) -> np.ndarray:
+    """`f`'s answer as `chain`'s whole parameter vector (`chain.names`): every bearing's flow, a known supply's held
+    one among them (`fit_flows`), then each of the chain's effect parameters by name, `f`'s value where it fitted it
+    and the chain's start elsewhere. (`f.values` holds the fitted ones only: with a known supply it lacks that flow,
+    and a pair's values hold its other effect's too.)"""
+    theta = np.array(chain.start(), dtype=float)
+    theta[:chain.n_flows] = fit_flows(f)
+    for i, name in enumerate(chain.names[chain.n_flows:], start=chain.n_flows):
+        if name in f.names:
+            theta[i] = f.values[f.names.index(name)]
+    return theta
+
+
 def fit_flows_std(f: Fit) -> np.ndarray:
     return f.flow_stds() if hasattr(f, "flow_stds") else np.asarray(f.std[:2], dtype=float)
 
@@ -1071,7 +1084,7 @@ def _whirl_words(chain, added, final: Fit, line):
     c = chain
     if added is not None and added.defect is None and any(e.stage == "bearings" for e in added.effects):
         c = chain.adding(*(e.candidate() for e in added.effects if e.stage == "bearings"))
-    theta = np.asarray(final.values, dtype=float)
+    theta = chain_theta(c, final)
     coefficients = []
     for k, src in enumerate(c.sources):
         K, C, _ = src.evaluate(theta[k], *c.bearing_changes(k, theta))

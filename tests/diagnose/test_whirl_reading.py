@@ -53,3 +53,37 @@ def test_a_diagnosis_reads_a_sub_synchronous_line_with_the_model_s_stability(mac
     assert "whirl mode excited below the threshold" in d.verdict
     out = diagnosis_dict(d)["stability_at_flows"]
     assert not out["unstable"] and out["least_stable_mode_hz"] == pytest.approx(s.frequency_hz, rel=0.02)
+
+
+def test_a_known_supply_s_flow_is_the_one_the_stability_is_taken_at():
+    """With a supply the model file gives, the fit holds that flow and its values lack it: the stability was taken at
+    the fitted values read as the whole parameter vector (Q2 as Q1, and one value short: an IndexError that stopped
+    the rehearsal machine's loop, session 58). It must be the model's at the known flow and the fitted one."""
+    from lubeviz.diagnose.loop import chain_theta
+    from lubeviz.model.machine import MODELS_DIR, load_machine
+    from lubeviz.verification.independent import thresholds_mlmin
+
+    path = str(MODELS_DIR / "overhung_pump.toml")
+    pump = load_machine(path)
+    q = np.array((0.9, 0.8)) * thresholds_mlmin(pump.operating_speed, path)
+    planes = pump.measurement_planes
+    spec = IndependentSpec(speed_hz=pump.operating_speed, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]),
+                           nodes=tuple(p.node for p in planes),
+                           probe_angles_deg=tuple(tuple(p.probe_angles_deg) for p in planes), machine=path, seed=3,
+                           effects=("viscosity:factor=1.25,bearing=both",))
+    rec = make_record(spec).record
+    pump.bearings[0] = pump.bearings[0].copy(supply="known", supply_flow=float(q[0]) / MLMIN_PER_M3S)
+    chain = ForwardChain(pump, pump.operating_speed, tuple(p.node for p in planes))
+    line = Line(plane=1, kind="sub", order=0.45, amplitude_m=2e-6, noise_m=1e-8, relative_to_1x=0.1,
+                threshold_m=4e-8)
+    d = diagnose(chain, measure(rec), lines=[line])
+    assert d.stability is not None and "q1" not in d.final.names
+    c = chain
+    if d.added is not None and d.added.defect is None and any(e.stage == "bearings" for e in d.added.effects):
+        c = chain.adding(*(e.candidate() for e in d.added.effects if e.stage == "bearings"))
+    theta = chain_theta(c, d.final)
+    assert theta.shape == (c.n_params,) and theta[0] == pytest.approx(q[0] / MLMIN_PER_M3S, rel=1e-12)
+    coefficients = [tuple(src.evaluate(theta[k], *c.bearing_changes(k, theta))[:2]) for k, src in enumerate(c.sources)]
+    want = mode_stability(c.rotor, c.omega, coefficients)
+    assert d.stability.frequency_hz == pytest.approx(want.frequency_hz, rel=1e-9)
+    assert d.stability.damping_ratio == pytest.approx(want.damping_ratio, rel=1e-9)
