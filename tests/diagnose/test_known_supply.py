@@ -14,16 +14,23 @@ from lubeviz.verification.independent import IndependentSpec, make_record, thres
 PUMP = str(MODELS_DIR / "overhung_pump.toml")
 
 
-def test_a_gain_is_named_with_one_supply_known_and_the_known_flow_held():
+def pump_with_q1_known(effect: str):
+    """(the pump with bearing 1's supply given, an independent record of it with `effect` at 0.9 and 0.8 of the
+    bearings' Q_T, those flows in ml/min)."""
     pump = load_machine(PUMP)
     q = np.array((0.9, 0.8)) * thresholds_mlmin(pump.operating_speed, PUMP)
     planes = pump.measurement_planes
     spec = IndependentSpec(speed_hz=pump.operating_speed, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]),
                            nodes=tuple(p.node for p in planes),
                            probe_angles_deg=tuple(tuple(p.probe_angles_deg) for p in planes), machine=PUMP, seed=3,
-                           effects=("probe_gain:channel=x1,gain=1.15",))
+                           effects=(effect,))
     rec = make_record(spec).record
     pump.bearings[0] = pump.bearings[0].copy(supply="known", supply_flow=float(q[0]) / MLMIN_PER_M3S)
+    return pump, rec, q
+
+
+def test_a_gain_is_named_with_one_supply_known_and_the_known_flow_held():
+    pump, rec, q = pump_with_q1_known("probe_gain:channel=x1,gain=1.15")
     d = run_diagnosis([rec], pump).diagnosis
     assert d.outcome == "effect added" and d.added.label == "probe_gain[channel=x1]"
     gain = next(p for p in d.after.params if p.name == "gain")

@@ -60,20 +60,10 @@ def test_a_known_supply_s_flow_is_the_one_the_stability_is_taken_at():
     the fitted values read as the whole parameter vector (Q2 as Q1, and one value short: an IndexError that stopped
     the rehearsal machine's loop, session 58). It must be the model's at the known flow and the fitted one."""
     from lubeviz.diagnose.loop import chain_theta
-    from lubeviz.model.machine import MODELS_DIR, load_machine
-    from lubeviz.verification.independent import thresholds_mlmin
+    from tests.diagnose.test_known_supply import pump_with_q1_known
 
-    path = str(MODELS_DIR / "overhung_pump.toml")
-    pump = load_machine(path)
-    q = np.array((0.9, 0.8)) * thresholds_mlmin(pump.operating_speed, path)
-    planes = pump.measurement_planes
-    spec = IndependentSpec(speed_hz=pump.operating_speed, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]),
-                           nodes=tuple(p.node for p in planes),
-                           probe_angles_deg=tuple(tuple(p.probe_angles_deg) for p in planes), machine=path, seed=3,
-                           effects=("viscosity:factor=1.25,bearing=both",))
-    rec = make_record(spec).record
-    pump.bearings[0] = pump.bearings[0].copy(supply="known", supply_flow=float(q[0]) / MLMIN_PER_M3S)
-    chain = ForwardChain(pump, pump.operating_speed, tuple(p.node for p in planes))
+    pump, rec, q = pump_with_q1_known("viscosity:factor=1.25,bearing=both")
+    chain = ForwardChain(pump, pump.operating_speed, tuple(p.node for p in pump.measurement_planes))
     line = Line(plane=1, kind="sub", order=0.45, amplitude_m=2e-6, noise_m=1e-8, relative_to_1x=0.1,
                 threshold_m=4e-8)
     d = diagnose(chain, measure(rec), lines=[line])
