@@ -6,10 +6,11 @@ integration on every run until its code or its inputs change. `time_response` ru
 `rotor.film_transient.film_time_response` once and keeps its result in `<cache_dir()>/independent/memo-<key>.npz`,
 where `tests/seeds/refresh.sh` collects seeds. The key is a sha256 of every input, taken apart down to its arrays
 and numbers (the rotor's matrices, each bearing's equilibrium, film and coefficients, the unbalances, the start
-state, the step, the duration) and of the source of the film and rotor packages, so that a change to either makes
-the integration run again; a file with another key or a non-finite value is not read. Timings (`seconds` fields)
-and the fields a dataclass leaves out of its equality (a film's factorization kept for reuse) are not inputs. `integration_memoized(monkeypatch, module)` puts it in place of the integration a module calls (the
-whirl's onset, the records it writes)."""
+state, the step, the duration) and of the code of the film and rotor packages (`lubeviz.code_key`), so that a change
+to either makes the integration run again; a file with another key or a non-finite value is not read. Timings
+(`seconds` fields) and the fields a dataclass leaves out of its equality (a film's factorization kept for reuse) are
+not inputs. `integration_memoized(monkeypatch, module)` puts it in place of the integration a module calls (the
+whirl's onset, the records it writes; the time rounds' gap)."""
 
 from __future__ import annotations
 

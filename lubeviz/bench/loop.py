@@ -222,7 +222,8 @@ def _effect_text(name: str, strength: str, rng, machine, sc: _Scales) -> str:
             k = declared.stiffness * (0.85 - 0.65 * (u - 8e7) / 1.2e8)
             return (f"pedestals:bearing={b},mass_kg={declared.mass:.6g},stiffness_n_m={k:.4g},"
                     f"damping_ns_m={declared.damping:.6g}")
-        return f"pedestals:bearing={b},mass_kg=50,stiffness_n_m={(2e8 + 8e7 - u) * sc.stiffness:.4g},damping_ns_m=1e4"
+        k = (2e8 + 8e7 - u) * sc.stiffness
+        return f"pedestals:bearing={b},mass_kg=50,stiffness_n_m={k:.4g},damping_ns_m=1e4"
     if name == "probe_rotation":  # on the first or second plane: every record holds those
         return (f"probe_rotation:plane={int(rng.integers(1, 3))},"
                 f"angle_deg={_sign(rng) * _split(rng, 3, 8, strength):.4g}")

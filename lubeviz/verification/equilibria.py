@@ -10,9 +10,10 @@ against 0.45 s at 100 x 100 refinement 4 and 2.3 s at 200 x 200 refinement 4.
 
 Cache: `<lubeviz cache_dir()>/independent/<sha256>.npz`, the key a sha256 of every input (the
 bearing's parameters including mesh, load, speed, supply, coefficient method, format version and a
-hash of the film package's code, `film_code_version()`: its statements, not its docstrings). A file is used only if its stored key
-equals the key asked for, and its arrays have the right shapes and are finite; anything else is
-deleted with a warning and solved again. Files are written atomically (temporary file + os.replace).
+hash of the film package's code, `film_code_version()`: its statements, not its docstrings). A file
+is used only if its stored key equals the key asked for, and its arrays have the right shapes and are
+finite; anything else is deleted with a warning and solved again. Files are written atomically
+(temporary file + os.replace).
 """
 
 from __future__ import annotations
