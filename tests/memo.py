@@ -28,7 +28,6 @@ from lubeviz.rotor.film_transient import FilmTimeResponse, film_time_response
 from lubeviz.verification import equilibria
 
 MEMO_FORMAT = 1
-_CODE: dict[str, str] = {}
 
 
 def _digest(h, value) -> None:
@@ -72,15 +71,9 @@ def _digest(h, value) -> None:
         raise TypeError(f"tests.memo: {type(value).__name__} in a memo key")
 
 
-def _code() -> str:
-    if "film+rotor" not in _CODE:
-        _CODE["film+rotor"] = equilibria.code_version("film", "rotor")
-    return _CODE["film+rotor"]
-
-
 def _key(args, kwargs) -> str:
     h = hashlib.sha256()
-    h.update(json.dumps({"format": MEMO_FORMAT, "kind": "film_time_response", "code": _code()}).encode())
+    h.update(json.dumps({"format": MEMO_FORMAT, "kind": "film_time_response", "code": equilibria.code_version("film", "rotor")}).encode())
     _digest(h, list(args))
     _digest(h, {k: v for k, v in kwargs.items() if k != "progress"})
     return h.hexdigest()

@@ -125,6 +125,7 @@ class _Scales:
         self.speeds = (max(machine.speed_min, 2.0 * op / 3.0), min(machine.speed_max, 4.0 * op / 3.0))
         self.op = op
         self.n_bearings = len(machine.bearings)
+        self.supplies = tuple((b.supply, b.supply_flow) for b in machine.bearings)  # (kind, m^3/s or None)
         nodes = sorted(b.node for b in machine.bearings)
         self.inner = (nodes[0] + 2, nodes[-1] - 2)  # a bow's nodes, ends included (the paper's 8-18)
         self.seal = (nodes[0] + 2, (nodes[0] + nodes[-1]) // 2 + 1)  # a seal's (the paper's 8-14)
@@ -271,13 +272,11 @@ FLOODED_OVER_QT = 1.5  # the flow of a bearing its model file declares flooded (
 def _declared_supplies(q, qt, machine_path) -> np.ndarray:
     """The drawn flows `q` (ml/min) with each bearing whose model file gives its supply at that supply: a known one's
     `supply_mlmin`, a flooded one's FLOODED_OVER_QT x its Q_T `qt` (the others, the unknown ones, as drawn)."""
-    from ..model.machine import load_machine
-
     q = np.array(q, dtype=float)
-    for k, b in enumerate(load_machine(machine_path).bearings):
-        if b.supply == "known":
-            q[k] = b.supply_flow * MLMIN_PER_M3S
-        elif b.supply == "flooded":
+    for k, (kind, flow) in enumerate(_scales(machine_path).supplies):
+        if kind == "known":
+            q[k] = flow * MLMIN_PER_M3S
+        elif kind == "flooded":
             q[k] = FLOODED_OVER_QT * qt[k]
     return q
 

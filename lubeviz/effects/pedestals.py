@@ -92,8 +92,10 @@ class Pedestals(Effect):
     def told(self, std: dict | None = None, machine=None) -> str:
         """On pedestals the model file declares: 'The pedestal under bearing 2 has stiffness 5.1e+07 +- 3e+06 N/m
         (declared 3e+08 N/m): softer than declared.'; elsewhere the story's words."""
-        effect = self.bind(machine) if machine is not None else self
-        changed = [k for k in range(len(machine.bearings) if machine is not None else 0) if effect.changes_housing(k)]
+        if machine is None:
+            return super().told(std, machine)
+        effect = self.bind(machine)
+        changed = [k for k in range(len(machine.bearings)) if effect.changes_housing(k)]
         if not changed:
             return super().told(std, machine)
         s = (std or {}).get("stiffness_n_m")
