@@ -68,6 +68,13 @@ class Effect(param.Parameterized):
         given = set(params)
         self._free = tuple(p for p in self.continuous if p not in given)
 
+    @property
+    def moves_weight_loads(self) -> bool:
+        """Whether this effect, as placed, changes the bearings' static loads along the weight (so a diagnosis holds
+        no other load change along it as an unknown beside it, `diagnose.loop._unpinned`): every `static_load`
+        effect, unless it says it acts across the weight only (`SideLoad` with its direction given across it)."""
+        return self.static_load
+
     # --- the machine ------------------------------------------------------------------------------
     def bind(self, machine) -> "Effect":
         """This effect ready for `machine` (most need nothing of it; an oil temperature needs its oil).

@@ -95,6 +95,12 @@ class SideLoad(Effect):
     def direction_free(self) -> bool:
         return "angle_deg" in self.free
 
+    @property
+    def moves_weight_loads(self) -> bool:
+        """Along the weight, or in a direction fitted: yes. Across it (90 deg, given): its part along the weight is
+        nil to first order, so the loads along the weight are as unpinned beside it as beside any other effect."""
+        return self.direction_fitted or self.direction_free or abs(float(self.angle_deg)) != 90.0
+
     def direction_words(self) -> str:
         """'' for a load along the weight, 'horizontal ' for one across it, else its angle."""
         a = float(self.angle_deg)

@@ -252,3 +252,46 @@ def test_two_other_faults_that_fit_as_well_as_the_named_one_make_it_an_ambiguity
     assert "Or two faults at once" in d.verdict
     for (lo, hi), t in zip(d.set_intervals, q):
         assert lo * MLMIN_PER_M3S <= t <= (np.inf if hi is None else hi * MLMIN_PER_M3S)
+
+
+@pytest.mark.parametrize("winner", ["probe_gain:channel=x1", "side_load:angle_deg=90"])
+def test_two_other_faults_within_the_rival_criterion_of_the_named_one_are_its_rivals(monkeypatch, winner):
+    """`_rival_pairs`: a pair of other singles whose AIC is within RIVAL_AIC (2: both have substantial support) of the
+    named effect's, that passes and puts a flow outside its interval, joins its ambiguity; one further off does not.
+    A moved load is a partner only beside a named load: then it is no nuisance the unpinned loads carry, but another
+    place or direction of the named cause (the compressor rehearsal's case 14, session 59: a horizontal side load
+    named alone, flows 9 and 25 % off outside their intervals; a vertical load with oil 25 % thicker, the truth, fitted
+    at AIC 0.5 above it)."""
+    from lubeviz.diagnose.loop import RIVAL_AIC
+
+    assert RIVAL_AIC == 2.0
+    best = _single(winner, 10.0)
+    others = [_single(t, 40.0) for t in ("viscosity:bearing=both", "clearance:bearing=2", "side_load:angle_deg=0")]
+    after = types.SimpleNamespace(aic=10.0)
+    offered = {}
+
+    def screen(chains, meas, names, before, singles, **kw):
+        offered["singles"] = [c.label for c in singles]
+        return [(a, b, 1) for i, a in enumerate(singles) for b in singles[i + 1:]]
+
+    def pair_fits(chains, meas, pairs, *a, **k):
+        out = []
+        for (a, b), aic in zip(pairs, (11.9, 12.5, 10.5)):
+            f = _fit(aic - 2 * 5, 1)
+            f.aic = aic
+            out.append(Candidate(label=f"{a.label} + {b.label}", effect=a.effect, partners=(b.effect,), fit=f))
+        return out
+
+    joined = []
+    monkeypatch.setattr(loop, "screen", screen)
+    monkeypatch.setattr(loop, "_fit_pairs", pair_fits)
+    monkeypatch.setattr(loop, "_outside", lambda f, flows: True)
+    monkeypatch.setattr(loop, "fit_flows", lambda f: None)
+    monkeypatch.setattr(loop, "_join_pairs", lambda out, after, found, *a: joined.extend(c.label for c in found))
+    loop._rival_pairs({"after": after}, [None], [None], best, [best, *others], None, None, 0.01, None)
+    load_named = best.effect.static_load
+    assert ("side_load:angle_deg=0" in offered["singles"]) is load_named
+    if load_named:  # pairs (v, c) at 11.9, (v, s) at 12.5, (c, s) at 10.5
+        assert joined == ["clearance:bearing=2 + side_load:angle_deg=0", "viscosity:bearing=both + clearance:bearing=2"]
+    else:  # (v, c) at 11.9 only
+        assert joined == ["viscosity:bearing=both + clearance:bearing=2"]

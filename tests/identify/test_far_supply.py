@@ -126,3 +126,38 @@ def test_a_film_past_the_sommerfeld_grid_is_found_on_two_supports_and_on_three()
         c = ForwardChain(fan, SPEED, (7, 15, 23), effects=(held,))
         got = c.off_grid(c.start())
         assert ([k for k, _s, _end in got] == [2]) is past, (share, got)
+
+
+def test_a_load_turned_far_off_its_declared_line_is_found_and_said():
+    """`ForwardChain.turned_loads`: a film whose static load leans off its table's line is the table's film turned
+    rigidly, whose error was measured up to 10 deg (`budget.TURN_ERROR_PER_RAD`); past TURN_SAID_DEG, or reversed, a
+    fit says its flows are not to be trusted. On the paper's machine (two supports) a horizontal force shares out by
+    the lever rule, so the bearings' horizontal reactions, each its load times the tangent of its turn, add up to
+    the force. On the fan (three), the couple of its loop's case 138 lifts bearing A past its film's zero load: its
+    load reverses, which half that couple does not do."""
+    from lubeviz.effects import SideLoad
+    from lubeviz.identify.fit.least_squares import _past_tables_text
+    from lubeviz.identify.forward.budget import TURN_SAID_DEG
+
+    paper = load_machine()
+    plain = ForwardChain(paper, 75.0, (6, 20))
+    assert plain.turned_loads(plain.start()) == []
+    weights = np.linalg.norm(plain.loads, axis=-1)
+    for force, turned in ((1500.0, []), (6000.0, [0, 1])):
+        held = SideLoad(angle_deg=90.0, force_n=force).bind(paper).hold()
+        chain = ForwardChain(paper, 75.0, (6, 20), effects=(held,))
+        turns = np.array([float(chain.bearing_changes(k, chain.start()).lean) for k in range(2)])  # rad
+        assert np.sum(weights * np.tan(turns)) == pytest.approx(force, rel=1e-9)
+        got = chain.turned_loads(chain.start())
+        assert [k for k, _t in got] == turned and all(abs(t) > TURN_SAID_DEG for _k, t in got)
+    fan = load_machine(FAN)
+    q = np.array([310.5124909817522, 548.9886053875956, 47.33789881994849]) / MLMIN_PER_M3S
+    for share, reversed_a in ((0.5, False), (1.0, True)):
+        held = SideLoad(node=4, force_n=0.0, moment_nm=-1039.0 * share).bind(fan).hold()
+        chain = ForwardChain(fan, 20.92976121520923, (7, 23), effects=(held,))
+        got = chain.turned_loads(q)
+        assert ([k for k, t in got if abs(t) > 90.0] == [0]) is reversed_a, got
+        if reversed_a:
+            (said,) = [w for w in _past_tables_text([chain], q) if "static load" in w]
+            assert said.startswith("bearing 1's static load") and "(reversed)" in said
+            assert said.endswith("not to be trusted")

@@ -576,9 +576,10 @@ def _clipped_text(chain, k: int, held: float) -> str:
 
 
 def _past_tables_text(chains, theta) -> list[str]:
-    """A sentence for each bearing whose answer lies past its table's ends at some speed (`past_tables`), or whose
-    film's Sommerfeld number lies past the tables' grid (`off_grid`): its coefficients there are the end's, so the
-    flows are not to be trusted."""
+    """A sentence for each bearing whose answer lies past its table's ends at some speed (`past_tables`), whose
+    film's Sommerfeld number lies past the tables' grid (`off_grid`), or whose static load turns far off its declared
+    line (`turned_loads`): its coefficients there are the end's or a turned film's, so the flows are not to be
+    trusted."""
     out = []
     for chain in chains:
         for k, q, q_t, end in chain.past_tables(theta):
@@ -590,6 +591,11 @@ def _past_tables_text(chains, theta) -> list[str]:
             out.append(f"bearing {k + 1}'s film has a Sommerfeld number of {s:.3g} as the fitted model has it (at "
                        f"{chain.speed_hz:g} Hz), past the tables' end at {end:.3g}: its film is taken as at that end, "
                        "so the flows are not to be trusted")
+        for k, turn in chain.turned_loads(theta):
+            out.append(f"bearing {k + 1}'s static load as the fitted model has it (at {chain.speed_hz:g} Hz) turns "
+                       f"{turn:+.0f} deg off its declared direction{' (reversed)' if abs(turn) > 90 else ''}: its film "
+                       "is the tables' turned that far, which holds only for loads near their declared direction, so "
+                       "the flows are not to be trusted")
     return list(dict.fromkeys(out))
 
 

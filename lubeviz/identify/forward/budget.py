@@ -216,6 +216,9 @@ def set_covariance(blocks, correlation: float, n_bearings: int, n_planes: int) -
 # (tests/effects/test_side_load_direction.py measures it)
 TURN_ERROR_PER_RAD = 0.45
 TURN_ERROR_PER_RAD_STARVED = 0.2
+# A fit's answer whose film loads lean further than this off their declared lines is said not to be trusted
+# (`ForwardChain.turned_loads`): twice the largest lean the turn's error was measured at
+TURN_SAID_DEG = 20.0
 
 
 def _turn_error(src, q: float, bearing) -> float:

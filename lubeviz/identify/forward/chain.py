@@ -752,6 +752,22 @@ class ForwardChain:
                 out.append((k, float(s), float(grid[-1] if s > grid[-1] else grid[0])))
         return out
 
+    def turned_loads(self, theta) -> list[tuple[int, float]]:
+        """The bearings whose static load at parameters theta (one point) leans more than `budget.TURN_SAID_DEG` off
+        its declared line: (bearing k, the turn in degrees, from straight down towards +X). Such a film is the
+        table's turned rigidly (`_turned`), whose error the model budget carries per radian as measured up to 10 deg
+        (`budget.TURN_ERROR_PER_RAD`); a load turned far past that, or reversed (a couple that lifts the fan's bearing
+        A off its film: its loop's case 138), is not that film."""
+        from .budget import TURN_SAID_DEG
+
+        theta = np.asarray(theta, dtype=float)
+        if self._shift is not None:
+            turns = _lean(self.static_loads(theta)) - _lean(self.loads)
+        else:
+            turns = np.array([float(self.bearing_changes(k, theta).lean) for k in range(self.n_flows)])
+        turns = np.degrees((turns + np.pi) % (2 * np.pi) - np.pi)
+        return [(k, float(t)) for k, t in enumerate(turns) if abs(t) > TURN_SAID_DEG]
+
     def static_loads(self, theta) -> np.ndarray:
         """Each bearing's static load (..., N, 2), N, at parameters theta: the flooded statics' moved by the
         journals' positions at the flows (3+ supports; `LoadShift`), the declared ones otherwise."""
