@@ -437,6 +437,10 @@ class DiagnosePage(pn.viewable.Viewer):
                           f"{plain('; or '.join(d.separated_by))}."]
         elif d.separated_by:
             lines += ["", f"To confirm it: {plain('; or '.join(d.separated_by))}."]
+        if d.rivals:  # pairs that fit nearly as well as the named effect (`diagnose.loop._rival_pairs`)
+            pairs = plain("; ".join(label_title(a) for a in d.rivals))
+            lines += ["", f"**Two faults at once** fit nearly as well: {pairs} (less likely than one, not ruled out "
+                          "by this record)."]
         if d.not_seen:  # faults of a typical size the record cannot tell from none
             lines += ["", "**Not seen by this record**: " + plain(not_seen_sentence(d.not_seen))]
         if d.set_intervals is not None:  # an ambiguity, or an oil the record cannot pin (the verdict says which)

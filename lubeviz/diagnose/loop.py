@@ -60,8 +60,10 @@ PAIR_PLACEMENTS = 3  # ... this many of each (oil thinner on every bearing ranke
 PAIR_ASKED = 0.95  # ... a look-alike when its chi2 is below the winner's by this likelihood-ratio quantile
 RIVAL_PAIRS = 6  # a named effect's rivals: this many pairs of other singles the linear screen ranks best, fitted;
 # ... a rival when its AIC is at most the winner's plus this (Burnham & Anderson: within 2, both have substantial
-# support), with a flow outside the winner's interval. At 0 a vertical load with oil 25 % thicker, AIC 0.5 above a
-# horizontal load named alone at flows 9 and 25 % off, was no rival (the compressor rehearsal's case 14, session 59)
+# support), with a flow outside the winner's interval: one no worse than the winner's makes the name an ambiguity;
+# one up to RIVAL_AIC worse is told and widens the flows' interval, the name kept (two faults at once are less likely
+# than one). At 0 a vertical load with oil 25 % thicker, AIC 0.5 above a horizontal load named alone at flows 9 and
+# 25 % off, was no rival: outside their intervals (the compressor rehearsal's case 14, session 59)
 RIVAL_AIC = 2.0
 
 
@@ -150,6 +152,9 @@ class Diagnosis:
     scans: tuple = ()  # diagnose.scan.NodeScan: each effect that acts at a node, fitted at every node it can
     asked: object = None  # `Asked`: the plain model passed, but this candidate lowered chi2 beyond chance
     not_seen: tuple = ()  # `NotSeen`: a fault of typical size the record (explained) cannot tell from none
+    # pairs of other effects that fit nearly as well as the named one (`_rival_pairs`: AIC within RIVAL_AIC of it, no
+    # lower) with other flows: told, and carried in the flows' interval (`set_intervals`), but not an ambiguity
+    rivals: tuple[str, ...] = ()
 
     @property
     def q_threshold_declared(self) -> np.ndarray | None:
@@ -887,21 +892,31 @@ def _rival_pairs(out: dict, chains, meas, best, tried, names, budget, level, bef
     found = [c for c in _fit_pairs(chains, meas, ranked, names, budget, level)
              if c.fit is not None and c.fit.dof >= 1 and c.fit.explained and not _at_bound(c.fit)
              and c.fit.aic <= after.aic + RIVAL_AIC and _outside(after, fit_flows(c.fit))]
-    if found:
-        _join_pairs(out, after, sorted(found, key=lambda c: c.fit.aic), " Or two faults at once: ",
-                    f" the record as well, counting {'its' if len(found) == 1 else 'their'} extra parameters (AIC), "
+    found.sort(key=lambda c: c.fit.aic)
+    close = [c for c in found if c.fit.aic <= after.aic]  # as well counting its parameters: the record cannot tell
+    near = [c for c in found if c.fit.aic > after.aic]
+    if close:
+        _join_pairs(out, after, close, " Or two faults at once: ",
+                    f" the record as well, counting {'its' if len(close) == 1 else 'their'} extra parameters (AIC), "
                     "with other flows")
+    if near:
+        _join_pairs(out, after, near, " Two faults at once are less likely than one, but ",
+                    f" the record nearly as well, counting {'its' if len(near) == 1 else 'their'} extra parameters "
+                    f"(AIC within {RIVAL_AIC:g} of it), with other flows", join=False)
 
 
-def _join_pairs(out: dict, after: Fit, found, lead: str, how: str) -> None:
-    """Pairs that fit as well as the named effect (`found`, best first) join its ambiguity and widen the flows'
-    interval (their +-1.96 sigma, `_set_intervals`); the verdict tells the best LOOK_ALIKES_TOLD of them: `lead`,
-    each pair with its flows and chi2, "fit(s)" + `how`, and the interval."""
+def _join_pairs(out: dict, after: Fit, found, lead: str, how: str, join: bool = True) -> None:
+    """Pairs that fit as well as the named effect (`found`, best first) join its ambiguity (with `join`; else its
+    `rivals`) and widen the flows' interval (their +-1.96 sigma, `_set_intervals`); the verdict tells the best
+    LOOK_ALIKES_TOLD of them: `lead`, each pair with its flows and chi2, "fit(s)" + `how`, and the interval."""
     own = out["set_intervals"] or tuple(after.intervals.get(n) for n in _flow_names(after))
     pairs = _set_intervals(after, found)
     joined = tuple(None if own[k] is None and pairs[k] is None else union_interval(own[k], pairs[k])
                    for k in range(len(pairs)))
-    out["ambiguous"] = out["ambiguous"] + tuple(c.label for c in found)
+    if join:
+        out["ambiguous"] = out["ambiguous"] + tuple(c.label for c in found)
+    else:
+        out["rivals"] = out.get("rivals", ()) + tuple(c.label for c in found)
     out["set_intervals"] = joined
     out["separated_by"] = tuple(dict.fromkeys((*out["separated_by"], *(w for c in found for w in c.separated_by))))
     shown = found[:LOOK_ALIKES_TOLD]
@@ -1299,6 +1314,7 @@ def diagnosis_dict(d: Diagnosis, *, file=None) -> dict:
     out = {"before": fit_dict(d.before), "effects": effects,
            "added": None if d.added is None else d.added.label,
            "after": fit_dict(d.after), "explained": d.explained, "ambiguous": list(d.ambiguous),
+           "rivals": list(d.rivals),
            "separated_by": list(d.separated_by), "verdict": d.verdict, "seconds": d.seconds,
            "lines_beyond_1x": [line.as_dict() for line in d.lines],
            "record_findings": [f.as_dict() for f in d.findings],

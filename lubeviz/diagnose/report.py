@@ -153,6 +153,9 @@ def _actions(d, nodes) -> list[str]:
                    + (f" by {sep}." if sep else "."))
     if d.not_seen:  # faults of a typical size the explained record cannot tell from none
         out.append("<b>Not seen by this record</b>, so not cleared by it: " + escape(not_seen_sentence(d.not_seen)))
+    if d.rivals:  # pairs that fit nearly as well as the named effect (`diagnose.loop._rival_pairs`)
+        out.append("<b>Two faults at once fit nearly as well</b> (" + escape(_titles(d.rivals)) + "): less likely "
+                   "than one, but not ruled out by this record; the flows' interval below carries them.")
     if d.set_intervals is not None and outcome != "ambiguous":  # an explanation the record cannot rule out
         out.append("<b>Other explanations fit as well</b> (the verdict says which): over all of them the flows are "
                    "known only within " + escape(interval_words(d.set_intervals)) + ". Take one of the measurements "

@@ -145,3 +145,18 @@ def test_residual_bars_mark_the_two_sigma_band():
     tags = parse(svg)
     assert tags.starts["rect"] >= 5  # band + 4 bars (+ legend)
     assert "±2σ" in "".join(tags.text) and "+50.0" in "".join(tags.text)  # a cut bar keeps its value
+
+
+def test_report_tells_a_rival_pair_in_words_and_keeps_the_name(diagnosed):
+    """A pair that fits nearly as well as the named effect (`Diagnosis.rivals`) is told in an engineer's words, the
+    named effect kept as the report's reading; the JSON carries the labels."""
+    from lubeviz.diagnose import diagnosis_dict
+
+    d, record, *_ = diagnosed
+    rival = "viscosity[bearing=both] + clearance[bearing=2]"
+    text = "".join(parse(report_html(dataclasses.replace(d, rivals=(rival,)), record=record)).text)
+    assert "Two faults at once fit nearly as well" in text
+    assert "the oil's viscosity in every bearing with the clearance of bearing 2" in text and "clearance[" not in text
+    assert "The model needed the probes of plane 1 turned" in text
+    assert "Two faults at once" not in "".join(parse(report_html(d, record=record)).text)
+    assert diagnosis_dict(dataclasses.replace(d, rivals=(rival,)))["rivals"] == [rival]

@@ -3,8 +3,8 @@ the oil's viscosity and the bearings' static loads along the weight are carried 
 the named effect (`diagnose.loop._unpinned`), unless the effect itself changes them.
 
 A horizontal side load, named alone on the compressor rehearsal's loop case 14 (session 59), moves the loads across
-the weight only; the truth was a vertical load of 7 % of a bearing's share with oil 25 % thicker, and the flows' interval
-missed Q1 and Q2. Beside a load across the weight, the loads along it are as unpinned as beside any other effect."""
+the weight only; the truth was a vertical load of 7 % of a bearing's share with oil 25 % thicker, and the flows'
+interval missed Q1 and Q2. Beside a load across the weight, the loads along it are as unpinned as beside any other effect."""
 
 import types
 
