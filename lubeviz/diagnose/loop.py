@@ -878,8 +878,9 @@ def _rival_pairs(out: dict, chains, meas, best, tried, names, budget, level, bef
     screen (`pairs.screen`, from the plain fit) ranks best are fitted; a moved load is left out, as beside the winner
     (`_pairs_after_effect`), unless the winner is a moved load itself: then a load elsewhere or in another direction
     is no nuisance the unpinned loads carry but another reading of the named cause (a horizontal load named alone, the
-    truth a vertical one with thicker oil: the compressor rehearsal's case 14, session 59). Rivals join the ambiguity
-    and widen the flows' interval; they are never named. One record
+    truth a vertical one with thicker oil: the compressor rehearsal's case 14, session 59). A rival no worse than the
+    winner by AIC joins the ambiguity; one up to RIVAL_AIC worse is told and kept in `rivals`, the name kept (two
+    faults at once are less likely than one); both widen the flows' interval, and neither is ever named. One record
     only: over a set of speeds the model's small differences from the machine add up, and a pair's extra parameter
     takes up enough of them to pass the criterion (hot oil over the pump's three speeds had five rivals, each with
     Q2 22 % off, session 56)."""
