@@ -248,6 +248,7 @@ DIAGNOSE = {
     "after": _FIT,
     "explained": "bool",
     "ambiguous": ["str"],
+    "rivals": ["str"],  # session 59: pairs that fit nearly as well as the named effect (told, not an ambiguity)
     "separated_by": ["str"],
     "verdict": "str",
     "seconds": "number",
