@@ -584,6 +584,24 @@ STATIC_TOLERANCE = 1e-8  # the coupled statics' residual (the films' forces agai
 STATIC_FLOOR = 1e-6  # ... or below this once it stops halving: the films' own tolerance (1e-9 of the load, times
 # the shaft's stiffness over the film's) can hold it above STATIC_TOLERANCE on a stiff shaft
 STATIC_MAX_ITER = 30
+# Each step's loads are taken to 1e-9 of the largest (the same decimal place for both components), then solved: a
+# film under a load is cached under that load's digits, and the Newton steps' last bits are the host's (another
+# CPU's BLAS moved the fan's loads by ~1e-13, and 12 digits of each load in the key sent every film of a
+# three-support machine to be solved again, session 60). A film moves by no more than its load's own relative change
+# (5e-15 for 3e-15, measured on the fan's bearing A), so 1e-9 leaves the residual's tolerance (1e-8) reachable.
+STATIC_DIGITS = 9
+
+
+def _snapped(loads: np.ndarray) -> np.ndarray:
+    """Each bearing's load (N, 2) rounded to STATIC_DIGITS significant digits of its larger component, at one decimal
+    place for both (a near-zero component is not rounded to its own digits); -0.0 made 0.0."""
+    out = np.array(loads, dtype=float)
+    for w in out:
+        size = float(np.max(np.abs(w)))
+        if size > 0.0 and math.isfinite(size):
+            place = STATIC_DIGITS - 1 - math.floor(math.log10(size))
+            w[:] = [round(float(v), place) + 0.0 for v in w]
+    return out
 
 
 @dataclass(frozen=True)
@@ -667,7 +685,8 @@ def _coupled_statics(machine, rotor: Rotor, omega: float, bearings, flows, side,
     scale = float(np.max(np.abs(R)))
     residual = math.inf
     for it in range(1, STATIC_MAX_ITER + 1):
-        loads = -R.reshape(n, 2)
+        loads = _snapped(-R.reshape(n, 2))
+        R = -loads.ravel()
         try:
             films = [equilibria.film_point(b, omega, tuple(w), q, use_cache=use_cache)
                      for b, w, q in zip(bearings, loads, flows)]

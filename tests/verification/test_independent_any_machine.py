@@ -489,3 +489,21 @@ def test_a_roller_on_a_pedestal_is_built_alike_by_both_implementations(tmp_path)
     np.testing.assert_allclose(ours, theirs, rtol=0, atol=2e-3 * np.abs(theirs).max())
     bare = steady_truth(IndependentSpec(speed_hz=m.operating_speed, q_mlmin=qt, nodes=(7, 15), machine=FAN))
     assert np.abs(bare["steady_true_xy_m"] - theirs).max() > 0.1 * np.abs(theirs).max()
+
+
+def test_the_coupled_statics_steps_load_their_films_alike_on_any_host():
+    """The Newton steps' loads are the host's in their last bits (another CPU moved the fan's by ~1e-13, and every
+    film of a three-support machine was solved again instead of read from the seeds): each step's loads are taken to
+    STATIC_DIGITS of the larger component, one decimal place for both, so loads a few hundred ulps apart key the same
+    films, and the rounding moves a load by no more than half a unit in that place."""
+    from lubeviz.verification.independent import STATIC_DIGITS, _snapped
+
+    rng = np.random.default_rng(60)
+    loads = rng.normal(size=(200, 2)) * 10.0 ** rng.uniform(0, 4, size=(200, 1))
+    loads[::7, 0] *= 1e-5  # a nearly vertical load: its small component at the large one's place
+    snapped = _snapped(loads)
+    size = np.abs(loads).max(axis=1, keepdims=True)
+    assert np.all(np.abs(snapped - loads) <= 0.5 * 10.0 ** (np.floor(np.log10(size)) - STATIC_DIGITS + 1) * (1 + 1e-9))
+    for ulps in (1, -7, 300):
+        assert np.array_equal(_snapped(loads * (1.0 + ulps * 2.2e-16)), snapped)
+    assert str(_snapped(np.array([[-1e-20, -32.8]]))[0, 0]) == "0.0"  # no "-0.0" in a film's key

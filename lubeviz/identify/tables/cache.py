@@ -589,6 +589,12 @@ def _view(table: DimensionlessTable, bearing: Bearing, load, omega: float, index
 # error against direct solves (0.5 %); each lean above it is a geometry of its own, with its own slices to build.
 # The fan: bearing A leans -5.1 deg, C +1.1 deg, B -0.045 deg (taken as vertical).
 LEAN_DEG = 0.1
+# A lean is the angle of a load the statics computed, and its last bits are the host's: another CPU's BLAS and
+# numpy kernels moved the rig's -0.0189 rad by 1.4e-14 (session 60, against the host the seeds were made on), and
+# every turned slice's key with it: a fresh clone rebuilt two full tables (742 s of one test). The lean is taken to
+# 1e-9 rad (a turn of 1e-9 moves K and C by about 1e-9 of the largest entry), so that its key is the same on any
+# host but for the rare lean within 1e-14 of a rounding edge.
+LEAN_DECIMALS = 9
 
 
 def film_frame(bearing: Bearing, load) -> tuple[Bearing, np.ndarray, np.ndarray | None]:
@@ -600,7 +606,7 @@ def film_frame(bearing: Bearing, load) -> tuple[Bearing, np.ndarray, np.ndarray 
     w = float(np.hypot(*load))
     if not w > 0.0:
         raise InputError(f"bearing load {load.tolist()} N: expected a non-zero load")
-    beta = math.atan2(load[0], -load[1])
+    beta = round(math.atan2(load[0], -load[1]), LEAN_DECIMALS)
     if abs(math.degrees(beta)) <= LEAN_DEG:
         return bearing, np.array([0.0, -w]), None
     from ...model.bearing import Groove
