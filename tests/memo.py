@@ -27,19 +27,51 @@ from lubeviz.identify.tables.cache import cache_dir
 from lubeviz.rotor.film_transient import FilmTimeResponse, film_time_response
 from lubeviz.verification import equilibria
 
-MEMO_FORMAT = 1
+MEMO_FORMAT = 2  # 2: floats to DIGITS digits (keys that hold on another host)
+
+
+# A number the suite computes (a film's equilibrium, the rotor's matrices) is the host's in its last bits: another
+# CPU's BLAS and numpy kernels moved them by ~1e-14, and every memo's key with its bytes, so that a fresh clone there
+# ran each of the seeded integrations again (session 60). So floats enter a key to DIGITS significant digits, and a
+# float array by its sum of magnitudes to DIGITS digits and three weighted sums as fractions of it to DIGITS
+# decimals: a change to one entry by more than a part in 1e9 of the whole changes the key; noise of 1e-14 does not,
+# but at a rounding edge (about once in 1e5 numbers). Integers, booleans and strings enter as they are.
+DIGITS = 9
+
+
+def _number(v) -> str:
+    if isinstance(v, (bool, np.bool_, int, np.integer, str, type(None))):
+        return repr(v)
+    c = complex(v)
+    part = [f"{x + 0.0:.{DIGITS}g}" for x in (c.real, c.imag)]
+    return part[0] if isinstance(v, (float, np.floating)) else ",".join(part)
+
+
+def _float_array(h, a: np.ndarray) -> None:
+    parts = [a.real, a.imag] if np.iscomplexobj(a) else [a]
+    for x in parts:
+        x = np.asarray(x, dtype=float).ravel()
+        scale = float(np.abs(x).sum())
+        h.update(f"s{scale:.{DIGITS}g}".encode())
+        if scale > 0.0:
+            w = np.linspace(-1.0, 1.0, x.size)
+            for m in (x.sum(), (x * w).sum(), (x * w * w).sum()):
+                h.update(f",{round(float(m) / scale, DIGITS) + 0.0!r}".encode())
 
 
 def _digest(h, value) -> None:
-    """Feed `value`, taken apart down to arrays and plain numbers, into the hash `h`."""
+    """Feed `value`, taken apart down to arrays and plain numbers, into the hash `h` (floats to DIGITS digits)."""
     if isinstance(value, np.ndarray):
         a = np.ascontiguousarray(value)
         h.update(f"a{a.dtype.str}{a.shape}".encode())
-        h.update(a.tobytes())
+        if a.dtype.kind in "fc":
+            _float_array(h, a)
+        else:
+            h.update(a.tobytes())
     elif isinstance(value, enum.Enum):
         h.update(f"e{type(value).__qualname__}.{value.name}".encode())
     elif isinstance(value, (bool, int, float, complex, str, type(None), np.number, np.bool_)):
-        h.update(f"v{type(value).__name__}:{value!r}".encode())
+        h.update(f"v{type(value).__name__}:{_number(value)}".encode())
     elif dataclasses.is_dataclass(value):
         h.update(f"d{type(value).__qualname__}(".encode())
         for f in dataclasses.fields(value):
@@ -73,7 +105,8 @@ def _digest(h, value) -> None:
 
 def _key(args, kwargs) -> str:
     h = hashlib.sha256()
-    h.update(json.dumps({"format": MEMO_FORMAT, "kind": "film_time_response", "code": equilibria.code_version("film", "rotor")}).encode())
+    h.update(json.dumps({"format": MEMO_FORMAT, "kind": "film_time_response",
+                         "code": equilibria.code_version("film", "rotor")}).encode())
     _digest(h, list(args))
     _digest(h, {k: v for k, v in kwargs.items() if k != "progress"})
     return h.hexdigest()

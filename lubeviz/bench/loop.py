@@ -94,7 +94,7 @@ REDRAWS = 20
 THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS",
                "VECLIB_MAXIMUM_THREADS", "NUMBA_NUM_THREADS")
 ROW_KEYS = ("id", "kind", "group", "strength", "truth", "speeds_hz", "q_mlmin", "static", "seed", "redraws",
-            "outcome", "added", "ambiguous", "rivals", "named", "right_first", "right_in_set", "not_seen",
+            "outcome", "added", "ambiguous", "rivals", "pair_untested", "named", "right_first", "right_in_set", "not_seen",
             "said_unseen", "placement_right", "explained",
             "held", "silent_wrong", "flow_error_pct_before", "flow_error_pct_after", "node", "seconds",
             "case_seconds", "verdict", "failed", "warnings", "truth_dof")
@@ -515,7 +515,7 @@ def judge(case: dict, d, q_mlmin) -> dict:
     # the truth told as a fault the (explained) record cannot see, in its place (`diagnose.loop._not_seen`)
     said_unseen = bool(truth) and set(truth) <= unseen_names and _placement_right(case, unseen) is not False
     return {"q_mlmin": q.tolist(), "outcome": d.outcome, "added": added, "ambiguous": list(d.ambiguous),
-            "rivals": list(getattr(d, "rivals", ())),
+            "rivals": list(getattr(d, "rivals", ())), "pair_untested": bool(getattr(d, "pair_untested", False)),
             "named": named, "right_first": right_first, "right_in_set": right_in_set, "not_seen": unseen,
             "said_unseen": said_unseen,
             "placement_right": _placement_right(case, labels) if truth else None,
@@ -627,9 +627,11 @@ def rates(rows) -> dict:
         # planes without the DC gap has 6 features, so two flows and a pair of 1 + 2 parameters leave 1
         "pairs_right_where_determinable": _rate(r["right_in_set"] for r in kind["pair"]
                                                 if (r.get("truth_dof") or 0) >= PAIR_DOF),
-        # a single name whose verdict tells a pair that fits nearly as well (`Diagnosis.rivals`) is not confident
+        # a single name whose verdict tells a pair that fits nearly as well (`Diagnosis.rivals`), or says that the
+        # record cannot test a second fault beside it (`Diagnosis.pair_untested`), is not confident
         "pairs_never_single_confident": _rate(not (r["outcome"] == "effect added" and r["named"] is not None
-                                                   and "+" not in r["named"] and not r.get("rivals"))
+                                                   and "+" not in r["named"] and not r.get("rivals")
+                                                   and not r.get("pair_untested"))
                                               for r in kind["pair"]),
         "hot_oil_sets_named_within_2pct": _rate(r["right_first"] and within(r, 2.0) for r in hot),
         "worn_bearing_sets_named_within_2pct": _rate(r["right_first"] and within(r, 2.0) for r in worn),

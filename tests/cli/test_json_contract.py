@@ -249,6 +249,7 @@ DIAGNOSE = {
     "explained": "bool",
     "ambiguous": ["str"],
     "rivals": ["str"],  # session 59: pairs that fit nearly as well as the named effect (told, not an ambiguity)
+    "pair_untested": "bool",  # session 60: the named effect leaves too few dof to test a second fault beside it
     "separated_by": ["str"],
     "verdict": "str",
     "seconds": "number",

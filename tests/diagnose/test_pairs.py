@@ -317,3 +317,33 @@ def test_a_rival_is_told_carried_in_the_interval_and_kept_out_of_the_ambiguity(m
     assert lo1 == pytest.approx(0.8e-5 - loop.Z95 * 0.05e-5) and hi1 == pytest.approx(1.2e-5)
     assert (lo2, hi2) == (2.0e-5, 2.2e-5)
     assert out["verdict"].startswith(" Lead: ") and "Q1, Q2 = 480, 1260 ml/min" in out["verdict"]
+
+
+@pytest.mark.parametrize("flows, params, dof, untested", [
+    (3, 1, 2, True),  # the fan: 6 features, 3 flows and one parameter leave 2; a second unbalance beside it, none
+    (2, 1, 3, False),  # the rig: a second fault of 2 parameters beside it leaves 1, and `_rival_pairs` fits it
+    (2, 2, 2, True),  # the rig with a second unbalance named: 6 features for 2 flows and 2 parameters
+])
+def test_a_named_effect_that_leaves_no_room_to_test_a_second_fault_says_so(monkeypatch, flows, params, dof, untested):
+    """The fan's loop, case 29 (session 59): a worn bearing with a second unbalance, 3 parameters for 3 flows on one
+    record of 6 features, read as one fault, the flows off. No fit can test that pair (no degree of freedom left), so
+    the verdict says two faults at once are not ruled out and which measurement would test them (`pair_untested`,
+    which the bench counts as a name that is not confident); with a degree of freedom to spare it says nothing."""
+    from lubeviz.diagnose.loop import PARTNER_PARAMS
+
+    assert PARTNER_PARAMS == 2
+    monkeypatch.setattr(loop, "fit_flows", lambda f: np.ones(flows))
+    after = types.SimpleNamespace(dof=dof, values=np.zeros(flows + params))
+    best = _single("clearance:bearing=1", 10.0)
+    out = {"verdict": "Named."}
+    loop._untested_pair_words(out, best, after, 1)
+    assert out.get("pair_untested", False) is untested
+    if untested:
+        assert f"This record holds {dof + flows + params} features for {flows} flows" in out["verdict"]
+        assert "not ruled out" in out["verdict"] and "DC gap" in out["verdict"]
+    else:
+        assert out["verdict"] == "Named."
+    pair = Candidate(label="a + b", effect=best.effect, partners=(parse_effect("viscosity"),), fit=best.fit)
+    out = {"verdict": ""}
+    loop._untested_pair_words(out, pair, after, 1)  # a pair named: its own count of parameters, nothing said
+    assert "pair_untested" not in out
