@@ -913,7 +913,10 @@ class ForwardChain:
             if any(st is None for st in stacks):
                 return None
             if packed is None or any(a is not b for a, b in zip(packed.stacks, stacks)):
-                angles = [0.0 if src._turn is None else float(_lean(src.load)) for src in self.sources]
+                from ..tables.cache import frame_lean
+
+                # each table's frame (`film_frame`): the lean its slices were turned by
+                angles = [0.0 if src._turn is None else frame_lean(src.load) for src in self.sources]
                 packed = self._packed = packed_stacks(stacks, angles)
             self._packed_held = tuple((src._held, src._held.table, len(src._held.table.slices))
                                       for src in self.sources) if stacks is not packed.stacks else held

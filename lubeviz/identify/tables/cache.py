@@ -597,6 +597,12 @@ LEAN_DEG = 0.1
 LEAN_DECIMALS = 9
 
 
+def frame_lean(load) -> float:
+    """The lean (rad, from -Y towards +X) of the frame `film_frame` turns a bearing under `load` [Wx, Wy] into:
+    the load's own, to LEAN_DECIMALS."""
+    return round(math.atan2(float(load[0]), -float(load[1])), LEAN_DECIMALS)
+
+
 def film_frame(bearing: Bearing, load) -> tuple[Bearing, np.ndarray, np.ndarray | None]:
     """(the bearing as seen from the frame where `load` is vertical, that vertical load, the 10 x 10 map of a
     table's columns from that frame back: `values @ turn.T`, or None when the load is vertical already)."""
@@ -606,7 +612,7 @@ def film_frame(bearing: Bearing, load) -> tuple[Bearing, np.ndarray, np.ndarray 
     w = float(np.hypot(*load))
     if not w > 0.0:
         raise InputError(f"bearing load {load.tolist()} N: expected a non-zero load")
-    beta = round(math.atan2(load[0], -load[1]), LEAN_DECIMALS)
+    beta = frame_lean(load)
     if abs(math.degrees(beta)) <= LEAN_DEG:
         return bearing, np.array([0.0, -w]), None
     from ...model.bearing import Groove
