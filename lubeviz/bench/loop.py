@@ -94,8 +94,8 @@ REDRAWS = 20
 THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS",
                "VECLIB_MAXIMUM_THREADS", "NUMBA_NUM_THREADS")
 ROW_KEYS = ("id", "kind", "group", "strength", "truth", "speeds_hz", "q_mlmin", "static", "seed", "redraws",
-            "outcome", "added", "ambiguous", "rivals", "pair_untested", "named", "right_first", "right_in_set", "not_seen",
-            "said_unseen", "placement_right", "explained",
+            "outcome", "added", "ambiguous", "rivals", "pair_untested", "named", "right_first", "right_in_set",
+            "not_seen", "said_unseen", "placement_right", "explained",
             "held", "silent_wrong", "flow_error_pct_before", "flow_error_pct_after", "node", "seconds",
             "case_seconds", "verdict", "failed", "warnings", "truth_dof")
 
@@ -674,6 +674,9 @@ def summarize(rows, seconds: float | None = None) -> dict:
         "diagnose_seconds_per_record_max": float(np.max(per)) if per else None,
         "case_seconds_median": float(np.median([r["case_seconds"] for r in rows])) if rows else None,
         "redrawn": sum(bool(r["redraws"]) for r in rows),
+        # verdicts that tell a rival pair, and names that say a second fault could not be tested
+        "rivals_told": sum(bool(r.get("rivals")) for r in ok),
+        "pair_untested": sum(bool(r.get("pair_untested")) for r in ok),
         # per library effect: [named first or in the set, neither but explained with flows that hold, cases]
         "library_by_effect": {g: [sum(r["right_first"] or r["right_in_set"] for r in ok if r["kind"] == "effect"
                                       and r["group"] == g),
