@@ -295,7 +295,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
             _unpinned_after_effect(out, chains, meas, best, passing, names, budget, level)
             _pairs_after_effect(out, chains, meas, best, tried, names, budget, level, before)
             _rival_pairs(out, chains, meas, best, tried, names, budget, level, before)
-            _untested_pair_words(out, best, after, len(chains))
+            _untested_pair_words(out, best, after, meas)
     else:
         out = _unexplained_outcome(before, tried, refused)
         out["verdict"] += _unnamed_pair_words(before, unnamed, len(chains))
@@ -914,20 +914,24 @@ def _rival_pairs(out: dict, chains, meas, best, tried, names, budget, level, bef
                     f"(AIC within {RIVAL_AIC:g} of it), with other flows", join=False)
 
 
-def _untested_pair_words(out: dict, best, after: Fit, records: int) -> None:
+def _untested_pair_words(out: dict, best, after: Fit, meas) -> None:
     """When the named effect leaves too few degrees of freedom to test a second fault of PARTNER_PARAMS parameters
     beside it (`_rival_pairs` fits only pairs with one left), the verdict says that two faults at once are not ruled
-    out by the record and which measurement would test them; `out["pair_untested"]` records it."""
+    out by the record(s) `meas` and which measurement they lack would test them; `out["pair_untested"]` records it."""
     if best.partners or after.dof - PARTNER_PARAMS >= 1:
         return
     k = len(_flow_names(after))
     n = after.dof + len(after.values)
-    held = "This record holds" if records == 1 else f"These {records} records hold"
+    held = "This record holds" if len(meas) == 1 else f"These {len(meas)} records hold"
+    lacking = ([] if any(getattr(m, "static_names", ()) for m in meas)
+               else ["the static shaft position (the probes' DC gap)"]) + (["records at a second speed"]
+                                                                          if len(meas) == 1 else [])
+    would = " or ".join(lacking) if lacking else "records at more speeds or more measurement planes"
     out["pair_untested"] = True
     out["verdict"] += (f" {held} {n} features for {k} flows and {best.title}: a second fault beside it with "
                        f"{PARTNER_PARAMS} parameters (a 1X force, a second unbalance) would leave no degree of "
-                       "freedom, so two faults at once are not ruled out. The static shaft position (the probes' DC "
-                       "gap) or records at a second speed would test them.")
+                       f"freedom, so two faults at once are not ruled out. {would[0].upper()}{would[1:]} would test "
+                       "them.")
 
 
 def _join_pairs(out: dict, after: Fit, found, lead: str, how: str, join: bool = True) -> None:

@@ -335,15 +335,21 @@ def test_a_named_effect_that_leaves_no_room_to_test_a_second_fault_says_so(monke
     monkeypatch.setattr(loop, "fit_flows", lambda f: np.ones(flows))
     after = types.SimpleNamespace(dof=dof, values=np.zeros(flows + params))
     best = _single("clearance:bearing=1", 10.0)
+    one = [types.SimpleNamespace(static_names=())]
     out = {"verdict": "Named."}
-    loop._untested_pair_words(out, best, after, 1)
+    loop._untested_pair_words(out, best, after, one)
     assert out.get("pair_untested", False) is untested
     if untested:
         assert f"This record holds {dof + flows + params} features for {flows} flows" in out["verdict"]
-        assert "not ruled out" in out["verdict"] and "DC gap" in out["verdict"]
+        assert "not ruled out" in out["verdict"]
+        assert "The static shaft position (the probes' DC gap) or records at a second speed" in out["verdict"]
+        # the advice names only what the records lack: a record with the DC gap is told of a second speed
+        out = {"verdict": ""}
+        loop._untested_pair_words(out, best, after, [types.SimpleNamespace(static_names=("x1_static",))])
+        assert "Records at a second speed would test them." in out["verdict"] and "DC gap" not in out["verdict"]
     else:
         assert out["verdict"] == "Named."
     pair = Candidate(label="a + b", effect=best.effect, partners=(parse_effect("viscosity"),), fit=best.fit)
     out = {"verdict": ""}
-    loop._untested_pair_words(out, pair, after, 1)  # a pair named: its own count of parameters, nothing said
+    loop._untested_pair_words(out, pair, after, one)  # a pair named: its own count of parameters, nothing said
     assert "pair_untested" not in out
