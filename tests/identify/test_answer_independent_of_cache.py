@@ -3,8 +3,10 @@ once gave another `q1_interval_any_oil_mlmin` on a warm cache than on a cold one
 used at all (item 6: a cache directory that is a file, FIFOs in place of slices). Run as a user runs it: the
 CLI in a subprocess, `LUBEVIZ_CACHE_DIR` pointing at the cache under test.
 
-The fast tests use the paper's machine on a coarse film mesh (40 x 20: a slice in well under a second; the
-cache's logic does not depend on the mesh); the slow one the shipped model, as the issue measured it."""
+The tests use the paper's machine on a coarse film mesh (40 x 20: a slice in well under a second): the cache's
+logic does not depend on the mesh. (A slow test ran the same four commands on the shipped model's 100 x 100 films,
+as the issue measured it: 71 s of the suite's time for no branch the coarse machine leaves out; dropped in session
+61 for CI's 15 minutes.)"""
 
 import json
 import math
@@ -130,17 +132,3 @@ def test_identify_answers_without_hanging_when_fifos_stand_in_for_the_slices(tmp
     assert_same_answer(got, good)
     assert "a FIFO, not a regular file; not opened" in err
     assert all(path.is_file() for path in slices)  # replaced by the slices, rebuilt and stored
-
-
-@pytest.mark.slow
-def test_the_shipped_model_gives_the_same_json_cold_and_warm_with_and_without_the_oil_check(tmp_path):
-    """The issue's command on the shipped model, in one cache directory: cold, then with --oil-check (which
-    builds the slices of the viscosity range), then warm. 30-60 s on 2 shared cores."""
-    plain_cold, _ = identify(tmp_path)
-    oil_cold, _ = identify(tmp_path, "--oil-check")
-    plain_warm, _ = identify(tmp_path)
-    oil_warm, _ = identify(tmp_path, "--oil-check")
-    assert_same_answer(plain_cold, plain_warm)
-    assert_same_answer(oil_cold, oil_warm)
-    assert plain_warm["q1_interval_any_oil_mlmin"] is None
-    assert oil_warm["q1_interval_any_oil_mlmin"] is not None

@@ -43,7 +43,7 @@ def test_a_time_round_with_a_better_orbit_model_standing_in_brings_the_five_harm
         rough = _balance(chain, flows, ob, 16, 64, 1e-4, silent, scale=scale, machine=_with_mesh(chain.machine, 30))
         coarse = _balance(chain, flows, rough, 16, 64, 1e-5, silent, scale=scale,
                           machine=_with_mesh(chain.machine, SLOPE_MESH))
-        b = _balance(chain, flows, coarse, 16, 64, 1e-8, silent, scale=scale)
+        b = _balance(chain, flows, coarse, 16, 64, 1e-5, silent, scale=scale)
         gs = np.zeros((2, 2))
         for k in chain.static_planes:
             gs[k] = b.x[0, k].real - ob.x[0, k].real, b.y[0, k].real - ob.y[0, k].real
