@@ -96,7 +96,7 @@ THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NU
 ROW_KEYS = ("id", "kind", "group", "strength", "truth", "speeds_hz", "q_mlmin", "static", "seed", "redraws",
             "outcome", "added", "ambiguous", "rivals", "pair_untested", "named", "right_first", "right_in_set",
             "not_seen", "said_unseen", "placement_right", "explained",
-            "held", "silent_wrong", "flow_error_pct_before", "flow_error_pct_after", "node", "seconds",
+            "held", "silent_wrong", "told_wrong", "flow_error_pct_before", "flow_error_pct_after", "node", "seconds",
             "case_seconds", "verdict", "failed", "warnings", "truth_dof")
 
 
@@ -514,12 +514,16 @@ def judge(case: dict, d, q_mlmin) -> dict:
     unseen_names = {n for lab in unseen for n in _names(lab)}
     # the truth told as a fault the (explained) record cannot see, in its place (`diagnose.loop._not_seen`)
     said_unseen = bool(truth) and set(truth) <= unseen_names and _placement_right(case, unseen) is not False
+    # two faults, of which the verdict names one and says that the record cannot test a second beside it and that its
+    # flows hold only if that one is alone (`diagnose.loop._untested_pair_words`): a miss there is told, not silent
+    told = case.get("kind") == "pair" and bool(getattr(d, "pair_untested", False))
     return {"q_mlmin": q.tolist(), "outcome": d.outcome, "added": added, "ambiguous": list(d.ambiguous),
             "rivals": list(getattr(d, "rivals", ())), "pair_untested": bool(getattr(d, "pair_untested", False)),
             "named": named, "right_first": right_first, "right_in_set": right_in_set, "not_seen": unseen,
             "said_unseen": said_unseen,
             "placement_right": _placement_right(case, labels) if truth else None,
-            "explained": bool(d.explained), "held": bool(held), "silent_wrong": bool(d.explained and not held),
+            "explained": bool(d.explained), "held": bool(held), "silent_wrong": bool(d.explained and not held and not told),
+            "told_wrong": bool(d.explained and not held and told),
             "flow_error_pct_before": (fit_flows(d.before) * MLMIN_PER_M3S / q * 100 - 100).tolist(),
             "flow_error_pct_after": (final / q * 100 - 100).tolist(),
             "node": _node_row(case, d), "seconds": float(d.seconds), "verdict": d.verdict,
@@ -677,6 +681,7 @@ def summarize(rows, seconds: float | None = None) -> dict:
         # verdicts that tell a rival pair, and names that say a second fault could not be tested
         "rivals_told": sum(bool(r.get("rivals")) for r in ok),
         "pair_untested": sum(bool(r.get("pair_untested")) for r in ok),
+        "told_wrong": sum(bool(r.get("told_wrong")) for r in ok),  # flows that miss under words that say they may
         # per library effect: [named first or in the set, neither but explained with flows that hold, cases]
         "library_by_effect": {g: [sum(r["right_first"] or r["right_in_set"] for r in ok if r["kind"] == "effect"
                                       and r["group"] == g),

@@ -930,8 +930,9 @@ def _untested_pair_words(out: dict, best, after: Fit, meas) -> None:
     out["pair_untested"] = True
     out["verdict"] += (f" {held} {n} features for {k} flows and {best.title}: a second fault beside it with "
                        f"{PARTNER_PARAMS} parameters (a 1X force, a second unbalance) would leave no degree of "
-                       f"freedom, so two faults at once are not ruled out. {would[0].upper()}{would[1:]} would test "
-                       "them.")
+                       "freedom, so two faults at once are not ruled out, and with a second one the flows could lie "
+                       "outside the intervals above: they hold if this is the only fault. "
+                       f"{would[0].upper()}{would[1:]} would test them.")
 
 
 def _join_pairs(out: dict, after: Fit, found, lead: str, how: str, join: bool = True) -> None:

@@ -220,6 +220,27 @@ def test_a_pair_is_right_only_with_both_names_and_a_single_confident_name_counts
     assert (r["pairs_never_single_confident"]["k"], r["pairs_never_single_confident"]["n"]) == (2, 3)
 
 
+def test_a_pair_whose_verdict_says_it_could_not_test_a_second_fault_is_told_wrong_not_silent():
+    """A pair read as one fault on a record that leaves no degree of freedom for a second: the verdict says two faults
+    are not ruled out and that the flows hold only if the named one is alone (`pair_untested`). A miss there is told,
+    counted apart; the same words on a single fault do not excuse a miss (there is no second fault to blame)."""
+    pair = {"kind": "pair", "truth": ["clearance", "unbalance2"],
+            "effects": ["clearance:bearing=2,clearance_um=100", "unbalance2:node=16,ratio=0.46,phase_deg=82"]}
+    single = {"kind": "effect", "truth": ["pedestals"],
+              "effects": ["pedestals:bearing=2,mass_kg=50,stiffness_n_m=1e8,damping_ns_m=1e4"]}
+    rows = []
+    for case in (pair, single):
+        d = _diagnosis("effect added", added="pedestals[bearing=3]", q=(520.0, 500.0))
+        d.pair_untested = True
+        rows.append(judge(case, d, [500.0, 500.0]))
+    told, silent = rows
+    assert told["told_wrong"] and not told["silent_wrong"] and not told["held"]
+    assert silent["silent_wrong"] and not silent["told_wrong"]
+    held = judge(pair, SimpleNamespace(**{**vars(_diagnosis("effect added", added="pedestals[bearing=3]")),
+                                          "pair_untested": True}), [500.0, 500.0])
+    assert held["held"] and not held["told_wrong"] and not held["silent_wrong"]
+
+
 def test_a_pair_the_record_cannot_determine_is_counted_apart():
     """Two flows and a second unbalance (ratio, phase) with a gain: 2 + 3 parameters. One record of two planes without
     the DC gap (6 features, the plain fit's dof 4) leaves 1 for the pair, below PAIR_DOF; with the DC gap (dof 8), 5."""
@@ -280,7 +301,7 @@ def test_every_row_has_its_keys_and_ran(run):
         assert set(ROW_KEYS) <= set(r), set(ROW_KEYS) - set(r)
         assert r["failed"] is None, r["failed"]
         assert r["outcome"] in OUTCOMES
-        assert r["silent_wrong"] == (r["explained"] and not r["held"])
+        assert r["silent_wrong"] + r["told_wrong"] == (r["explained"] and not r["held"])
         assert len(r["flow_error_pct_before"]) == len(r["flow_error_pct_after"]) == 2
         assert 0.0 < r["seconds"] <= r["case_seconds"]
         if r["kind"] == "clean":

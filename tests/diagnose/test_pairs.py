@@ -342,6 +342,8 @@ def test_a_named_effect_that_leaves_no_room_to_test_a_second_fault_says_so(monke
     if untested:
         assert f"This record holds {dof + flows + params} features for {flows} flows" in out["verdict"]
         assert "not ruled out" in out["verdict"]
+        # the flows are said to be conditional on the one fault (a second one could move them anywhere)
+        assert "the flows could lie outside the intervals above: they hold if this is the only fault" in out["verdict"]
         assert "The static shaft position (the probes' DC gap) or records at a second speed" in out["verdict"]
         # the advice names only what the records lack: a record with the DC gap is told of a second speed
         out = {"verdict": ""}
