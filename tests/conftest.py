@@ -59,23 +59,22 @@ def plain_bearing(l_over_d: float, n_circ: int = 120, n_axial: int = 40) -> Bear
 # the others in xdist's order: the short files fill the end on both cores. The figures are each file's seconds on
 # a fresh clone (caches built) with `--durations=0` under the README's command on this 2-core machine; only their
 # order matters. A file renamed or gone from here stops the run (UsageError), so that the list cannot drift.
-LONG_FILES = {  # seconds at 8da80f2 with the seeds (docs/notes/test-suite-time.md)
-    "tests/app/test_start_and_layout.py": 149,
-    "tests/identify/test_orbit_fit_balance.py": 109,
-    "tests/diagnose/test_loop.py": 108,
-    # the time integration's record (a seed): the 5- and 16-harmonic fits (22 + 85 s), the time rounds' loop in a
-    # file of its own (42 s), each file alone on a quiet machine (2026-11-29)
-    "tests/identify/test_orbit_fit.py": 107,
-    "tests/identify/test_answer_independent_of_cache.py": 107,  # cold caches, by design
-    "tests/app/test_consistency.py": 100,
-    "tests/app/test_pages.py": 78,
-    "tests/rotor/test_orbit_balance.py": 60,  # the time integrations kept (tests/memo.py, session 58)
-    "tests/diagnose/test_broken_records.py": 53,
-    "tests/app/test_uploads.py": 53,
-    "tests/app/test_hostile_browser.py": 45,
-    "tests/identify/test_cache.py": 44,
-    "tests/identify/test_orbit_fit_time_round.py": 42,
-    "tests/bench/test_loop_bench.py": 38,
+LONG_FILES = {  # seconds at 3dfe795 with the seeds (docs/notes/test-suite-time.md, session 61)
+    "tests/app/test_start_and_layout.py": 126,
+    "tests/identify/test_orbit_fit_balance.py": 117,
+    # the time integration's record (a seed): the 5- and 16-harmonic fits, the time rounds' loop in a file of its own
+    "tests/identify/test_orbit_fit.py": 114,
+    "tests/rotor/test_orbit_balance.py": 82,  # the time integrations kept (tests/memo.py, session 58)
+    "tests/app/test_consistency.py": 80,
+    "tests/app/test_pages.py": 68,
+    "tests/identify/test_cache.py": 66,
+    "tests/app/test_hostile_browser.py": 64,
+    "tests/identify/test_orbit_fit_time_round.py": 62,
+    "tests/app/test_uploads.py": 59,
+    "tests/diagnose/test_loop.py": 58,
+    "tests/identify/test_dimensionless.py": 50,
+    "tests/identify/test_answer_independent_of_cache.py": 43,  # cold caches, by design
+    "tests/bench/test_loop_bench.py": 32,
 }
 
 

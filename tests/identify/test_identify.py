@@ -19,11 +19,13 @@ from tests.records import read_record, record_from_arrays
 
 
 @pytest.fixture(scope="session")
-def tables(tmp_path_factory):
+def tables():
+    """The shipped machine's tables and the cache they come from: the suite's (its slices are seeds; a cache of this
+    session's own built them cold, 17 s of a worker)."""
+    from lubeviz.identify.tables.cache import cache_dir
     from lubeviz.model.machine import load_machine
 
-    directory = tmp_path_factory.mktemp("lubeviz-cache")
-    return machine_tables(load_machine(), directory=directory), directory
+    return machine_tables(load_machine()), cache_dir()
 
 
 @pytest.fixture(scope="session")

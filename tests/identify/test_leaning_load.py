@@ -45,31 +45,25 @@ def _worst(view, bearing, load) -> tuple[float, float]:
     return worst_kc, worst_pos
 
 
-@pytest.fixture(scope="module")
-def upright_tables(tmp_path_factory):
-    """Where the vertical load's view of the test below is built: its slices are the same for both leans (the same
-    bearing under a load of the same magnitude), built once (6 s, measured) instead of in each case's own cache."""
-    return tmp_path_factory.mktemp("upright")
-
-
 @pytest.mark.parametrize("lean_deg", [20.0, -35.0])
-def test_a_leaning_load_s_table_is_the_film_under_that_load(tmp_path, upright_tables, lean_deg):
+def test_a_leaning_load_s_table_is_the_film_under_that_load(lean_deg):
     """K, C, the journal's position and Q_T of the view under a load leaning 20 deg one way or 35 deg the other
     agree with direct solves under that load as a vertical load's view agrees with its own (0.5 % of the largest
-    entry, the tables' accuracy on this mesh); the vertical load's view is several times further off."""
+    entry, the tables' accuracy on this mesh); the vertical load's view is several times further off. The views come
+    from the suite's cache, whose slices are seeds (`tests/seeds`): the direct solves are what is new here."""
     b = coarse()
     load = leaning(b, 1.6, lean_deg)
-    view = bearing_view(b, load, OMEGA, directory=tmp_path)
+    view = bearing_view(b, load, OMEGA)
     q_t, _ = flooded_threshold(b, OMEGA, load)
     assert view.q_threshold == pytest.approx(q_t, rel=5e-3)
     kc, pos = _worst(view, b, load)
     assert kc < 5e-3 and pos < 5e-3
-    upright = bearing_view(b, np.array([0.0, -np.hypot(*load)]), OMEGA, directory=upright_tables)
+    upright = bearing_view(b, np.array([0.0, -np.hypot(*load)]), OMEGA)
     kc_up, pos_up = _worst(upright, b, load)
     assert kc_up > 5 * max(kc, 1e-3) and pos_up > 5 * max(pos, 1e-3)
 
 
-def test_two_grooves_and_a_lean_of_180_degrees_is_the_same_bearing_upside_down(tmp_path):
+def test_two_grooves_and_a_lean_of_180_degrees_is_the_same_bearing_upside_down():
     """A bearing with grooves at 0 and 180 deg under a load leaning 180 deg (pressed upwards) is the same film as
     under the vertical load turned by half a turn: K and C equal (R K R^T with R = -I), the position opposite."""
     b = coarse(other_grooves=[Groove(math.pi, 16.2e-3, 35.0e-3)])
@@ -78,8 +72,8 @@ def test_two_grooves_and_a_lean_of_180_degrees_is_the_same_bearing_upside_down(t
     assert turn is not None and np.allclose(load, down)
     # the lean is taken to 1e-9 rad (`LEAN_DECIMALS`): the grooves within that of 0 and 180 deg
     assert sorted(abs(g.angle) for g in seen.grooves) == pytest.approx([0.0, math.pi], abs=1e-9)
-    a = bearing_view(b, down, OMEGA, directory=tmp_path)
-    u = bearing_view(b, -down, OMEGA, directory=tmp_path)
+    a = bearing_view(b, down, OMEGA)  # from the suite's cache (seeded slices), as above
+    u = bearing_view(b, -down, OMEGA)
     # 1e-8: the half turn is taken as pi to 1e-9 rad, and K, C turn with it (3.5e-9 measured)
     np.testing.assert_allclose(u.K, a.K, rtol=1e-8, atol=1e-8 * np.abs(a.K).max())
     np.testing.assert_allclose(u.C, a.C, rtol=1e-8, atol=1e-8 * np.abs(a.C).max())
