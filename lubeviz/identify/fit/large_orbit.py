@@ -90,8 +90,8 @@ SLOPE_MESH = 50  # film volumes each way for the slope of a flow below its Q_T (
 # before the model's, `fit_large_orbit`, do scale their flows: there every balance is on the coarse films).
 ORBIT_TOL = 1e-4  # each round's balances settle to this change of the orbit, relative to its 1X: the last Newton
 # step that takes them from ~5e-5 to 1e-8 (at 1e-6) moved the 16-harmonic fit's flows by 1e-5 of themselves, against
-# its 1 % (the time integration's record at 0.6 x the unbalance: 478.90 / 521.54 -> 478.90 / 521.54 ml/min, chi2 0.295
-# -> 0.296, intervals the same to 4 digits; 86 -> 58 s; at 1e-3: flows 0.08 ml/min off and no faster; session 61)
+# its 1 % (the time integration's record at 0.6 x the unbalance: 478.903 / 521.539 -> 478.899 / 521.537 ml/min, chi2
+# 0.2950 -> 0.2958, intervals the same to 4 digits; 86 -> 58 s; at 1e-3: flows 0.08 ml/min off, no faster; session 61)
 COARSE_ROUNDS = 6  # rounds on the SLOPE_MESH films before those on the model's (see fit_large_orbit) ...
 COARSE_TOL = 0.01  # ... until the flows move by less than this fraction of Q_T (or SIGMA_TOL of their std)
 TIME_REVOLUTIONS, TIME_STEPS = 6, 512  # a time round's integration: revolutions from the balance's orbit, steps in
