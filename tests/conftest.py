@@ -59,7 +59,7 @@ def plain_bearing(l_over_d: float, n_circ: int = 120, n_axial: int = 40) -> Bear
 # the others in xdist's order: the short files fill the end on both cores. The figures are each file's seconds on
 # a fresh clone (caches built) with `--durations=0` under the README's command on this 2-core machine; only their
 # order matters. A file renamed or gone from here stops the run (UsageError), so that the list cannot drift.
-LONG_FILES = {  # seconds at 3dfe795 with the seeds (docs/notes/test-suite-time.md, session 61)
+LONG_FILES = {  # seconds at f3cfc59 with the seeds (docs/notes/test-suite-time.md, session 61)
     "tests/app/test_start_and_layout.py": 126,
     "tests/identify/test_orbit_fit_balance.py": 117,
     # the time integration's record (a seed): the 5- and 16-harmonic fits, the time rounds' loop in a file of its own
