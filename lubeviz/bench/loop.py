@@ -516,9 +516,10 @@ def judge(case: dict, d, q_mlmin) -> dict:
     said_unseen = bool(truth) and set(truth) <= unseen_names and _placement_right(case, unseen) is not False
     # two faults, of which the verdict names one and says that the record cannot test a second beside it and that its
     # flows hold only if that one is alone (`diagnose.loop._untested_pair_words`): a miss there is told, not silent
-    told = case.get("kind") == "pair" and bool(getattr(d, "pair_untested", False))
+    untested = bool(getattr(d, "pair_untested", False))
+    told = case.get("kind") == "pair" and untested
     return {"q_mlmin": q.tolist(), "outcome": d.outcome, "added": added, "ambiguous": list(d.ambiguous),
-            "rivals": list(getattr(d, "rivals", ())), "pair_untested": bool(getattr(d, "pair_untested", False)),
+            "rivals": list(getattr(d, "rivals", ())), "pair_untested": untested,
             "named": named, "right_first": right_first, "right_in_set": right_in_set, "not_seen": unseen,
             "said_unseen": said_unseen,
             "placement_right": _placement_right(case, labels) if truth else None,
