@@ -123,6 +123,12 @@ class Effect(param.Parameterized):
         the loads' size and lean both follow."""
         return None
 
+    def housing_sag(self, k: int, values: dict, shape):
+        """(...,) how much more (m/N) the pedestal the model file declares under bearing `k` (0-based) yields to its
+        static load than declared (1 / its stiffness now - 1 / the declared), or None. On 3+ supports a softer
+        pedestal sheds load onto the other supports (`ForwardChain._numpy_states`); two supports do not notice."""
+        return None
+
     def bearing_offset(self, k: int, values: dict, shape):
         """How far bearing `k`'s (0-based) centre sits from its declared place, (..., 2) m (dX, dY), or None. On 3+
         supports it moves the static loads (`rotor.load_shift`); two supports do not notice."""

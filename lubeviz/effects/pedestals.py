@@ -25,8 +25,10 @@ class Pedestals(Effect):
     stiffness: `stiffness_n_m` replaces the declared one (grout cracked, a bolt loose, a base plate corroded), the
     mass and damping stay as declared (the effect's `mass_kg`, `damping_ns_m` are not used there). The change is a
     spring to ground at the housing's DOFs, which the model already holds (`changes_housing`, `housing_change`).
-    The static loads are the declared ones: on two supports they do not depend on a pedestal; on three or more a
-    softer one sheds some of its load, which this effect leaves out.
+    On two supports the static loads do not depend on a pedestal. On three or more a softer declared pedestal sags
+    further under its load and sheds some of it onto the other supports (`housing_sag`, taken in the flows' load
+    shift). A pedestal the file does not declare is a dynamic support only: its static sag is left out, as if the
+    machine had been aligned on it.
     """
 
     effect_name = "pedestals"
@@ -64,6 +66,12 @@ class Pedestals(Effect):
             return None
         s = as_array(values, self, "stiffness_n_m", shape)
         return (s - self.declared_stiffness[k])[..., None, None] * np.eye(2)
+
+    def housing_sag(self, k: int, values: dict, shape):
+        """The declared pedestal's compliance change, 1 / `stiffness_n_m` - 1 / declared (m/N)."""
+        if not self.changes_housing(k):
+            return None
+        return 1.0 / as_array(values, self, "stiffness_n_m", shape) - 1.0 / self.declared_stiffness[k]
 
     def support(self, k: int, B: np.ndarray, omega: float, values: dict, shape):
         """(B_eff, T) for bearing k (0-based), or None: the film B in series with the pedestal."""

@@ -257,6 +257,23 @@ class BearingSource:
             return held.stack
 
 
+def _sagged(positions, stiffness, loads, sags):
+    """The journals' positions (..., N, 2) and the films' static stiffnesses (..., N, 2, 2) that `LoadShift.shifted`
+    takes, for housings that yield `sags` (..., N) m/N more than the rotor's declared pedestals (a softer pedestal
+    than its model file's, `Effect.housing_sag`), at the loads `loads` (..., N, 2) of this Newton step.
+
+    A housing yields along its film's load, H W (H = 1 / its stiffness), so the journal sits H W from where the film
+    alone puts it. The load shift holds the declared H in the shaft's stiffness (`LoadShift.k_s`); the change dH
+    adds dH W: with the films' positions p(W) the equilibrium is W - W0 + k_s (p(W) - p0 + dH W) = 0. At the step's
+    loads W this is the shift's own equation with each journal moved by dH W and each film's compliance K^-1 grown
+    by dH (the extra sag is in series with the film): one Newton step of it, exact where the films are linear
+    (`tests/rotor/test_declared_pedestals.py`, against the statics of the machine declaring the new pedestal)."""
+    sags = np.asarray(sags, dtype=float)
+    eye = np.eye(2)
+    compliance = np.linalg.inv(stiffness) + sags[..., None, None] * eye
+    return positions + sags[..., None] * loads, np.linalg.inv(compliance)
+
+
 def _lean(loads) -> np.ndarray:
     """Each load's lean from the vertical (rad, `film_frame`'s beta) of loads (..., 2)."""
     loads = np.asarray(loads, dtype=float)
@@ -789,10 +806,12 @@ class ForwardChain:
             return list(zip(changes, states)), None
         offsets = self.bearing_offsets(theta, shape)
         target = self.load_targets(theta, shape)
-        compiled = self._compiled_states(theta, changes, shape, offsets, target)
-        if compiled is not None:
-            return compiled
-        return self._numpy_states(theta, changes, offsets, target)
+        sags = self.housing_sags(theta, shape)
+        if sags is None:  # (a housing that sags otherwise than declared: numpy's loop, `_sagged`)
+            compiled = self._compiled_states(theta, changes, shape, offsets, target)
+            if compiled is not None:
+                return compiled
+        return self._numpy_states(theta, changes, offsets, target, sags)
 
     def load_targets(self, theta, shape=()):
         """(..., N, 2) the films' static loads held where the flooded statics put them, the effects' changes
@@ -819,15 +838,33 @@ class ForwardChain:
                     out[..., k, :] += d
         return out
 
-    def _numpy_states(self, theta, changes, offsets=None, target=None):
+    def housing_sags(self, theta, shape=()):
+        """(..., N) how much more each bearing's declared pedestal yields per newton of its static load than declared
+        (m/N, the effects' `housing_sag`), or None when no effect changes one."""
+        out = None
+        for e in self.effects:
+            for k in range(self.n_flows):
+                d = e.housing_sag(k, self._values(theta, e), shape)
+                if d is not None:
+                    if out is None:
+                        out = np.zeros(shape + (self.n_flows,))
+                    out[..., k] += d
+        return out
+
+    def _numpy_states(self, theta, changes, offsets=None, target=None, sags=None):
         """`_states` on 3+ supports in numpy: every bearing's table evaluated (which loads the slices it needs). A
-        moved bearing (`offsets`) holds its journal that much away from the shaft's flooded line."""
+        moved bearing (`offsets`) holds its journal that much away from the shaft's flooded line; a housing that
+        sags otherwise than declared (`sags`) moves it by its sag's change under the load (`_sagged`)."""
         states = [src.evaluate(theta[..., k], *changes[k]) for k, src in enumerate(self.sources)]
         loads = None
         for _ in range(load_shift.STEPS):
             positions = np.stack([st[2] for st in states], axis=-2)
-            loads = self._shift.shifted(positions if offsets is None else positions + offsets,
-                                        np.stack([st[0] for st in states], axis=-3), loads, target)
+            stiffness = np.stack([st[0] for st in states], axis=-3)
+            if offsets is not None:
+                positions = positions + offsets
+            if sags is not None:
+                positions, stiffness = _sagged(positions, stiffness, self.loads if loads is None else loads, sags)
+            loads = self._shift.shifted(positions, stiffness, loads, target)
             factors = self._within_grid(np.linalg.norm(loads, axis=-1) / np.linalg.norm(self.loads, axis=-1),
                                         changes)
             turns = _lean(loads) - _lean(self.loads)
