@@ -355,3 +355,38 @@ def test_a_named_effect_that_leaves_no_room_to_test_a_second_fault_says_so(monke
     out = {"verdict": ""}
     loop._untested_pair_words(out, pair, after, one)  # a pair named: its own count of parameters, nothing said
     assert "pair_untested" not in out
+
+
+def test_far_from_the_plain_fit_a_pair_is_found_from_the_best_single_s_answer():
+    """The fan loop's case 45 (session 62): plane 2's probes turned 4.1 deg and bearing 1 worn from 75 to 100 um, at
+    20.8 Hz with the static position, two planes. The plain fit leaves chi2 968 for 7 dof; there the linear screen's
+    directions mislead (`pairs.screen` puts the true pair past the pairs it has fitted), and the turned probe's own
+    fit had ended in another basin of the flows, above the plain fit (`loop._plain_start` fits it again). From the
+    worn bearing's answer (chi2 64) short fits beside it find the turned probe first (`loop._lead_partners`), and
+    the pair is named with its sizes and flows that hold."""
+    from lubeviz.diagnose.pairs import screen
+    from lubeviz.diagnose.pipeline import run_diagnosis
+    from lubeviz.model.machine import MODELS_DIR, load_machine
+
+    fan = str(MODELS_DIR / "three_bearing_fan.toml")
+    q = (109.21888427301614, 246.19766733951968, 130.37380122404323)
+    spec = IndependentSpec(speed_hz=20.823910812085597, q_mlmin=q, seed=1879068163, machine=fan, nodes=(7, 23),
+                           static=True, effects=("probe_rotation:plane=2,angle_deg=-4.134",
+                                                 "clearance:bearing=1,clearance_um=100.2"))
+    run = run_diagnosis([make_record(spec).record], load_machine(fan))
+    d = run.diagnosis
+    singles = [c for c in d.candidates if not c.partners and c.fit is not None]
+    turned = next(c for c in singles if c.label == "probe_rotation[plane=2]")
+    assert turned.fit.chi2 < d.before.chi2  # fitted again from the plain answer: it nests the plain model
+    truth = {"probe_rotation[plane=2]", "clearance[bearing=1]"}
+    ranked = [{a.label, b.label} for a, b, dof in screen(run.inputs.chains, run.inputs.measured, None, d.before,
+                                                         singles, dof_min=PAIR_DOF)]
+    assert truth not in ranked[:loop.PAIR_LINEAR], "the linear screen alone would have fitted it"
+    assert d.outcome == "effect added" and not d.ambiguous
+    assert {e.label() for e in d.added.effects} == truth
+    values = d.added.parameters()
+    assert values["angle_deg"] == pytest.approx(-4.134, abs=3 * values["angle_deg_std"] + 0.3)
+    assert values["clearance_um"] == pytest.approx(100.2, abs=3 * values["clearance_um_std"] + 2.0)
+    for k, t in enumerate(q):
+        lo, hi = d.after.intervals[f"q{k + 1}"]
+        assert lo * MLMIN_PER_M3S <= t <= (np.inf if hi is None else hi * MLMIN_PER_M3S)
