@@ -5,12 +5,14 @@
    "explained" or "something is missing".
 2. Trace: every candidate effect in every placement (`Effect.placements`) is fitted jointly with the
    flows (`Effect.candidate`: its main parameters free, the rest at typical values; phases from three
-   starts), scored by AIC = chi^2 + 2 k (k free parameters: the penalty for what an effect adds) and by
-   whether what it leaves is noise (p > level). Ranked by AIC.
-   When no single candidate leaves noise, pairs of the best PAIR_FROM singles (different effects), and of the
-   best PAIR_LEAD with the best PAIR_PARTNERS placements of the other effects, are fitted together; a pair is
-   added to the ranking only when it passes and beats every single by more than `ambiguity_aic`, and is then
-   named as the pair.
+   starts; again from the plain fit's flows when it ends above them, `_plain_start`), scored by AIC = chi^2 + 2 k
+   (k free parameters: the penalty for what an effect adds) and by whether what it leaves is noise (p > level).
+   Ranked by AIC.
+   When no single candidate leaves noise, pairs of the best PAIR_FROM singles (different effects), of the
+   best PAIR_LEAD with the best PAIR_PARTNERS placements of the other effects, those the linear screen ranks best
+   (`pairs.screen`) and those short fits from the best single's answer rank best (`_lead_partners`) are fitted
+   together; a pair is added to the ranking only when it passes and beats every single by more than
+   `ambiguity_aic`, and is then named as the pair.
 3. Outcomes, never forced:
    - the plain model passes and no candidate lowers chi2 beyond chance over all those tried (`_asked_for`: a
      likelihood ratio at 1 %, Bonferroni over the candidates): explained, nothing added; when one does, the record
