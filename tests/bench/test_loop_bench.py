@@ -363,3 +363,23 @@ def test_a_supply_the_model_file_gives_is_drawn_as_given_and_not_judged(tmp_path
     d.final.intervals = {"q2": d.final.intervals["q2"]}
     assert judge({"truth": [], "effects": []}, d, [40.0, 501.0])["held"]
     assert not judge({"truth": [], "effects": []}, d, [40.0, 520.0])["held"]
+
+
+def test_a_worn_bearing_set_drawn_again_is_a_little_less_worn_never_below_the_floor():
+    """The pump's worn-bearing sets whirled at every flow drawn (session 52): later redraws shrink the wear toward the
+    declared clearance (`less_worn`), each keeping WEAR_SHRINK of it, never below WEAR_FLOOR x the declared; any
+    other effect is left as it is."""
+    from lubeviz.bench.loop import WEAR_FLOOR, WEAR_SHRINK, less_worn
+    from lubeviz.model.machine import MODELS_DIR, load_machine
+
+    pump = str(MODELS_DIR / "overhung_pump.toml")
+    c0 = 1e6 * load_machine(pump).bearings[0].clearance
+    text = f"clearance:bearing=1,clearance_um={1.375 * c0:.4g}"
+    seen = []
+    for _ in range(12):
+        text = less_worn(text, pump)
+        seen.append(float(_params(text)["clearance_um"]))
+    assert seen[0] == pytest.approx(c0 + WEAR_SHRINK * 0.375 * c0, rel=1e-3)
+    assert all(b <= a for a, b in zip(seen, seen[1:])) and min(seen) == pytest.approx(WEAR_FLOOR * c0, rel=1e-3)
+    assert _params(text)["bearing"] == "1"
+    assert less_worn("viscosity:factor=0.8", pump) == "viscosity:factor=0.8"
