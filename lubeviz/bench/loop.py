@@ -15,7 +15,8 @@ the time, two of them):
   channel); on a machine on 3+ supports a misaligned bearing too (10-40 % of its clearance, up or down), and where
   the file declares constant supports one of them worn loose (0.3-0.8 of its stiffness and damping);
 - sets of three speeds (the same flows): hot oil (viscosity x0.8) at 60, 75, 90 Hz and a worn bearing 1 (165 um)
-  at 60, 70, 80 Hz (it whirls above);
+  at 60, 70, 80 Hz (it whirls above; on another machine the speeds and the wear scaled, and a worn set that whirls
+  at every flow drawn is drawn again a little less worn, `less_worn`);
 - pairs: two library effects at once;
 - a side load 60-90 deg from down (a belt's pull, a volute's force), drawn among the out-of-library cases, which
   it was until the side load had a direction (session 57): judged as a library effect, its direction too;
