@@ -125,8 +125,9 @@ class Effect(param.Parameterized):
 
     def housing_sag(self, k: int, values: dict, shape):
         """(...,) how much more (m/N) the pedestal the model file declares under bearing `k` (0-based) yields to its
-        static load than declared (1 / its stiffness now - 1 / the declared), or None. On 3+ supports a softer
-        pedestal sheds load onto the other supports (`ForwardChain._numpy_states`); two supports do not notice."""
+        static load than declared (1 / its stiffness now - 1 / the declared), or None; asked only of an effect that
+        `changes_housing(k)`. On 3+ supports a softer pedestal sheds load onto the other supports
+        (`ForwardChain._numpy_states`); two supports do not notice."""
         return None
 
     def bearing_offset(self, k: int, values: dict, shape):

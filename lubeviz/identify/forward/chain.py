@@ -843,6 +843,8 @@ class ForwardChain:
         (m/N, the effects' `housing_sag`), or None when no effect changes one."""
         out = None
         for e in self.effects:
+            if not any(e.changes_housing(k) for k in range(self.n_flows)):
+                continue  # (most effects: no housing of theirs, no values to read)
             for k in range(self.n_flows):
                 d = e.housing_sag(k, self._values(theta, e), shape)
                 if d is not None:
