@@ -229,6 +229,15 @@ def _fit_candidate(base_chain, measured, effect, names, budget, level, starts_ph
     return Candidate(label=label, effect=fitted, fit=res)
 
 
+def _start_at(chains, at: Fit, *effects) -> np.ndarray:
+    """The parameter vector of `chains` with `effects` added: the flows of the fit `at`, each effect at its current
+    values (a fitted one's, or its declared or default ones)."""
+    theta = chains[0].adding(*effects).start()
+    q = at.flow_values()
+    theta[:q.size] = q
+    return theta
+
+
 def _plain_start(chains, effect, before: Fit) -> np.ndarray:
     """The parameter vector at the plain fit's flows with `effect` at its start (its declared or default values).
 
@@ -237,10 +246,7 @@ def _plain_start(chains, effect, before: Fit) -> np.ndarray:
     fitted again from this point (`diagnose`). The fan loop's case 45 (a turned probe on plane 2 with bearing 1
     worn): the turned probe alone ended at chi2 1347 against the plain fit's 968, its direction of the features then
     misled the pair screen (`pairs.screen`), and the true pair (chi2 0.6 for 5 dof) was never fitted."""
-    theta = chains[0].adding(effect.candidate()).start()
-    q = before.flow_values()
-    theta[:q.size] = q
-    return theta
+    return _start_at(chains, before, effect.candidate())
 
 
 def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level: float = 0.01,
@@ -526,13 +532,10 @@ def _lead_partners(chains, meas, lead, usable, skip, names, budget, level) -> li
     for b in usable:
         if b.effect.effect_name == lead.effect.effect_name or frozenset((lead.label, b.label)) in skip:
             continue
-        paired = [c.adding(ea, b.effect.candidate()) for c in chains]
-        theta = paired[0].start()
-        q = lead.fit.flow_values()
-        theta[:q.size] = q
+        eb = b.effect.candidate()
         try:
-            res = fit(paired, meas, names=names, budget=budget, level=level, intervals=False, screening=True,
-                      start=theta)
+            res = fit([c.adding(ea, eb) for c in chains], meas, names=names, budget=budget, level=level,
+                      intervals=False, screening=True, start=_start_at(chains, lead.fit, ea, eb))
         except LubevizError:
             continue
         if res.dof >= PAIR_DOF and res.chi2 < lead.fit.chi2:

@@ -173,11 +173,17 @@ def test_a_pair_whose_members_rank_low_alone_is_found_by_the_linear_screen():
     singles = [c for c in d.candidates if not c.partners and c.fit is not None]
     ranks = {c.label: n for n, c in enumerate(singles)}
     assert ranks["probe_rotation[plane=2]"] >= loop.PAIR_FROM and ranks["clearance[bearing=2]"] >= loop.PAIR_FROM
+    _named_pair_holds(d, {"probe_rotation[plane=2]", "clearance[bearing=2]"}, -7.623, 161.2, q)
+
+
+def _named_pair_holds(d, labels, angle_deg, clearance_um, q):
+    """`d` names the pair `labels` (a turned probe and a worn bearing) alone, its sizes within 3 sigma (plus the
+    mesh's share) of the truth's, and every flow's interval holds the true flow (ml/min)."""
     assert d.outcome == "effect added" and not d.ambiguous
-    assert {e.label() for e in d.added.effects} == {"probe_rotation[plane=2]", "clearance[bearing=2]"}
+    assert {e.label() for e in d.added.effects} == labels
     values = d.added.parameters()
-    assert values["angle_deg"] == pytest.approx(-7.623, abs=3 * values["angle_deg_std"] + 0.3)
-    assert values["clearance_um"] == pytest.approx(161.2, abs=3 * values["clearance_um_std"] + 2.0)
+    assert values["angle_deg"] == pytest.approx(angle_deg, abs=3 * values["angle_deg_std"] + 0.3)
+    assert values["clearance_um"] == pytest.approx(clearance_um, abs=3 * values["clearance_um_std"] + 2.0)
     for k, t in enumerate(q):
         lo, hi = d.after.intervals[f"q{k + 1}"]
         assert lo * MLMIN_PER_M3S <= t <= (np.inf if hi is None else hi * MLMIN_PER_M3S)
@@ -382,11 +388,4 @@ def test_far_from_the_plain_fit_a_pair_is_found_from_the_best_single_s_answer():
     ranked = [{a.label, b.label} for a, b, dof in screen(run.inputs.chains, run.inputs.measured, None, d.before,
                                                          singles, dof_min=PAIR_DOF)]
     assert truth not in ranked[:loop.PAIR_LINEAR], "the linear screen alone would have fitted it"
-    assert d.outcome == "effect added" and not d.ambiguous
-    assert {e.label() for e in d.added.effects} == truth
-    values = d.added.parameters()
-    assert values["angle_deg"] == pytest.approx(-4.134, abs=3 * values["angle_deg_std"] + 0.3)
-    assert values["clearance_um"] == pytest.approx(100.2, abs=3 * values["clearance_um_std"] + 2.0)
-    for k, t in enumerate(q):
-        lo, hi = d.after.intervals[f"q{k + 1}"]
-        assert lo * MLMIN_PER_M3S <= t <= (np.inf if hi is None else hi * MLMIN_PER_M3S)
+    _named_pair_holds(d, truth, -4.134, 100.2, q)
