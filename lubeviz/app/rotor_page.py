@@ -202,9 +202,10 @@ class RotorPage(pn.viewable.Viewer):
         self._centrelines = pn.FlexBox(flex_wrap="wrap", sizing_mode="stretch_width")
         pane = dict(sizing_mode="stretch_width", linked_axes=False)
         # Replaced whole when computed (the number of tracked modes varies): no DynamicMap here. Hidden until then:
-        # no empty axes under the button (issue 38).
-        self._campbell_pane = campbell = pn.pane.HoloViews(self._campbell(None), css_classes=["lubeviz-campbell-plot"],
-                                                           visible=False, **pane)
+        # no empty axes under the button (issue 38). The box is hidden, not the pane: a HoloViews pane shown after
+        # its object was replaced passed the page design on to its Bokeh figure, which raised in the callback.
+        self._campbell_pane = pn.pane.HoloViews(self._campbell(None), css_classes=["lubeviz-campbell-plot"], **pane)
+        self._campbell_box = campbell = pn.Column(self._campbell_pane, visible=False, sizing_mode="stretch_width")
         # Wrapping rows, so that a narrow window (800 px) stacks what a wide one sets side by side: the controls
         # above the plots, the orbit above the signals, one plot per row below.
         return pn.Column(
@@ -372,7 +373,7 @@ class RotorPage(pn.viewable.Viewer):
         drawn = (d, bool(changes))
         if self._campbell_drawn is None or self._campbell_drawn[0] is not d or self._campbell_drawn[1] != drawn[1]:
             self._campbell_pane.object = self._campbell(d, stale=drawn[1])  # redrawn only when its title changes
-            self._campbell_pane.visible = True
+            self._campbell_box.visible = True
             self._campbell_drawn = drawn
 
     # --- large orbits (nonlinear film) -------------------------------------------------------------------
@@ -395,11 +396,13 @@ class RotorPage(pn.viewable.Viewer):
                                                 css_classes=["lubeviz-large-orbit-whirl"], **alert)
         self._large_orbit_summary = pn.pane.Markdown("", min_width=300, styles={"flex": "1 1 300px"},
                                                      css_classes=["lubeviz-large-orbit-summary"])
-        # Replaced whole when computed, as the Campbell diagram, and hidden until then as it is.
-        self._large_orbit_pane = pn.pane.HoloViews(self._large_orbit_plot(None), linked_axes=False, visible=False,
+        # Replaced whole when computed, as the Campbell diagram, and hidden until then as it is (its box).
+        self._large_orbit_pane = pn.pane.HoloViews(self._large_orbit_plot(None), linked_axes=False,
                                                    css_classes=["lubeviz-large-orbit-plot"])
         self._large_orbit_lines = pn.pane.HoloViews(self._large_orbit_spectrum(None), linked_axes=False,
-                                                    visible=False, css_classes=["lubeviz-large-orbit-spectrum"], **HALF)
+                                                    css_classes=["lubeviz-large-orbit-spectrum"], **HALF)
+        self._large_orbit_box = pn.FlexBox(self._large_orbit_pane, self._large_orbit_lines, self._large_orbit_summary,
+                                           flex_wrap="wrap", visible=False)
 
     def _large_orbit_section(self):
         scale = pn.Param(self.param, parameters=["unbalance_scale"], show_name=False,
@@ -411,8 +414,7 @@ class RotorPage(pn.viewable.Viewer):
                          pn.FlexBox(scale, self._large_orbit_button, flex_wrap="wrap", align_items="center"),
                          self.large_orbit_jobs, self._large_orbit_error, self._large_orbit_whirl,
                          self._large_orbit_stale,
-                         pn.FlexBox(self._large_orbit_pane, self._large_orbit_lines, self._large_orbit_summary,
-                                    flex_wrap="wrap"),
+                         self._large_orbit_box,
                          sizing_mode="stretch_width", css_classes=["lubeviz-large-orbit-panel"])
 
     @staticmethod
@@ -483,7 +485,7 @@ class RotorPage(pn.viewable.Viewer):
             self._large_orbit_pane.object = self._large_orbit_plot(d, stale=drawn[1])
             self._large_orbit_lines.object = self._large_orbit_spectrum(d, stale=drawn[1])
             self._large_orbit_summary.object = self._large_orbit_text(d)
-            self._large_orbit_pane.visible = self._large_orbit_lines.visible = True
+            self._large_orbit_box.visible = True
             self._large_orbit_drawn = drawn
 
     def _fail(self, exc: Exception):

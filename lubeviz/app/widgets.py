@@ -185,7 +185,8 @@ def parameter_widget(obj: param.Parameterized, name: str, *, end: float | None =
     """A widget for any declared parameter of `obj` (an effect's, a model's), linked both ways.
 
     Quantity: `quantity_slider`; Selector: a Select of its objects; Integer: an IntSlider over its bounds
-    (`end` closes an open upper bound, e.g. the machine's number of nodes); Number: a slider over its
+    (`end` closes an open upper bound, e.g. the machine's number of nodes), a Select whose first choice is None
+    (in the doc's words) when None is allowed; Number: a slider over its
     bounds, or a number box when they span more than four decades (a stiffness from 1e5 to 1e12 N/m).
     The label carries the unit (`obj.unit(name)` when the object has one) and the tooltip the doc.
     """
@@ -210,7 +211,11 @@ def parameter_widget(obj: param.Parameterized, name: str, *, end: float | None =
         hi = end if hi is None else hi
         if lo is None or hi is None:
             raise ValueError(f"{type(obj).__name__}.{name} has an open bound; give end")
-        w = pn.widgets.IntSlider(name=title, start=int(lo), end=int(hi), value=int(getattr(obj, name)), **kwargs)
+        if p.allow_None:  # None means a place the object chooses itself (a bow's node midway along its span)
+            options = {_none_words(p.doc): None, **{str(k): k for k in range(int(lo), int(hi) + 1)}}
+            w = pn.widgets.Select(name=title, options=options, value=getattr(obj, name), description=p.doc, **kwargs)
+        else:
+            w = pn.widgets.IntSlider(name=title, start=int(lo), end=int(hi), value=int(getattr(obj, name)), **kwargs)
     elif isinstance(p, param.Number):
         lo, hi = p.bounds or (None, None)
         value = getattr(obj, name)
@@ -226,6 +231,13 @@ def parameter_widget(obj: param.Parameterized, name: str, *, end: float | None =
     link(obj, name, w)
     w.doc = p.doc
     return w
+
+
+def _none_words(doc: str) -> str:
+    """What None stands for, from a parameter's doc ("...; None: the node nearest midway ..." -> "the node nearest
+    midway ..."), for the first choice of its Select."""
+    m = re.search(r"\bNone[:,]\s*([^;.]+)", doc or "")
+    return m.group(1).strip() if m else "chosen by the effect"
 
 
 def parameter_widgets(obj: param.Parameterized, names, **kwargs) -> list[pn.widgets.Widget]:

@@ -11,6 +11,7 @@ Helpers to wait for plots and drive widgets are in `tests/app/harness.py` (`wait
 from __future__ import annotations
 
 import os
+import re
 
 import pytest
 from playwright.sync_api import expect
@@ -46,6 +47,36 @@ def pytest_collection_modifyitems(config, items):
 
 def pytest_runtest_setup(item):
     item.stash[_log_offset] = SERVER_LOG.stat().st_size if SERVER_LOG.exists() else 0
+
+
+# A callback that raises on the server is only logged: the page keeps what it showed, and a test that waits for
+# something else may pass (the Diagnose page's bow once raised in its widgets while its story was updated). Every
+# such failure in the log fails the test that was running; a websocket closed under a message is a browser
+# context closing, not an error of the app.
+_FAILED = re.compile(r"Callback failed|Exception in callback|Task exception was never retrieved")
+_CLOSED = ("WebSocketClosedError", "StreamClosedError")
+
+
+def server_failures(text: str) -> list[str]:
+    """The callback failures in a part of the server's log, each with its last exception line."""
+    out = []
+    for block in re.split(r"(?m)^(?=\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d+ )", text):
+        if _FAILED.search(block) and not any(name in block for name in _CLOSED):
+            errors = [line for line in block.splitlines() if re.match(r"^[A-Za-z_.]+(Error|Exception)\b", line)]
+            out.append(block.splitlines()[0][:300] + ("\n" + errors[-1][:300] if errors else ""))
+    return out
+
+
+@pytest.fixture(autouse=True)
+def _no_server_callback_failed(request):
+    yield
+    if "app_server" not in request.fixturenames or not SERVER_LOG.exists():
+        return
+    offset = request.node.stash.get(_log_offset, 0)
+    with open(SERVER_LOG, "rb") as log:
+        log.seek(offset if offset <= SERVER_LOG.stat().st_size else 0)
+        failures = server_failures(log.read().decode(errors="replace"))
+    assert not failures, "a server callback failed during this test:\n" + "\n".join(failures)
 
 
 @pytest.hookimpl(wrapper=True)
