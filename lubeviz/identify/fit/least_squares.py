@@ -96,15 +96,22 @@ class Fit:
     def flow_values(self) -> np.ndarray:
         """Every bearing's flow (m^3/s, file order): the fitted ones from `values` (whatever refined them after the
         search, e.g. the large-orbit rounds), a held one (a known supply) from `flows`."""
-        out = np.array(self.flows if self.flows is not None else self.values[:2], dtype=float)
+        out = np.array(self.flows, dtype=float) if self.flows is not None else np.zeros(self._flow_count())
         for k in range(out.size):
             if f"q{k + 1}" in self.names:
                 out[k] = self.values[self.names.index(f"q{k + 1}")]
         return out
 
+    def _flow_count(self) -> int:
+        """Without `flows`: every flow is fitted, named q1, q2, ... in `names`."""
+        n = 0
+        while f"q{n + 1}" in self.names:
+            n += 1
+        return n
+
     def flow_stds(self) -> np.ndarray:
         """Their std (0 for a held one), from `std` like `flow_values`."""
-        n = len(self.flows) if self.flows is not None else 2
+        n = len(self.flows) if self.flows is not None else self._flow_count()
         return np.array([float(self.std[self.names.index(f"q{k + 1}")]) if f"q{k + 1}" in self.names else 0.0
                          for k in range(n)])
 
