@@ -38,7 +38,7 @@ from ..errors import LubevizError
 from ..identify.fit.least_squares import Z95, Fit, fit
 from ..identify.fit.result import lubrication_verdict, parameter, union_interval
 from ..identify.forward.chain import bearing_changes
-from .pairs import screen
+from .pairs import node_picture, screen
 from .scan import SCREEN_STRIDE, NodeSweep, family
 from ..progress import ProgressFn, silent
 from ..units import MLMIN_PER_M3S
@@ -292,7 +292,7 @@ def diagnose(chain, measured, *, candidates=None, names=None, budget=None, level
             return c
 
         if isinstance(e, list):  # where along the shaft: every 2nd node now, all of them if the verdict names it
-            sweep = NodeSweep(e, fit_one)
+            sweep = NodeSweep(e, fit_one, picture=lambda nodes: node_picture(chains, meas, names, before, nodes))
             best, profile = sweep.run(SCREEN_STRIDE)
             tried.append(best)
             scans.append((sweep, profile))

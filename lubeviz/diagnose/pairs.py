@@ -132,3 +132,41 @@ def _left(plain: _Directions, A) -> float:
     x, *_ = np.linalg.lstsq(M, plain.residual, rcond=None)
     r = plain.residual - M @ x
     return float(r @ r)
+
+
+def node_picture(chains, meas, names, before, effects) -> np.ndarray:
+    """The chi2 the linear picture leaves (`_left`) with each one of `effects` free beside the flows (one effect at
+    each node of a scan), from the plain fit `before`: the directions the effect adds at the plain answer with its
+    own parameters at their start values, and the secant there from the plain features. inf where none can be taken
+    (no feature sigma in `before`, a chain that fails there). A node scan fits the nodes this ranks best from their
+    own starts (`scan.NodeSweep`): it only chooses what is fitted."""
+    out = np.full(len(effects), np.inf)
+    if before is None or getattr(before, "features_sigma", None) is None:
+        return out
+    try:
+        plain = _plain(chains, meas, names, before)
+        base, _ = _point(chains[0], before.values)
+    except LubevizError:
+        return out
+    for k, e in enumerate(effects):
+        chains_e = [c.adding(e.candidate()) for c in chains]
+        theta = chains_e[0].start()
+        theta[:base.size] = base  # the effect's parameters come after the chain's own
+        own = np.arange(base.size, theta.size)
+        if own.size == 0:
+            continue
+        try:
+            gs, Js = [], []
+            for chain, use, _fm in _parts(chains_e, meas, names):
+                g, J = chain.jacobian(theta, use, free=own)
+                gs.append(g)
+                Js.append(J)
+        except LubevizError:
+            continue
+        use = tuple(n for _, ns, _ in _parts(chains_e, meas, names) for n in ns)
+        secant = wrap_difference(np.concatenate(gs) - plain.features, use) / plain.sigma
+        cols = np.concatenate(Js) / plain.sigma[:, None]
+        if np.linalg.norm(secant) > 1e-12:
+            cols = np.column_stack([secant, cols])
+        out[k] = _left(plain, cols)
+    return out

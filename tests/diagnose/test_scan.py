@@ -102,6 +102,39 @@ def test_a_node_starts_from_its_neighbours_on_both_sides_and_its_own_screening_a
     assert full[3] == (2.0, 103.0)  # node 2's full answer, its own screening one (node 4 has none)
 
 
+def test_a_node_the_linear_picture_ranks_best_is_fitted_from_its_own_starts():
+    """Warm starts carried from node to node can all stay in a poorer basin, and the nodes between those screened
+    are never fitted: the node the linear picture ranks best, by more than SCAN_DCHI2 below the best found, is
+    fitted from its own starts and joins the profile (the fan's loop, case 96: a second unbalance at node 4 scanned
+    to node 1 at chi2 21.6, 2.0 at node 4). A picture that promises nothing better fits nothing more."""
+    own = {1: 21.6, 2: 30.0, 3: 32.8, 4: 1.95, 5: 5.2, 6: 40.0, 7: 45.0, 8: 50.0, 9: 55.0, 10: 60.0, 11: 65.0}
+
+    def fit_one(e, start, screening=True):
+        if start is None:  # its own starts: the node's best basin
+            return _C(e.node, own[e.node], e.node)
+        return _C(e.node, max(own[e.node], 21.6 + e.node), e.node)  # warm starts stay in node 1's basin
+
+    def run(picture):
+        calls = []
+
+        def counted(e, start, screening=True):
+            calls.append((e.node, start is None))
+            return fit_one(e, start, screening)
+
+        sweep = NodeSweep([_Fake(n) for n in own], counted, picture=picture)
+        return sweep.run(2), calls
+
+    picture = [40.0, 35.0, 30.0, 2.5, 6.0, 50.0, 60.0, 70.0, 80.0, 90.0, 17.0]
+    (best, profile), calls = run(lambda effects: picture)
+    assert best.effect.node == 4 and 4 in profile.nodes and profile.chi2[profile.nodes.index(4)] == 1.95
+    assert (4, True) in calls and (5, True) in calls  # the PICTURED best two, each promising a better fit ...
+    assert (11, True) not in calls  # ... and not the third (17.0 promised): PICTURED nodes at most
+    (best, profile), calls = run(lambda effects: [30.0] * len(own))  # nothing better promised: as before
+    assert 4 not in profile.nodes and not any(own_start and n == 4 for n, own_start in calls)
+    (best, profile), calls = run(None)
+    assert 4 not in profile.nodes
+
+
 @pytest.mark.slow
 def test_a_second_unbalance_off_the_discs_is_in_the_set_with_its_node_among_those_that_fit(machine):
     """A second unbalance at node 4 (outboard of bearing 1, no disc there), on the independent source's record:
@@ -174,3 +207,28 @@ def test_a_node_far_worse_than_both_neighbours_is_fitted_from_its_own_starts():
     # node 3 between 200 and 82 at 150 is no spike: fitted from its neighbours only (1 is the first node fitted, 4 the
     # best, 2 and 5 the middles of runs that do not fit, `_reach_gaps`)
     assert sorted(n for n, own_start in fitted if own_start) == [1, 2, 4, 5]
+
+
+@pytest.mark.slow
+def test_a_second_unbalance_the_warm_starts_missed_is_found_where_the_linear_picture_points():
+    """The fan loop's case 96 (session 63): a second unbalance at node 4 (0.52 of the main one), one record at 19.5 Hz
+    of the fan's three planes. The scan's warm starts all stayed in node 1's basin (chi2 21.6) and the record was
+    named a bowed shaft (7.7), the truth outside the set. From its own starts node 4 fits at chi2 2.0: the linear
+    picture ranks it first, the scan fits it there, and the second unbalance at node 4 leads the ranking with its
+    flows holding."""
+    from lubeviz.diagnose.pipeline import run_diagnosis
+    from lubeviz.model.machine import MODELS_DIR, load_machine
+
+    fan = str(MODELS_DIR / "three_bearing_fan.toml")
+    q = (91.67709994392324, 552.3176195595626, 164.97066293398353)
+    spec = IndependentSpec(speed_hz=19.50445405545562, q_mlmin=q, seed=70674107, machine=fan, nodes=(7, 15, 23),
+                           effects=("unbalance2:node=4,ratio=0.5238,phase_deg=263.3",))
+    d = run_diagnosis([make_record(spec).record], load_machine(fan)).diagnosis
+    scan = next(s for s in d.scans if s.effect_name == "unbalance2")
+    assert 4 in scan.nodes and scan.best in (3, 4, 5) and 4 in scan.fitting
+    best = min((c for c in d.candidates if c.fit is not None and not c.partners), key=lambda c: c.aic)
+    assert best.label == "unbalance2[node=4]" and best.passes
+    named = {getattr(c, "label", c) for c in ([d.added] if d.added is not None else []) + list(d.ambiguous)}
+    assert "unbalance2[node=4]" in named, d.verdict
+    lo_hi = [d.final.intervals[f"q{k + 1}"] for k in range(3)]
+    assert all(lo <= v / MLMIN_PER_M3S <= hi for (lo, hi), v in zip(lo_hi, q)), (lo_hi, q)
