@@ -106,3 +106,19 @@ def test_a_known_supply_beyond_the_tables_is_held_at_their_edge_and_said(pump):
     res = identify_record(rec, known).result
     assert res.q[1] == pytest.approx(3.0 * res.q_threshold[1], rel=1e-9)
     assert any("known supply" in w and "tables' edge" in w for w in res.warnings)
+
+
+def test_large_orbits_refuse_a_machine_of_another_layout_by_name():
+    """The large-orbit rounds are written for two bearings of unknown supply at two planes: the fan (three bearings,
+    its three planes) is refused with its file's name and its counts, not fitted with its first two flows standing for
+    all of them; a diagnosis then keeps the candidate out with that reason (`loop._fit_orbit`)."""
+    from lubeviz.errors import InputError
+    from lubeviz.identify.fit.large_orbit import check_orbit_chain
+    from lubeviz.identify.forward.chain import ForwardChain
+
+    fan = load_machine(MODELS_DIR / "three_bearing_fan.toml")
+    chain = ForwardChain(fan, fan.operating_speed, tuple(p.node for p in fan.planes))
+    with pytest.raises(InputError, match=r"three_bearing_fan\.toml has 3 bearing\(s\) and 3 plane\(s\)"):
+        check_orbit_chain(chain)
+    paper = load_machine()
+    check_orbit_chain(ForwardChain(paper, 75.0, (6, 20)))  # the paper's layout: taken

@@ -151,10 +151,22 @@ class OrbitFit:
         return len(self.history) - 1
 
 
+PAIR_OF = 2  # the layout the large-orbit rounds are written for (`check_orbit_chain`)
+
+
 def check_orbit_chain(chain: ForwardChain) -> None:
     """Large orbits are computed on the declared machine: no effect may change the machine, the rotor or the
-    forcing underneath (probe effects, which act after the response, are fine)."""
+    forcing underneath (probe effects, which act after the response, are fine); and on a machine of the paper's
+    layout (two bearings of unknown supply, two planes) only: elsewhere the rounds would take the first two flows
+    for all of them, so the machine is refused, by name."""
     chain.rotor.require_films_on_ground("large_orbit (the films solved along the orbit)")
+    flows, planes = chain.n_flows, len(chain.nodes)
+    if (flows, planes) != (PAIR_OF, PAIR_OF) or chain.known_flows:  # the rounds' corrections and slopes are written
+        # for the paper's layout: its two flows (both unknown) and its two planes (not yet any machine's, issue 37)
+        raise InputError(f"large_orbit is computed for a machine of {PAIR_OF} fluid-film bearings of unknown supply "
+                         f"measured at {PAIR_OF} planes; {chain.machine.source} has {flows} bearing(s)"
+                         + (f", {len(chain.known_flows)} of known supply," if chain.known_flows else "")
+                         + f" and {planes} plane(s) here")
     other = [e.label() for e in chain.effects if e.stage != "probes"]
     if other:
         raise InputError(f"large_orbit combines with probe effects only (the balance runs on the declared "
