@@ -155,15 +155,12 @@ def node_picture(chains, meas, names, before, effects) -> np.ndarray:
         own = np.arange(base.size, theta.size)
         if own.size == 0:
             continue
+        parts = _parts(chains_e, meas, names)
         try:
-            gs, Js = [], []
-            for chain, use, _fm in _parts(chains_e, meas, names):
-                g, J = chain.jacobian(theta, use, free=own)
-                gs.append(g)
-                Js.append(J)
+            gs, Js = zip(*(chain.jacobian(theta, use, free=own) for chain, use, _fm in parts))
         except LubevizError:
             continue
-        use = tuple(n for _, ns, _ in _parts(chains_e, meas, names) for n in ns)
+        use = tuple(n for _, ns, _ in parts for n in ns)
         secant = wrap_difference(np.concatenate(gs) - plain.features, use) / plain.sigma
         cols = np.concatenate(Js) / plain.sigma[:, None]
         if np.linalg.norm(secant) > 1e-12:
