@@ -45,9 +45,24 @@ def show_effect(name: str, machine, story, widgets):
         story.object = effect_story(effect, machine)
 
     tell()
-    widgets.objects = parameter_widgets(effect, names, end=machine.n_nodes, sizing_mode="stretch_width")
+    widgets.objects = [parameter_widget(effect, n, end=machine.n_nodes, choices=_places(effect, n, machine),
+                                        sizing_mode="stretch_width") for n in names]
     effect.param.watch(tell, list(names))  # the story quotes the values set on the widgets
     return effect
+
+
+def _places(effect, name: str, machine) -> list[int] | None:
+    """The values of `effect`'s placement `name` that can act on the machine (`Effect.placeable`: a bow's span is one
+    of the spans between the places the shaft is held, not any node number), or None for a parameter that is not
+    a place left to the effect."""
+    p = effect.param[name]
+    if name not in effect.placement or not isinstance(p, param.Integer) or not p.allow_None:
+        return None
+    from . import resources
+
+    rotor = resources.rotor(machine)
+    lo = int((p.bounds or (1, None))[0] or 1)
+    return [v for v in range(lo, machine.n_nodes + 1) if effect.copy(**{name: v}).placeable(rotor)]
 
 
 def effect_story(effect, machine) -> str:
@@ -181,12 +196,12 @@ _UNIT_SUFFIXES = {"_um": "µm", "_deg": "°", "_kg": "kg", "_ns_m": "N·s/m", "_
 
 
 def parameter_widget(obj: param.Parameterized, name: str, *, end: float | None = None,
-                     label: str | None = None, **kwargs) -> pn.widgets.Widget:
+                     label: str | None = None, choices=None, **kwargs) -> pn.widgets.Widget:
     """A widget for any declared parameter of `obj` (an effect's, a model's), linked both ways.
 
     Quantity: `quantity_slider`; Selector: a Select of its objects; Integer: an IntSlider over its bounds
     (`end` closes an open upper bound, e.g. the machine's number of nodes), a Select whose first choice is None
-    (in the doc's words) when None is allowed; Number: a slider over its
+    (in the doc's words) when None is allowed, then `choices` (default: every value in the bounds); Number: a slider over its
     bounds, or a number box when they span more than four decades (a stiffness from 1e5 to 1e12 N/m).
     The label carries the unit (`obj.unit(name)` when the object has one) and the tooltip the doc.
     """
@@ -212,7 +227,8 @@ def parameter_widget(obj: param.Parameterized, name: str, *, end: float | None =
         if lo is None or hi is None:
             raise ValueError(f"{type(obj).__name__}.{name} has an open bound; give end")
         if p.allow_None:  # None means a place the object chooses itself (a bow's node midway along its span)
-            options = {_none_words(p.doc): None, **{str(k): k for k in range(int(lo), int(hi) + 1)}}
+            values = range(int(lo), int(hi) + 1) if choices is None else choices
+            options = {_none_words(p.doc): None, **{str(k): k for k in values}}
             w = pn.widgets.Select(name=title, options=options, value=getattr(obj, name), description=p.doc, **kwargs)
         else:
             w = pn.widgets.IntSlider(name=title, start=int(lo), end=int(hi), value=int(getattr(obj, name)), **kwargs)

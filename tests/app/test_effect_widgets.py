@@ -5,16 +5,14 @@ page kept the last effect's sliders without a word. Built without a server: the 
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import panel as pn
 import pytest
 
 from lubeviz.app.widgets import show_effect
 from lubeviz.effects import EFFECTS
-from lubeviz.model.machine import load_machine
+from lubeviz.model.machine import MODELS_DIR, load_machine
 
-MODELS = sorted((Path(__file__).resolve().parents[2] / "models").glob("*.toml"))
+MODELS = sorted(MODELS_DIR.glob("*.toml"))
 
 
 @pytest.fixture(scope="module", params=MODELS, ids=[p.stem for p in MODELS])
@@ -50,3 +48,11 @@ def test_a_place_left_to_the_effect_is_a_choice_the_reader_can_make_and_take_bac
     assert effect.node == 12 and "node 12" in effect.title()
     node.value = None
     assert effect.node is None
+    # the span offers the spans there are, not every node number: on the paper's two bearings the one span is the
+    # place left to the effect (between the outermost bearings), on the fan's four supports each of three spans too
+    span = widgets.objects[list(effect.placement).index("span")]
+    assert list(span.options.values()) == [None]
+    fan = load_machine(MODELS_DIR / "three_bearing_fan.toml")
+    fan_widgets = pn.Column()
+    show_effect("bow", fan, pn.pane.Markdown(), fan_widgets)
+    assert list(fan_widgets.objects[1].options.values()) == [None, 1, 2, 3]
