@@ -371,8 +371,8 @@ def bench_diagnose(machine_path=None, *, seeds: int = 2, speed_hz: float = 75.0,
         named = d.added.effect.effect_name if (d.added is not None and not d.ambiguous) else None
         in_set = truth in ([] if d.added is None else [d.added.effect.effect_name]) + [
             lab.split("[")[0] for lab in d.ambiguous]
-        err_b = np.abs(d.before.values[:2] * MLMIN_PER_M3S / q - 1) * 100
-        err_a = np.abs(d.final.values[:2] * MLMIN_PER_M3S / q - 1) * 100
+        err_b = np.abs(d.before.flow_values() * MLMIN_PER_M3S / q - 1) * 100
+        err_a = np.abs(d.final.flow_values() * MLMIN_PER_M3S / q - 1) * 100
         held = _held(d, q / MLMIN_PER_M3S)
         rows.append({"effect": name, "strength": level, "spec": text, "q_mlmin": q.tolist(),
                      "plain_chi2": d.before.chi2, "plain_explained": bool(d.before.explained),

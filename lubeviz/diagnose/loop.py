@@ -601,7 +601,7 @@ def _refine(chains, meas, passing, names, budget, level):
 
 def fit_flows(f: Fit) -> np.ndarray:
     """Every bearing's flow of fit `f` (m^3/s, file order; a known supply's held value among them)."""
-    return f.flow_values() if hasattr(f, "flow_values") else np.asarray(f.values[:2], dtype=float)
+    return np.asarray(f.flow_values(), dtype=float)
 
 
 def chain_theta(chain, f: Fit) -> np.ndarray:
@@ -618,7 +618,7 @@ def chain_theta(chain, f: Fit) -> np.ndarray:
 
 
 def fit_flows_std(f: Fit) -> np.ndarray:
-    return f.flow_stds() if hasattr(f, "flow_stds") else np.asarray(f.std[:2], dtype=float)
+    return np.asarray(f.flow_stds(), dtype=float)
 
 
 def _flow_names(f: Fit) -> tuple[str, ...]:

@@ -61,7 +61,8 @@ from ..identify.tables.cache import cache_dir
 from ..rotor.orbit_balance import OrbitBalance
 from . import equilibria
 from .equilibria import fine_bearing
-from .independent import IndependentRecord, IndependentSpec, _machine, fine_node, split_rotor
+from .independent import (IndependentRecord, IndependentSpec, _determinate, _machine, fine_node, split_rotor,
+                          static_equilibrium)
 from ..units import MLMIN_PER_M3S
 
 HARMONICS, POINTS = 6, 28
@@ -85,7 +86,7 @@ def _balance_key(spec: IndependentSpec, unbalance_scale: float, method: str = "b
     inputs = {"format": ORBIT_FORMAT, "kind": "orbit balance",
               "code": equilibria.code_version("film", "rotor", "verification"),
               "machine": hashlib.sha256(machine_file.read_bytes()).hexdigest(),
-              "speed_hz": float(spec.speed_hz), "flows_mlmin": [float(spec.q1_mlmin), float(spec.q2_mlmin)],
+              "speed_hz": float(spec.speed_hz), "flows_mlmin": [float(q) for q in spec.flows_mlmin],
               "nodes": [int(n) for n in spec.nodes], "unbalance_scale": float(unbalance_scale),
               "harmonics": HARMONICS, "points": POINTS}
     if method == "time":
@@ -95,9 +96,9 @@ def _balance_key(spec: IndependentSpec, unbalance_scale: float, method: str = "b
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def _shapes(n_nodes: int, method: str = "balance") -> dict:
+def _shapes(n_nodes: int, method: str = "balance", n_bearings: int = 2) -> dict:
     h = (TIME_HARMONICS if method == "time" else HARMONICS) + 1
-    return {"x": (h, n_nodes), "y": (h, n_nodes), "bearing_x": (h, 2), "bearing_y": (h, 2),
+    return {"x": (h, n_nodes), "y": (h, n_nodes), "bearing_x": (h, n_bearings), "bearing_y": (h, n_bearings),
             "linear_x": (n_nodes,), "linear_y": (n_nodes,), "iterations": (), "max_eccentricity": (), "seconds": (),
             "residual": (), **({"half_order": ()} if method == "time" else {})}
 
@@ -107,7 +108,7 @@ def _cached_balance(spec: IndependentSpec, unbalance_scale: float, solve, method
     cache, or `solve()` (then stored)."""
     key = _balance_key(spec, unbalance_scale, method)
     path = cache_dir() / "independent" / f"orbit-{key}.npz"
-    shapes = _shapes(len(spec.nodes), method)
+    shapes = _shapes(len(spec.nodes), method, len(spec.flows_mlmin))
     data = equilibria._load(path, key, shapes)
     omega = 2.0 * math.pi * spec.speed_hz
     if data is not None:
@@ -191,17 +192,17 @@ def make_orbit_record(spec: IndependentSpec, *, unbalance_scale: float = 1.0, me
         machine = _machine(spec.machine)
         rotor = split_rotor(spec.machine)
         omega = 2.0 * math.pi * spec.speed_hz
-        reactions = simple_support_reactions(rotor, machine.gravity).forces
+        loads = _film_loads(spec, machine, rotor)
 
         def films(on_mesh):
             eqs = []
-            for k, (b, w, q) in enumerate(zip(machine.bearings, reactions, (spec.q1_mlmin, spec.q2_mlmin))):
-                eq = find_equilibrium(on_mesh(b), omega, (0.0, -w), Feed.flow(q / MLMIN_PER_M3S),
+            for k, (b, w, q) in enumerate(zip(machine.bearings, loads, spec.flows_mlmin)):
+                eq = find_equilibrium(on_mesh(b), omega, tuple(float(v) for v in w), Feed.flow(q / MLMIN_PER_M3S),
                                       coefficients="fixed-pattern")
                 if not eq.converged:
                     raise InputError(f"bearing {k + 1}: no equilibrium at {q:g} ml/min ({eq.message})")
                 eqs.append(eq)
-            return FilmBearings(omega=omega, flows=(spec.q1_mlmin / MLMIN_PER_M3S, spec.q2_mlmin / MLMIN_PER_M3S),
+            return FilmBearings(omega=omega, flows=tuple(q / MLMIN_PER_M3S for q in spec.flows_mlmin),
                                 equilibria=tuple(eqs))
 
         unbalances = [Unbalance(fine_node(u.node), u.moment * unbalance_scale, u.phase)
@@ -230,23 +231,37 @@ def make_orbit_record(spec: IndependentSpec, *, unbalance_scale: float = 1.0, me
     readings = np.einsum("kpj,kjn->kpn", u, d)
     if spec.snr_db is not None:
         readings = add_noise(readings, spec.snr_db, np.random.default_rng(spec.seed))
-    meta = {"q1_mlmin": f"{spec.q1_mlmin:.10g}", "q2_mlmin": f"{spec.q2_mlmin:.10g}", "seed": str(spec.seed),
+    flows = {"q1_mlmin": f"{spec.q1_mlmin:.10g}", "q2_mlmin": f"{spec.q2_mlmin:.10g}"} if spec.q_mlmin is None else \
+        {"truth_q_mlmin": ", ".join(f"{q:.10g}" for q in spec.flows_mlmin)}  # N flows: as `make_record` keeps them
+    meta = {**flows, "seed": str(spec.seed),
             "snr_db": "none" if spec.snr_db is None else f"{spec.snr_db:g}", "synthetic": "independent",
             "effects": "large_orbit", "unbalance_scale": f"{unbalance_scale:g}", "orbit_method": method}
-    record = record_from_arrays(*readings.reshape(4, -1), speed_hz=spec.speed_hz,
+    record = record_from_arrays(*readings.reshape(2 * len(spec.nodes), -1), speed_hz=spec.speed_hz,
                                 sample_rate_hz=spec.sample_rate_hz, units="m", nodes=spec.nodes,
                                 probe_angles_deg=spec.probe_angles_deg, t0=float(t[0]),
                                 machine=Path(spec.machine or DEFAULT_MACHINE).name, metadata=meta,
                                 source=f"independent large orbit, {method} ({spec.speed_hz:g} Hz, seed {spec.seed})")
+    planes = range(len(spec.nodes))
     truth = {"speed_hz": spec.speed_hz, "q1_mlmin": spec.q1_mlmin, "q2_mlmin": spec.q2_mlmin,
+             "q_mlmin": list(spec.flows_mlmin),
              "effects": [("large_orbit", {"unbalance_scale": unbalance_scale})],
-             "ratio_2x": [ob.harmonic_ratio(2, k) for k in range(2)],
+             "ratio_2x": [ob.harmonic_ratio(2, k) for k in planes],
              "static_shift_m": np.stack([ob.x[0].real, ob.y[0].real], axis=-1),
-             "one_x_over_linear": [abs(ob.x[1, k]) / abs(ob.linear_x[k]) for k in range(2)],
+             "one_x_over_linear": [abs(ob.x[1, k]) / abs(ob.linear_x[k]) for k in planes],
              "max_eccentricity": ob.max_eccentricity, "balance_iterations": ob.iterations, "method": method,
              "periodicity": ob.residual if method == "time" else None, "half_order": extra.get("half_order"),
              "seconds": time.perf_counter() - t0}
     return IndependentRecord(record=record, truth=truth, spec=spec)
+
+
+def _film_loads(spec: IndependentSpec, machine, rotor) -> np.ndarray:
+    """What each film carries, (N, 2) [Wx, Wy] N: on two bearings the split rotor's reactions pinned at their centres
+    (the lever rule), on 3+ supports the source's coupled statics on its fine films (`static_equilibrium`: the loads
+    follow the journals, which sit where their supply puts them)."""
+    if _determinate(machine):
+        reactions = simple_support_reactions(rotor, machine.gravity).forces
+        return np.stack([np.zeros_like(reactions), -reactions], axis=-1)
+    return static_equilibrium(spec.machine, spec.speed_hz, spec.flows_mlmin).loads
 
 
 def _solve_into_cache(spec: IndependentSpec, unbalance_scale: float, method: str = "balance") -> None:

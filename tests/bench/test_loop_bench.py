@@ -182,8 +182,8 @@ def test_a_stopped_run_goes_on_from_its_rows_file(tmp_path):
 def _fit(q_mlmin, half_width_pct, dof=4):
     q = np.asarray(q_mlmin) / MLMIN_PER_M3S
     w = half_width_pct / 100
-    return SimpleNamespace(values=np.concatenate([q, [1.0]]), dof=dof,
-                           intervals={f"q{k + 1}": (q[k] * (1 - w), q[k] * (1 + w)) for k in range(2)})
+    return SimpleNamespace(values=np.concatenate([q, [1.0]]), dof=dof, flow_values=lambda: q.copy(),
+                           intervals={f"q{k + 1}": (q[k] * (1 - w), q[k] * (1 + w)) for k in range(len(q))})
 
 
 def _diagnosis(outcome, *, added=None, ambiguous=(), explained=True, q=(500.0, 500.0), width=1.0, dof=4):

@@ -108,17 +108,95 @@ def test_a_known_supply_beyond_the_tables_is_held_at_their_edge_and_said(pump):
     assert any("known supply" in w and "tables' edge" in w for w in res.warnings)
 
 
-def test_large_orbits_refuse_a_machine_of_another_layout_by_name():
-    """The large-orbit rounds are written for two bearings of unknown supply at two planes: the fan (three bearings,
-    its three planes) is refused with its file's name and its counts, not fitted with its first two flows standing for
-    all of them; a diagnosis then keeps the candidate out with that reason (`loop._fit_orbit`)."""
+def test_large_orbits_take_any_layout_hold_a_known_supply_and_refuse_a_correction_of_another_shape():
+    """The large-orbit rounds move every flow of unknown supply, on any number of bearings and planes: the fan (three
+    bearings, three planes) is taken; a known supply is held (no slope taken in it); a machine whose every supply is
+    known has nothing to fit and is refused by name. The correction is added at the chain's own planes: a constant
+    one moves the probes' 1X at its plane by exactly itself and nothing elsewhere, and one of another shape (the
+    paper's two planes and two flows) is refused with both counts, not broadcast onto the fan's."""
     from lubeviz.errors import InputError
-    from lubeviz.identify.fit.large_orbit import check_orbit_chain
-    from lubeviz.identify.forward.chain import ForwardChain
+    from lubeviz.identify.fit.large_orbit import check_orbit_chain, moving_flows
+    from lubeviz.identify.forward.chain import ForwardChain, ResponseDefect
 
     fan = load_machine(MODELS_DIR / "three_bearing_fan.toml")
     chain = ForwardChain(fan, fan.operating_speed, tuple(p.node for p in fan.planes))
-    with pytest.raises(InputError, match=r"three_bearing_fan\.toml has 3 bearing\(s\) and 3 plane\(s\)"):
-        check_orbit_chain(chain)
+    check_orbit_chain(chain)
+    assert moving_flows(chain) == [0, 1, 2]
+    held = load_machine(MODELS_DIR / "three_bearing_fan.toml")
+    held.bearings[1] = held.bearings[1].copy(supply="known", supply_flow=200 / MLMIN_PER_M3S)
+    assert moving_flows(ForwardChain(held, fan.operating_speed)) == [0, 2]
+    every = load_machine(MODELS_DIR / "three_bearing_fan.toml")
+    for k in range(3):
+        every.bearings[k] = every.bearings[k].copy(supply="known", supply_flow=200 / MLMIN_PER_M3S)
+    with pytest.raises(InputError, match=r"three_bearing_fan\.toml.*known supply"):
+        check_orbit_chain(ForwardChain(every, fan.operating_speed))
+    theta = chain.start()
+    base = chain.output(theta)
+    shift = 3e-6 * np.exp(0.4j)
+    d = ResponseDefect.constant(x=[0, shift, 0], y=np.zeros(3, complex), static=np.zeros((3, 2)),
+                                q0=chain.q_threshold)
+    moved = chain.with_defect(d).output(theta)
+    assert np.allclose(moved.x - base.x, [0, shift, 0], rtol=1e-9, atol=1e-15)
+    assert np.allclose(moved.y, base.y, rtol=1e-12, atol=0)
     paper = load_machine()
-    check_orbit_chain(ForwardChain(paper, 75.0, (6, 20)))  # the paper's layout: taken
+    pair = ResponseDefect.constant(x=np.zeros(2, complex), y=np.zeros(2, complex), static=np.zeros((2, 2)),
+                                   q0=[1e-5, 1e-5])
+    check_orbit_chain(ForwardChain(paper, 75.0, (6, 20)).with_defect(pair))  # the paper's layout: taken
+    with pytest.raises(InputError, match=r"2 plane\(s\) and 2 flow\(s\) given to a chain of 3 plane\(s\) and 3"):
+        chain.with_defect(pair)
+
+
+def test_a_balance_that_stalls_near_an_orbit_gives_way_to_fewer_harmonics_and_says_so(monkeypatch):
+    """On the fan's 100 x 60 films a 16-harmonic balance stalls within 1e-2 of the orbit (the films' tangents stop
+    leading Newton's method) where 8 harmonics settle: the fit falls back along HARMONIC_LADDER with each count's own
+    points per revolution, and its warnings say which counts stalled and which was used. A balance whose orbit is too
+    large for a periodic solution is no matter of harmonics and is raised at once; so is a stall at the last rung."""
+    import dataclasses
+
+    from lubeviz.errors import ConvergenceError
+    from lubeviz.identify.fit import large_orbit as lo
+    from lubeviz.identify.forward.chain import ForwardChain
+    from lubeviz.rotor.orbit_balance import HarmonicsNotSettled
+
+    @dataclasses.dataclass(frozen=True)
+    class _Fit:
+        warnings: tuple = ()
+
+    @dataclasses.dataclass(frozen=True)
+    class _Orbit:
+        harmonics: int
+
+    @dataclasses.dataclass(frozen=True)
+    class _OrbitFit:
+        fit: _Fit
+        orbit: _Orbit
+        seconds: float = 0.0
+
+    chain = ForwardChain(load_machine(), 75.0, (6, 20))
+    calls = []
+
+    def fake(chain, measured, kw, tol, max_rounds, harmonics, points, *rest):
+        calls.append((harmonics, points))
+        if harmonics in stalls:
+            raise HarmonicsNotSettled(f"{harmonics} stalled")
+        if harmonics in fails:
+            raise ConvergenceError("the orbit is too large")
+        return _OrbitFit(fit=_Fit(warnings=("own",)), orbit=_Orbit(harmonics))
+
+    monkeypatch.setattr(lo, "_fit_at", fake)
+    stalls, fails = {16}, set()
+    of = lo.fit_large_orbit(chain, None, harmonics=16, points=64)
+    assert calls == [(16, 64), (8, lo.orbit_points(8))]
+    assert of.orbit.harmonics == 8 and of.fit.warnings[1:] == ("own",)
+    assert "did not settle with 16 harmonics" in of.fit.warnings[0] and "fitted with 8 harmonics" in of.fit.warnings[0]
+    calls.clear()
+    assert lo.fit_large_orbit(chain, None, harmonics=5, points=24).fit.warnings == ("own",)
+    assert calls == [(5, 24)]
+    calls.clear()
+    stalls, fails = set(), {16}
+    with pytest.raises(ConvergenceError, match="too large"):
+        lo.fit_large_orbit(chain, None, harmonics=16, points=64)
+    assert calls == [(16, 64)]
+    stalls = {16, 8, 5}
+    with pytest.raises(HarmonicsNotSettled, match="5 stalled"):
+        lo.fit_large_orbit(chain, None, harmonics=16, points=64)

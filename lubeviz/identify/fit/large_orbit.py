@@ -6,7 +6,7 @@ the fast linear chain and adds to it, as a fixed correction, what the nonlineari
 flows (a defect correction, as in multigrid and in iterative refinement):
 
     d_k(q) = [orbit_balance(q_k) - its own linear orbit(q_k)] + D_k (q - q_k) + 1/2 (q - q_k)^T H_k (q - q_k)
-             (1X at both planes; 0X at bearing-centre planes)
+             (1X at every plane; 0X at bearing-centre planes)
     q_{k+1} = argmin chi2( chain(q) + d_k(q) )   (the usual fit, refined locally from q_k)
 
 repeated until the flows move by less than `tol` of Q_T. At the fixed point the model is the balance's
@@ -63,7 +63,7 @@ import numpy as np
 from ...errors import InputError, LubevizError
 from ...progress import ProgressFn, silent
 from ...rotor.film_bearings import equilibrium_flow_slopes, film_bearings, flooded_thresholds
-from ...rotor.orbit_balance import HARMONICS, POINTS, OrbitBalance, orbit_balance
+from ...rotor.orbit_balance import HARMONICS, POINTS, HarmonicsNotSettled, OrbitBalance, orbit_balance
 from ...rotor.orbit_stability import OrbitStability, orbit_stability
 from ...rotor.response import machine_unbalance
 from ...rotor.whirl import Stability, equilibrium_stability
@@ -151,26 +151,35 @@ class OrbitFit:
         return len(self.history) - 1
 
 
-PAIR_OF = 2  # the layout the large-orbit rounds are written for (`check_orbit_chain`)
-
-
 def check_orbit_chain(chain: ForwardChain) -> None:
     """Large orbits are computed on the declared machine: no effect may change the machine, the rotor or the
-    forcing underneath (probe effects, which act after the response, are fine); and on a machine of the paper's
-    layout (two bearings of unknown supply, two planes) only: elsewhere the rounds would take the first two flows
-    for all of them, so the machine is refused, by name."""
+    forcing underneath (probe effects, which act after the response, are fine), and each film acts between its
+    journal and the ground (no pedestal under a fluid-film bearing). Any number of bearings and planes: the rounds
+    move the flows of unknown supply (`moving_flows`), a known supply is held at its flow."""
     chain.rotor.require_films_on_ground("large_orbit (the films solved along the orbit)")
-    flows, planes = chain.n_flows, len(chain.nodes)
-    if (flows, planes) != (PAIR_OF, PAIR_OF) or chain.known_flows:  # the rounds' corrections and slopes are written
-        # for the paper's layout: its two flows (both unknown) and its two planes (not yet any machine's, issue 37)
-        raise InputError(f"large_orbit is computed for a machine of {PAIR_OF} fluid-film bearings of unknown supply "
-                         f"measured at {PAIR_OF} planes; {chain.machine.source} has {flows} bearing(s)"
-                         + (f", {len(chain.known_flows)} of known supply," if chain.known_flows else "")
-                         + f" and {planes} plane(s) here")
+    if not moving_flows(chain):
+        raise InputError(f"large_orbit fits supply flows; every fluid-film bearing of {chain.machine.source} has a "
+                         "known supply (SPEC §8 supply_mlmin): there is no flow to identify")
     other = [e.label() for e in chain.effects if e.stage != "probes"]
     if other:
         raise InputError(f"large_orbit combines with probe effects only (the balance runs on the declared "
                          f"machine); also declared: {', '.join(other)}")
+
+
+def moving_flows(chain: ForwardChain) -> list[int]:
+    """The bearings (0-based) whose flow the rounds move: every fluid-film bearing but those of known supply
+    (held at their flow, so neither their slope nor their curvature is taken)."""
+    return [k for k in range(chain.n_flows) if k not in chain.known_flows]
+
+
+def whole_theta(chain: ForwardChain, f: Fit) -> np.ndarray:
+    """`f`'s answer as the chain's whole parameter vector (`chain.names`): a known supply's flow held, the rest by
+    name (`f.values` holds the fitted parameters only)."""
+    theta = np.array(chain.start(), dtype=float)
+    for i, name in enumerate(chain.names):
+        if name in f.names:
+            theta[i] = f.values[f.names.index(name)]
+    return theta
 
 
 def orbit_points(harmonics: int) -> int:
@@ -184,7 +193,7 @@ def _balance(chain: ForwardChain, flows, start, harmonics, points, tol, progress
     """The balance at `flows` on `machine` (default the chain's); with `flow_factor`, at flows x that factor
     (per bearing), its flow slopes per unit of the unscaled flows."""
     machine = chain.machine if machine is None else machine
-    factor = np.ones(2) if flow_factor is None else np.asarray(flow_factor, float)
+    factor = np.ones(len(flows)) if flow_factor is None else np.asarray(flow_factor, float)
     # the equilibria start from those of the orbit the balance starts from (a nearby operating point)
     fb = film_bearings(machine, [float(q) for q in np.asarray(flows, float) * factor], chain.omega,
                        previous=None if start is None else start.bearings)
@@ -199,7 +208,7 @@ def _balance(chain: ForwardChain, flows, start, harmonics, points, tol, progress
 def _parts(chain: ForwardChain, ob: OrbitBalance, scale: float = 1.0):
     """The balance's defect at the chain's planes: 1X minus its own linear 1X, per unit of the unbalance's
     scale (the chain's 1X is the declared unbalance's); the 0X at bearing centres (absolute, metres)."""
-    static = np.zeros((2, 2))
+    static = np.zeros((chain.n_planes, 2))
     for k in chain.static_planes:
         static[k] = (ob.x[0, k].real, ob.y[0, k].real)
     return (ob.x[1] - ob.linear_x) / scale, (ob.y[1] - ob.linear_y) / scale, static
@@ -207,7 +216,7 @@ def _parts(chain: ForwardChain, ob: OrbitBalance, scale: float = 1.0):
 
 def measured_scale(chain: ForwardChain, measured, theta, defect: ResponseDefect | None = None) -> float:
     """The unbalance's size relative to the declared machine's that the record's 1X implies: the measured 1X
-    amplitudes (both planes, x and y) against the chain's at `theta` (with `defect`), RMS over the channels."""
+    amplitudes (every plane, x and y) against the chain's at `theta` (with `defect`), RMS over the channels."""
     out = (chain if defect is None else chain.with_defect(defect)).output(np.asarray(theta, dtype=float))
     model = np.abs(np.concatenate([out.x, out.y])) ** 2
     meas = np.abs(np.concatenate([np.asarray(measured.x), np.asarray(measured.y)])) ** 2
@@ -236,11 +245,12 @@ def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = Non
     qt = chain.q_threshold
     # a flow whose +-step lies on one side of its Q_T takes the balance's own derivative (implicit, exact, local);
     # one within a step of the kink a one-sided difference of balances over the step (below)
+    moving = moving_flows(chain) if slope else []  # a known supply is held: no slope in it
     smooth = smooth_flows(chain, q, step) if slope else []
-    n_bal = 3 if slope else 1  # progress: the balance, then the slope in each flow
+    n_bal = 1 + len(moving)  # progress: the balance, then the slope in each flow
     films = (SlopeFilms(chain) if slope_films is None else slope_films) if slope else None
     # a flow at or above its Q_T takes its slope on the model's own films (see SLOPE_MESH); the others on `films`
-    coarse = [k for k in range(2) if slope and not films.own_mesh and q[k] < qt[k] and k not in smooth]
+    coarse = [k for k in moving if not films.own_mesh and q[k] < qt[k] and k not in smooth]
     base = None
     if coarse:  # the slope's own centre on its films, continued from their last balance;
         last = films.last if films.last is not None and films.last.harmonics == harmonics else None
@@ -251,10 +261,11 @@ def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = Non
     ob = _balance(chain, q, start, harmonics, points, tol, lambda i, n, t: progress(i / n, n_bal, t), scale,
                   slopes=slope, machine=machine, flow_factor=flow_factor)
     x, y, static = _parts(chain, ob, scale)
-    dx, dy, dst = np.zeros((2, 2), complex), np.zeros((2, 2), complex), np.zeros((2, 2, 2))
+    npl, nq = chain.n_planes, chain.n_flows
+    dx, dy, dst = np.zeros((npl, nq), complex), np.zeros((npl, nq), complex), np.zeros((npl, 2, nq))
     dscale = None
     if slope:  # per unit scale: d(nl / s)/ds = (dnl/d ln s - nl) / s^2; the static shift is absolute: dnl/d ln s / s
-        dss = np.zeros((2, 2))
+        dss = np.zeros((npl, 2))
         for p in chain.static_planes:
             dss[p] = ob.scale_slope_x[0, p].real / scale, ob.scale_slope_y[0, p].real / scale
         dscale = ((ob.scale_slope_x[1] - x * scale) / scale**2, (ob.scale_slope_y[1] - y * scale) / scale**2, dss)
@@ -262,7 +273,7 @@ def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = Non
         dx[:, k], dy[:, k] = ob.flow_slope_x[k, 1] / scale, ob.flow_slope_y[k, 1] / scale
         for p in chain.static_planes:
             dst[p, :, k] = ob.flow_slope_x[k, 0, p].real, ob.flow_slope_y[k, 0, p].real
-    for k in [k for k in range(2) if slope and k not in smooth]:
+    for i, k in enumerate(k for k in moving if k not in smooth):
         centre, on = (base, films.machine) if k in coarse else (ob, chain.machine if machine is None else machine)
         bx, by, bst = _parts(chain, centre, scale)
         # within a step of Q_T (the film's kink): one-sided on the flow's own side, over the step
@@ -270,7 +281,7 @@ def orbit_defect(chain: ForwardChain, flows, *, start: OrbitBalance | None = Non
         qk = q.copy()
         qk[k] += hs
         obk = _balance(chain, qk, centre, harmonics, points, tol,
-                       lambda i, n, t, k=k: progress(1 + k + i / n, n_bal, t), scale, machine=on,
+                       lambda j, n, t, i=i: progress(1 + i + j / n, n_bal, t), scale, machine=on,
                        flow_factor=None if k in coarse else flow_factor)
         xk, yk, sk = _parts(chain, obk, scale)
         dx[:, k], dy[:, k], dst[:, :, k] = (xk - bx) / hs, (yk - by) / hs, (sk - bst) / hs
@@ -285,7 +296,7 @@ class TimeRound:
 
     flows_at: np.ndarray  # m^3/s: where the time integration ran (the answer before the round)
     flows_after: np.ndarray  # m^3/s: the answer after the round's balances
-    gap_percent: np.ndarray  # |time 1X - balance 1X| / |balance 1X| at (x1, y1, x2, y2), %
+    gap_percent: np.ndarray  # |time 1X - balance 1X| / |balance 1X| at (x1, y1, x2, y2, ...), %
     settled_percent: float  # the largest change of the time integration's 1X between its last two windows, %
     seconds: float
     chi2: float = math.nan  # after the round's balances
@@ -317,9 +328,9 @@ def time_gap(chain: ForwardChain, ob: OrbitBalance, scale: float, *, revolutions
         return 2 * d @ np.exp(-1j * omega * tr.t[sel]) / ((b - a) * steps), d.mean(axis=1)
 
     (last, mean), (before, _) = window(revolutions - 2, revolutions), window(revolutions - 4, revolutions - 2)
-    bal = np.ravel(np.stack([ob.x[1], ob.y[1]], axis=-1))  # (x1, y1, x2, y2)
+    bal = np.ravel(np.stack([ob.x[1], ob.y[1]], axis=-1))  # (x1, y1, x2, y2, ...)
     gx, gy = (last[0::2] - ob.x[1]) / scale, (last[1::2] - ob.y[1]) / scale
-    gs = np.zeros((2, 2))
+    gs = np.zeros((chain.n_planes, 2))
     for k in chain.static_planes:
         gs[k] = mean[2 * k] - ob.x[0, k].real, mean[2 * k + 1] - ob.y[0, k].real
     return ((gx, gy, gs), 100 * np.abs(last / bal - 1), float(100 * np.max(np.abs(last / before - 1))))
@@ -336,8 +347,8 @@ def with_scale_coupling(chain: ForwardChain, measured, theta, defect: ResponseDe
     if defect.dscale is None:
         return defect
     th = np.asarray(theta, dtype=float)
-    ds = np.zeros(2)
-    for k in range(2):
+    ds = np.zeros(chain.n_flows)  # a known supply's flow is held: no change through it
+    for k in moving_flows(chain):
         h = 1e-3 * chain.q_threshold[k]
         tp, tm = th.copy(), th.copy()
         tp[k] += h
@@ -349,9 +360,10 @@ def with_scale_coupling(chain: ForwardChain, measured, theta, defect: ResponseDe
 
 
 def smooth_flows(chain: ForwardChain, q, step: float = 0.05) -> list[int]:
-    """The flows whose +-`step` Q_T lies on one side of their Q_T (away from the film's kink)."""
+    """The flows the rounds move (`moving_flows`) whose +-`step` Q_T lies on one side of their Q_T (away from the
+    film's kink)."""
     qt = chain.q_threshold
-    return [k for k in range(2) if q[k] - step * qt[k] >= qt[k] or q[k] + step * qt[k] < qt[k]]
+    return [k for k in moving_flows(chain) if q[k] - step * qt[k] >= qt[k] or q[k] + step * qt[k] < qt[k]]
 
 
 def secant_curvature(prev: ResponseDefect, new: ResponseDefect) -> ResponseDefect:
@@ -368,7 +380,7 @@ def secant_curvature(prev: ResponseDefect, new: ResponseDefect) -> ResponseDefec
         return new
 
     def update(H, d_new, d_old):
-        H = np.zeros(d_new.shape + (2,), d_new.dtype) if H is None else H
+        H = np.zeros(d_new.shape + (s.size,), d_new.dtype) if H is None else H
         r = (d_new - d_old) - H @ s
         rs = r @ s
         sym = (r[..., :, None] * s + s[:, None] * r[..., None, :]) / ss
@@ -462,8 +474,8 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     -0.6 %, -1.6 / -2.2 %, -0.6 / -0.6 % (before: -0.4 / -0.6, -2.2 / -3.2, -2.7 / -2.8 %). Unscaled, a record's
     coarse rounds stopped at their own kink, 17 % short, and saved nothing.
     Each round solves the balance at the last flows with its slope
-    (taken again every round while both flows lie more than 5 % Q_T from their Q_T, where it is exact and free;
-    nearer, when the flows have moved more than SLOPE_REUSE of Q_T since, crossed Q_T or the scale moved), the
+    (taken again every round while every flow it moves lies more than 5 % Q_T from its Q_T, where it is exact and
+    free; nearer, when the flows have moved more than SLOPE_REUSE of Q_T since, crossed Q_T or the scale moved), the
     secant curvature between rounds that took their slopes the same way, and refits locally with the
     correction: Newton's method on the nonlinear model. (A slope taken below Q_T and used above it made the
     iteration settle on flows 7 % off with chi2 24 on a clean record of this very model.) It stops when the flows move by less than `tol` of
@@ -489,6 +501,41 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     check_orbit_chain(chain)
     if int(time_rounds) < 0:
         raise InputError(f"time rounds {time_rounds!r}; expected 0 or more")
+    ladder, stalled = harmonic_ladder(harmonics), []
+    for h in ladder:  # a count whose balance stalls near an orbit gives way to the next (HARMONIC_LADDER)
+        try:
+            of = _fit_at(chain, measured, dict(names=names, budget=budget, lower=lower, upper=upper, level=level),
+                         tol, max_rounds, h, points if h == int(harmonics) else orbit_points(h), slope_mesh,
+                         int(time_rounds), time_revolutions, progress)
+            break
+        except HarmonicsNotSettled as exc:
+            if h == ladder[-1]:
+                raise
+            stalled.append(f"{h} harmonics ({exc})")
+    if stalled:  # said, with the budget's truncation term that of the harmonics used
+        said = (f"large orbits: the balance did not settle with {'; nor with '.join(stalled)}; fitted with "
+                f"{of.orbit.harmonics} harmonics, the model budget's truncation term theirs")
+        of = dataclasses.replace(of, fit=dataclasses.replace(of.fit, warnings=(said,) + tuple(of.fit.warnings)))
+    return dataclasses.replace(of, seconds=time.perf_counter() - t0)
+
+
+HARMONIC_LADDER = (16, 8, 5)  # the counts a large-orbit fit falls back to when its balance stalls near an orbit
+# (`HarmonicsNotSettled`): on the fan's 100 x 60 films 16 harmonics stall at 1e-2 of the orbit (90 s on 50 x 50,
+# 250 s on the model's films, session 64) where 8 settle in 17 steps (21 s)
+
+
+def harmonic_ladder(harmonics: int) -> tuple[int, ...]:
+    """`harmonics`, then each count of HARMONIC_LADDER below it."""
+    h = int(harmonics)
+    return (h,) + tuple(c for c in HARMONIC_LADDER if c < h)
+
+
+def _fit_at(chain: ForwardChain, measured, kw: dict, tol: float, max_rounds: int, harmonics: int, points: int,
+            slope_mesh: int | None, time_rounds: int, time_revolutions: int, progress: ProgressFn) -> OrbitFit:
+    """`fit_large_orbit` with the balance at `harmonics` and `points` (`kw`: the fits' names, budget, bounds and
+    level)."""
+    t0 = time.perf_counter()
+    names, budget, lower, upper, level = (kw[k] for k in ("names", "budget", "lower", "upper", "level"))
     full_budget, working = _fit_budgets(budget, harmonics)
     slope_films = SlopeFilms(chain, slope_mesh)
     total = (max_rounds + 1) * (1 + 2 * int(time_rounds)) + (0 if slope_films.own_mesh else COARSE_ROUNDS)  # a time
@@ -508,7 +555,8 @@ def fit_large_orbit(chain: ForwardChain, measured, *, names: Sequence[str] | Non
     # the time rounds' own intervals, without the truncation term they take out and the balance's union: reported
     # so that their coverage can be measured (`bench coverage --large-orbit --orbit-time-rounds`), never shown as
     # the answer's
-    own = {n: slope_intervals[n] for n in chain.names[:2] if n in slope_intervals} if time_log else None
+    own = ({n: slope_intervals[n] for n in chain.names[:chain.n_flows] if n in slope_intervals} if time_log
+           else None)
     if balance_intervals is not None:  # near Q_T the time rounds can end on the kink with a narrow interval (record
         # 5 of the bench: Q2 +2.8 % with sigma 0.9 %); until their own sigma is measured, the balance's bounds it
         intervals = _interval_union(intervals, balance_intervals)
@@ -542,8 +590,8 @@ def _plain_fit(ctx: _FitContext) -> tuple[Fit, dict]:
     correction `defect`, the balances so far (`rounds`), the time integration's `gap` held in the correction, the
     last refit's `chi2` and the scale the last balance ran at (`ob_scale`)."""
     plain = fit(ctx.chain, ctx.measured, intervals=False, **ctx.kw)
-    theta = plain.values.copy()  # every parameter is free here
-    q = theta[:2].copy()
+    theta = whole_theta(ctx.chain, plain)  # a known supply among the flows, held
+    q = theta[:ctx.chain.n_flows].copy()
     scale = measured_scale(ctx.chain, ctx.measured, theta)  # the linear model's reading; each round reads it again
     ctx.history.append(q.copy())
     return plain, dict(q=q, theta=theta, scale=scale, ob=None, defect=None, rounds=0, gap=None, chi2=None,
@@ -596,10 +644,10 @@ def _round_correction(ctx: _FitContext, state: dict, on: _RoundsOn, taken: _Slop
     chain, q, scale = ctx.chain, state["q"], state["scale"]
     qt = chain.q_threshold
     exact = smooth_flows(chain, q)
-    smooth = len(exact) == 2
+    smooth = len(exact) == len(moving_flows(chain))
     # how each flow's slope is taken (exact, or a difference over the step on its side of Q_T): the secant
     # curvature is consistent between rounds that take every slope the same way
-    how = tuple((k in exact, bool(q[k] >= qt[k])) for k in range(2))
+    how = tuple((k in exact, bool(q[k] >= qt[k])) for k in range(chain.n_flows))
     fresh = (smooth or taken is None or np.max(np.abs(q - taken.q) / qt) > SLOPE_REUSE
              or np.any((q >= qt) != (taken.q >= qt)) or abs(scale / taken.scale - 1.0) > SCALE_TOL)
     new, ob = orbit_defect(chain, q, start=state["ob"], slope=fresh, harmonics=ctx.harmonics, points=ctx.points,
@@ -620,12 +668,14 @@ def _refit(ctx: _FitContext, state: dict, defect: ResponseDefect, ob: OrbitBalan
     qt = ctx.chain.q_threshold
     res = fit(ctx.chain.with_defect(defect), ctx.measured, intervals=False, start=state["theta"], **ctx.kw)
     state["chi2"], state["ob_scale"] = res.chi2, scale  # the balance of this round ran at `scale`
-    theta = res.values.copy()
-    ctx.history.append(theta[:2].copy())
-    moved = float(np.max(np.abs(theta[:2] - q) / qt))
-    moved_sigma = float(np.max(np.abs(theta[:2] - q) / np.maximum(res.std[:2], 1e-300)))
+    theta = whole_theta(ctx.chain, res)
+    nq, moving = ctx.chain.n_flows, moving_flows(ctx.chain)
+    ctx.history.append(theta[:nq].copy())
+    step = np.abs(theta[:nq] - q)[moving]
+    moved = float(np.max(step / qt[moving]))
+    moved_sigma = float(np.max(step / np.maximum(res.flow_stds()[moving], 1e-300)))
     new_scale = measured_scale(ctx.chain, ctx.measured, theta, defect)
-    state.update(q=theta[:2].copy(), theta=theta, scale=new_scale, ob=ob, defect=defect)
+    state.update(q=theta[:nq].copy(), theta=theta, scale=new_scale, ob=ob, defect=defect)
     return _RoundMove(moved, moved_sigma, abs(new_scale / scale - 1.0))
 
 
@@ -670,7 +720,7 @@ def _time_round_flows(chain: ForwardChain, ob: OrbitBalance) -> tuple[list[np.nd
     at = np.asarray(ob.bearings.flows, dtype=float)  # the last balance's flows, within the rounds'
     # tolerance of the answer: the gap is taken there
     where = [at]  # there, and across Q_T from it for a flow near its kink
-    near = [j for j in range(2) if abs(at[j] / qt[j] - 1.0) < KINK_BAND]
+    near = [j for j in moving_flows(chain) if abs(at[j] / qt[j] - 1.0) < KINK_BAND]
     if near:
         other = at.copy()
         for j in near:
@@ -706,7 +756,7 @@ def _time_branch(ctx: _FitContext, state: dict, base: dict, pt: np.ndarray, acro
     if across:  # across Q_T the rounds start there, with that balance: from the answer they would cross the
         # kink with the far side's slope and stop on Q_T (record 5 of the bench: 544.8 ml/min, Q_T 545)
         theta_pt = state["theta"].copy()
-        theta_pt[:2] = pt
+        theta_pt[:ctx.chain.n_flows] = pt
         state.update(q=pt.copy(), theta=theta_pt, ob=ob_pt)
     settled_rounds = _balance_rounds(ctx, state, ctx.model, f"{label}, balance")
     consistent = all((state["q"][j] >= qt[j]) == (pt[j] >= qt[j]) for j in near)
@@ -776,12 +826,16 @@ def _truncation_union(chain: ForwardChain, measured, final: Fit, intervals: dict
     11-20 % with the answers unchanged (0.6 x: nearly unchanged, the per-entry 3 % is the larger term there)."""
     if budget.orbit_truncation <= 0:
         return intervals
-    theta = np.asarray(final.values, dtype=float)
-    cov = sandwich_cov(chain, measured, theta, names=kw["names"], weights=kw["budget"], budget=budget)
+    theta = whole_theta(chain, final)
+    free = [chain.names.index(n) for n in final.names]
+    cov = sandwich_cov(chain, measured, theta, names=kw["names"], weights=kw["budget"], budget=budget, free=free)
     out = dict(intervals)
     floor = chain.bounds(kw["lower"], kw["upper"])[0]
-    for k, n in enumerate(chain.names[:2]):
-        half = Z95 * math.sqrt(max(cov[k, k], 0.0))
+    for j, k in enumerate(free):
+        if k >= chain.n_flows:  # the flows' intervals only
+            continue
+        n = chain.names[k]
+        half = Z95 * math.sqrt(max(cov[j, j], 0.0))
         lo, hi = out.get(n, (theta[k], theta[k]))
         out[n] = (max(min(lo, theta[k] - half), floor[k]), None if hi is None else max(hi, theta[k] + half))
     return out
@@ -819,7 +873,7 @@ def orbit_summary(of: OrbitFit) -> dict:
             "one_x_over_linear": [float(abs(ob.x[1, k]) / abs(ob.linear_x[k])) for k in range(len(ob.nodes))],
             "static_shift_um": (1e6 * np.stack([ob.x[0].real, ob.y[0].real], axis=-1)).tolist(),
             "max_eccentricity": ob.max_eccentricity,
-            "plain_q_mlmin": (of.plain.values[:2] * MLMIN_PER_M3S).tolist(), "plain_chi2": of.plain.chi2,
+            "plain_q_mlmin": (of.plain.flow_values() * MLMIN_PER_M3S).tolist(), "plain_chi2": of.plain.chi2,
             **({} if of.stability is None else {
                 "stability": of.stability.describe(), "unstable": of.stability.unstable,
                 "least_stable_mode_hz": of.stability.frequency_hz, "growth_per_s": of.stability.growth}),

@@ -646,19 +646,20 @@ def parameters(chain, theta, std: dict, *, initial, bounds, intervals: dict) -> 
 
 
 def sandwich_cov(chain, measured, theta, *, names: Sequence[str] | None = None, weights: ModelBudget,
-                 budget: ModelBudget) -> np.ndarray:
-    """Covariance of the parameters (all free) of a fit weighted with the model budget `weights` when the model's
-    error is the larger `budget` (a term left out of the weights, e.g. one whose size is uncertain itself):
-    A V A^T, A = (J^T W^-1 J)^-1 J^T W^-1 with W and V the noise + each budget's covariance at `theta` and J
-    the features' Jacobian there (the sandwich estimator). Linear in the model's error, so it holds near theta."""
+                 budget: ModelBudget, free=None) -> np.ndarray:
+    """Covariance of the `free` parameters (indices into `chain.names`; default all) of a fit weighted with the model
+    budget `weights` when the model's error is the larger `budget` (a term left out of the weights, e.g. one whose
+    size is uncertain itself): A V A^T, A = (J^T W^-1 J)^-1 J^T W^-1 with W and V the noise + each budget's
+    covariance at `theta` (every parameter of the chain) and J the features' Jacobian there in the free ones (the
+    sandwich estimator). Linear in the model's error, so it holds near theta."""
     parts, noise = feature_parts([chain], [measured], names)
-    free = np.arange(chain.n_params)
+    free = np.arange(chain.n_params) if free is None else np.asarray(free, dtype=int)
     probe = _Problem(parts, np.eye(noise.shape[0]), free)
     W = probe.model_cov(theta, weights, noise)
     V = probe.model_cov(theta, budget, noise)
     (ch, ns, _), = parts
     _, J = ch.jacobian(np.asarray(theta, dtype=float), ns, free=free)
-    scale = _scales(chain)
+    scale = _scales(chain)[free]
     Js = J * scale  # scaled columns, as in `fit`
     WiJ = np.linalg.solve(W, Js)
     A = np.linalg.pinv(Js.T @ WiJ) @ WiJ.T

@@ -172,14 +172,20 @@ class ModelBudget(param.Parameterized):
 
 # The columns of `model_sensitivity`, for N bearings and P planes: per bearing K, C scale and entries (MESH_TERMS),
 # viscosity, clearance; beta (2); each bearing's supply-flow scale (N); the static position per plane, from the film
-# (2 P) and the rest reading (2 P); the large-orbit correction (ORBIT_TERMS, two bearings and two planes only)
+# (2 P) and the rest reading (2 P); the large-orbit correction (`orbit_terms`: each plane's x and y 1X entries, real
+# and imaginary)
 MESH_TERMS = 10
-ORBIT_TERMS = 8
+
+
+def orbit_terms(n_planes: int) -> int:
+    """The budget's columns of the large-orbit correction's own error: a real and an imaginary one for each 1X entry
+    (x and y at each of `n_planes` planes)."""
+    return 4 * int(n_planes)
 
 
 def n_terms(n_bearings: int, n_planes: int) -> int:
     """The budget's columns for a machine of `n_bearings` fluid-film bearings measured at `n_planes` planes."""
-    return n_bearings * (MESH_TERMS + 2) + 2 + n_bearings + 4 * n_planes + ORBIT_TERMS
+    return n_bearings * (MESH_TERMS + 2) + 2 + n_bearings + 4 * n_planes + orbit_terms(n_planes)
 
 
 def mesh_columns(n_bearings: int, n_planes: int) -> np.ndarray:
@@ -325,11 +331,13 @@ def model_sensitivity(chain, theta, names, budget: ModelBudget | None = None) ->
         d = chain.defect  # the correction's own error, entry by entry
         size = orbit_defect_error(chain, theta, budget)
         base = g[0]
-        for j in range(8):
-            e = np.zeros(4, complex)
+        npl, terms = d.x.size, orbit_terms(d.x.size)
+        for j in range(terms):
+            e = np.zeros(2 * npl, complex)
             e[j // 2] = size * (1.0 if j % 2 == 0 else 1j)
-            moved = dataclasses.replace(d, x=d.x + e[:2], y=d.y + e[2:])
-            S[:, S.shape[1] - ORBIT_TERMS + j] = wrap_difference(chain.with_defect(moved).features(theta, names) - base, names)
+            moved = dataclasses.replace(d, x=d.x + e[:npl], y=d.y + e[npl:])
+            S[:, S.shape[1] - terms + j] = wrap_difference(chain.with_defect(moved).features(theta, names) - base,
+                                                           names)
     return S
 
 

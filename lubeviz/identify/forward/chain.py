@@ -424,38 +424,46 @@ def _feature_split(names: tuple) -> tuple:
 
 @dataclass(frozen=True)
 class ResponseDefect:
-    """A correction of the chain's response at its two planes, in the probes' X/Y frame before the probe
-    stage, affine in the flows: at flows q it adds x + dx (q - q0) to the 1X amplitudes x, y (2 planes,
-    complex) and static + dstatic (q - q0) to the static offsets (plane, [x, y]), m.
+    """A correction of the chain's response at its P planes, in the probes' X/Y frame before the probe
+    stage, affine in the N flows (every fluid-film bearing's, a known supply's among them): at flows q it adds
+    x + dx (q - q0) to the 1X amplitudes x, y (P planes, complex) and static + dstatic (q - q0) to the static
+    offsets (plane, [x, y]), m.
 
     The large-orbit identification (`identify.fit.large_orbit`) sets it to the harmonic balance's orbit minus its
     own linear orbit near the last flows q0, with its slope in the flows (a defect correction): the linear
     chain stays the fast model the fit differentiates, and the correction carries what the film's
     nonlinearity adds, slope included, so the fit's intervals see the nonlinear model's sensitivity."""
 
-    x: np.ndarray  # (2,) complex
+    x: np.ndarray  # (P,) complex
     y: np.ndarray
-    static: np.ndarray  # (2, 2)
-    q0: np.ndarray  # (2,) m^3/s
-    dx: np.ndarray  # (2 planes, 2 flows) complex, per m^3/s
+    static: np.ndarray  # (P, 2)
+    q0: np.ndarray  # (N,) m^3/s
+    dx: np.ndarray  # (P planes, N flows) complex, per m^3/s
     dy: np.ndarray
-    dstatic: np.ndarray  # (2, 2, 2 flows)
+    dstatic: np.ndarray  # (P, 2, N flows)
     # the correction's change with the unbalance's scale at q0 ((x, y, static) per unit of scale), when solved:
     # the large-orbit fit folds it into dx, dy, dstatic through the scale the record implies at each flow
     dscale: tuple | None = None
-    # the correction's curvature in the flows at q0, when solved: (2 planes, 2, 2 flows) complex for x, y and
-    # (2, 2, 2, 2) for the static offsets; at q it adds 1/2 (q - q0)^T H (q - q0)
+    # the correction's curvature in the flows at q0, when solved: (P planes, N, N flows) complex for x, y and
+    # (P, 2, N, N) for the static offsets; at q it adds 1/2 (q - q0)^T H (q - q0)
     hx: np.ndarray | None = None
     hy: np.ndarray | None = None
     hstatic: np.ndarray | None = None
 
     @classmethod
     def constant(cls, x, y, static, q0) -> "ResponseDefect":
-        return cls(np.asarray(x), np.asarray(y), np.asarray(static), np.asarray(q0, dtype=float),
-                   np.zeros((2, 2), complex), np.zeros((2, 2), complex), np.zeros((2, 2, 2)))
+        x, q0 = np.asarray(x), np.asarray(q0, dtype=float)
+        planes, flows = x.size, q0.size
+        return cls(x, np.asarray(y), np.asarray(static), q0, np.zeros((planes, flows), complex),
+                   np.zeros((planes, flows), complex), np.zeros((planes, 2, flows)))
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(planes, flows) the correction is for."""
+        return int(np.size(self.x)), int(np.size(self.q0))
 
     def at(self, q) -> tuple[np.ndarray, np.ndarray]:
-        """(d (..., 2 planes, 2 [x, y]) complex, static (..., 2, 2)) at flows q (..., 2)."""
+        """(d (..., P planes, 2 [x, y]) complex, static (..., P, 2)) at flows q (..., N)."""
         dq = np.asarray(q, dtype=float) - self.q0
         x = self.x + np.einsum("pk,...k->...p", self.dx, dq)
         y = self.y + np.einsum("pk,...k->...p", self.dy, dq)
@@ -565,9 +573,10 @@ class ForwardChain:
         """The same chain (tables, views, effects shared) with `defect` added to its response."""
         import copy
 
-        if defect is not None and (self.n_flows, self.n_planes) != (2, 2):
-            raise InputError(f"large orbits: the orbit correction is built for two bearings and two planes; this "
-                             f"chain has {self.n_flows} and {self.n_planes}")
+        if defect is not None and defect.shape != (self.n_planes, self.n_flows):
+            raise InputError(f"large orbits: an orbit correction of {defect.shape[0]} plane(s) and "
+                             f"{defect.shape[1]} flow(s) given to a chain of {self.n_planes} plane(s) and "
+                             f"{self.n_flows} fluid-film bearing(s)")
         new = copy.copy(self)
         new.defect = defect
         new.__dict__.pop("_budget_chains", None)
