@@ -1314,8 +1314,9 @@ def _unpinned_look_alike(chains, meas, before: Fit, free, names, budget, level):
 
 # a diagnosis fits large orbits with the 5-harmonic balance; identification's default is 16 (more time a record)
 ORBIT_REFINE = (" These flows come from a 5-harmonic balance, coarser than identify's default (their sigma carries the "
-                "difference); `lubeviz identify --effect large_orbit` gives them with 16 harmonics (the error of each: "
-                "BENCHMARKS.md \"Rates over time-integration records\").")
+                "difference); `lubeviz identify --effect large_orbit` gives them with 16 harmonics, or 8 where 16 do "
+                "not settle on the machine's films (the error of each: BENCHMARKS.md \"Rates over time-integration "
+                "records\").")
 
 
 def fitted_effect(c: Candidate, f: Fit):
