@@ -1,5 +1,5 @@
-"""Identify page: upload a measured record, see its signals, orbits and full spectra, identify Q1 and Q2
-with their uncertainty and a verdict, compare model and measured features, export the result.
+"""Identify page: upload a measured record, see its signals, orbits and full spectra, identify every unknown supply
+flow with its uncertainty and a verdict, compare model and measured features, export the result.
 
 Display only: reading (`signals.records.read_record_bytes`), features (`identify.forward.measured.measure`),
 the search (`api.identify_record`) and the export (`identify.output.export.result_dict`/`result_csv`)
