@@ -200,3 +200,25 @@ def test_a_balance_that_stalls_near_an_orbit_gives_way_to_fewer_harmonics_and_sa
     stalls = {16, 8, 5}
     with pytest.raises(HarmonicsNotSettled, match="5 stalled"):
         lo.fit_large_orbit(chain, None, harmonics=16, points=64)
+
+
+def test_a_time_round_mirrors_across_q_t_only_the_moving_flows_near_their_kink():
+    """A time round integrates at the answer and, for each flow of unknown supply within KINK_BAND of its Q_T, also
+    across Q_T (at least KINK_MIRROR from it); a known supply stays where it is given even at its Q_T, and a flow far
+    from its kink is not moved. On the fan with bearing B's supply known: A just below Q_T is mirrored above it, B at
+    its Q_T and C far above it stay."""
+    from types import SimpleNamespace
+
+    from lubeviz.identify.fit.large_orbit import KINK_BAND, KINK_MIRROR, _time_round_flows
+    from lubeviz.identify.forward.chain import ForwardChain
+
+    fan = load_machine(MODELS_DIR / "three_bearing_fan.toml")
+    qt = ForwardChain(fan, fan.operating_speed).q_threshold
+    fan.bearings[1] = fan.bearings[1].copy(supply="known", supply_flow=float(qt[1]))
+    chain = ForwardChain(fan, fan.operating_speed)
+    at = qt * np.array([1.0 - KINK_BAND / 4, 1.0, 1.0 + 3 * KINK_BAND])
+    where, near = _time_round_flows(chain, SimpleNamespace(bearings=SimpleNamespace(flows=tuple(at))))
+    assert near == [0]
+    assert len(where) == 2 and np.array_equal(where[0], at)
+    assert where[1][0] == pytest.approx(qt[0] * (1 + KINK_MIRROR), rel=1e-12)
+    assert np.array_equal(where[1][1:], at[1:])
