@@ -58,8 +58,9 @@ class IdentificationSettings(param.Parameterized):
                                         "per revolution: 24 at 5, else 4 per harmonic; fewer than 5 are refused, the "
                                         "budget's truncation term is measured from 5 up). More harmonics: a smaller "
                                         "truncation error at more time a record; the sigma carries the truncation at "
-                                        "any count. Error and time per count: BENCHMARKS \"Rates over "
-                                        "time-integration records\"")
+                                        "any count. A balance that stalls near the orbit at this count falls back "
+                                        "to 8, then 5 harmonics, and the result says so. Error and time per count: "
+                                        "BENCHMARKS \"Rates over time-integration records\"")
     orbit_time_rounds = param.Integer(0, bounds=(0, 5),
                                       doc="With large orbits declared: time rounds after the balance's (each integrates "
                                           "the model in time at the answer, one time integration, two near Q_T, and "
