@@ -35,7 +35,7 @@ import numpy as np
 from scipy import stats
 
 from ..errors import LubevizError
-from ..identify.fit.least_squares import Z95, Fit, fit
+from ..identify.fit.least_squares import Z95, Fit, fit, whole_theta
 from ..identify.fit.result import lubrication_verdict, parameter, union_interval
 from ..identify.forward.chain import bearing_changes
 from .pairs import node_picture, screen
@@ -602,19 +602,6 @@ def _refine(chains, meas, passing, names, budget, level):
 def fit_flows(f: Fit) -> np.ndarray:
     """Every bearing's flow of fit `f` (m^3/s, file order; a known supply's held value among them)."""
     return np.asarray(f.flow_values(), dtype=float)
-
-
-def chain_theta(chain, f: Fit) -> np.ndarray:
-    """`f`'s answer as `chain`'s whole parameter vector (`chain.names`): every bearing's flow, a known supply's held
-    one among them (`fit_flows`), then each of the chain's effect parameters by name, `f`'s value where it fitted it
-    and the chain's start elsewhere. (`f.values` holds the fitted ones only: with a known supply it lacks that flow,
-    and a pair's values hold its other effect's too.)"""
-    theta = np.array(chain.start(), dtype=float)
-    theta[:chain.n_flows] = fit_flows(f)
-    for i, name in enumerate(chain.names[chain.n_flows:], start=chain.n_flows):
-        if name in f.names:
-            theta[i] = f.values[f.names.index(name)]
-    return theta
 
 
 def fit_flows_std(f: Fit) -> np.ndarray:
@@ -1193,7 +1180,7 @@ def _whirl_words(chain, added, final: Fit, line):
     c = chain
     if added is not None and added.defect is None and any(e.stage == "bearings" for e in added.effects):
         c = chain.adding(*(e.candidate() for e in added.effects if e.stage == "bearings"))
-    theta = chain_theta(c, final)
+    theta = whole_theta(c, final)
     coefficients = []
     for k, src in enumerate(c.sources):
         K, C, _ = src.evaluate(theta[k], *c.bearing_changes(k, theta))

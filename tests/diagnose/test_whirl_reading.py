@@ -59,7 +59,7 @@ def test_a_known_supply_s_flow_is_the_one_the_stability_is_taken_at():
     """With a supply the model file gives, the fit holds that flow and its values lack it: the stability was taken at
     the fitted values read as the whole parameter vector (Q2 as Q1, and one value short: an IndexError that stopped
     the rehearsal machine's loop, session 58). It must be the model's at the known flow and the fitted one."""
-    from lubeviz.diagnose.loop import chain_theta
+    from lubeviz.identify.fit.least_squares import whole_theta
     from tests.diagnose.test_known_supply import pump_with_q1_known
 
     pump, rec, q = pump_with_q1_known("viscosity:factor=1.25,bearing=both")
@@ -71,7 +71,7 @@ def test_a_known_supply_s_flow_is_the_one_the_stability_is_taken_at():
     c = chain
     if d.added is not None and d.added.defect is None and any(e.stage == "bearings" for e in d.added.effects):
         c = chain.adding(*(e.candidate() for e in d.added.effects if e.stage == "bearings"))
-    theta = chain_theta(c, d.final)
+    theta = whole_theta(c, d.final)
     assert theta.shape == (c.n_params,) and theta[0] == pytest.approx(q[0] / MLMIN_PER_M3S, rel=1e-12)
     coefficients = [tuple(src.evaluate(theta[k], *c.bearing_changes(k, theta))[:2]) for k, src in enumerate(c.sources)]
     want = mode_stability(c.rotor, c.omega, coefficients)

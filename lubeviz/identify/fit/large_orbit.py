@@ -69,7 +69,7 @@ from ...rotor.response import machine_unbalance
 from ...rotor.whirl import Stability, equilibrium_stability
 from ..forward.budget import ModelBudget, truncation_factor
 from ..forward.chain import ForwardChain, ResponseDefect
-from .least_squares import Z95, Fit, fit, sandwich_cov, std_within
+from .least_squares import Z95, Fit, fit, sandwich_cov, std_within, whole_theta
 from ...units import MLMIN_PER_M3S
 
 
@@ -170,16 +170,6 @@ def moving_flows(chain: ForwardChain) -> list[int]:
     """The bearings (0-based) whose flow the rounds move: every fluid-film bearing but those of known supply
     (held at their flow, so neither their slope nor their curvature is taken)."""
     return [k for k in range(chain.n_flows) if k not in chain.known_flows]
-
-
-def whole_theta(chain: ForwardChain, f: Fit) -> np.ndarray:
-    """`f`'s answer as the chain's whole parameter vector (`chain.names`): a known supply's flow held, the rest by
-    name (`f.values` holds the fitted parameters only)."""
-    theta = np.array(chain.start(), dtype=float)
-    for i, name in enumerate(chain.names):
-        if name in f.names:
-            theta[i] = f.values[f.names.index(name)]
-    return theta
 
 
 def orbit_points(harmonics: int) -> int:

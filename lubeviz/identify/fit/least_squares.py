@@ -645,6 +645,21 @@ def parameters(chain, theta, std: dict, *, initial, bounds, intervals: dict) -> 
     return tuple(out)
 
 
+def whole_theta(chain, f: Fit) -> np.ndarray:
+    """`f`'s answer as `chain`'s whole parameter vector (`chain.names`): every bearing's flow as `f` gives it
+    (`Fit.flow_values`: a held one among them), then each of the chain's effect parameters by name, `f`'s value where
+    it fitted it and the chain's start elsewhere. `f.values` holds the fitted parameters only: with a known supply it
+    lacks that flow, and a pair's fit holds its other effect's too."""
+    theta = np.array(chain.start(), dtype=float)
+    flows = f.flow_values()
+    if len(flows) == chain.n_flows:
+        theta[:chain.n_flows] = flows
+    for i, name in enumerate(chain.names):
+        if name in f.names:
+            theta[i] = f.values[f.names.index(name)]
+    return theta
+
+
 def sandwich_cov(chain, measured, theta, *, names: Sequence[str] | None = None, weights: ModelBudget,
                  budget: ModelBudget, free=None) -> np.ndarray:
     """Covariance of the `free` parameters (indices into `chain.names`; default all) of a fit weighted with the model
