@@ -47,6 +47,7 @@ import numpy as np
 from ..progress import ProgressFn, silent
 from ..units import MLMIN_PER_M3S
 from .records import _held, wilson
+from .workers import one_thread, one_thread_each
 
 KINDS = ("clean", "effect", "set", "pair", "out")
 LIBRARY = ("viscosity", "clearance", "unbalance2", "pedestals", "probe_rotation", "probe_gain", "bow", "side_load")
@@ -92,8 +93,6 @@ NOW_IN_LIBRARY = {"side_load horizontal": "side_load"}
 NODE_PLACED = ("unbalance2",)
 GROWTH_SKIP_E = 5.0  # a draw is kept when its slowest mode decays by e^-5 before the kept window
 REDRAWS = 20
-THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS",
-               "VECLIB_MAXIMUM_THREADS", "NUMBA_NUM_THREADS")
 ROW_KEYS = ("id", "kind", "group", "strength", "truth", "speeds_hz", "q_mlmin", "static", "seed", "redraws",
             "outcome", "added", "ambiguous", "rivals", "pair_untested", "named", "right_first", "right_in_set",
             "not_seen", "said_unseen", "placement_right", "explained",
@@ -437,11 +436,6 @@ def _node_row(case, d) -> dict | None:
     return None
 
 
-def _set_threads() -> None:
-    for var in THREAD_VARS:
-        os.environ[var] = "1"
-
-
 def run_case(case: dict, machine_path=None) -> dict:
     """Make `case`'s record(s), diagnose them as `lubeviz diagnose` does and judge the answer: one row (ROW_KEYS).
     A case that cannot be made or diagnosed is a row with `failed` set (counted apart, never the bench's end)."""
@@ -742,27 +736,22 @@ def bench_loop(machine_path=None, *, n_clean: int = 40, seed: int = 2026, proces
     cases = draw_cases(machine_path, n_clean=n_clean, per_strength=per_strength, n_sets=n_sets, n_pairs=n_pairs,
                        n_out=n_out, seed=seed, limit=limit)
     mp = None if machine_path is None else str(machine_path)
-    saved = {v: os.environ.get(v) for v in THREAD_VARS}
-    _set_threads()  # spawned workers take the environment as it is when they start (numpy reads it on import)
     done = _saved_rows(rows_path, cases)
     rows = list(done.values())
-    pool = ProcessPoolExecutor(max_workers=int(processes), mp_context=get_context("spawn"), initializer=_set_threads)
-    try:
-        futures = {pool.submit(run_case, c, mp): c for c in cases if c["id"] not in done}
-        progress(len(rows), len(cases), "making and diagnosing the cases")
-        for i, f in enumerate(as_completed(futures), start=len(rows) + 1):
-            c = futures[f]
-            rows.append(f.result())
-            if rows_path is not None:
-                _append_row(rows_path, c, rows[-1])
-            progress(i, len(cases), f"#{c['id']} {c['kind']}: {c['group']}")
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)  # a Cancelled progress leaves no case running
-        for v, old in saved.items():
-            if old is None:
-                os.environ.pop(v, None)
-            else:
-                os.environ[v] = old
+    # spawned workers take the environment as it is when they start (numpy reads it on import): one thread each
+    with one_thread_each():
+        pool = ProcessPoolExecutor(max_workers=int(processes), mp_context=get_context("spawn"), initializer=one_thread)
+        try:
+            futures = {pool.submit(run_case, c, mp): c for c in cases if c["id"] not in done}
+            progress(len(rows), len(cases), "making and diagnosing the cases")
+            for i, f in enumerate(as_completed(futures), start=len(rows) + 1):
+                c = futures[f]
+                rows.append(f.result())
+                if rows_path is not None:
+                    _append_row(rows_path, c, rows[-1])
+                progress(i, len(cases), f"#{c['id']} {c['kind']}: {c['group']}")
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)  # a Cancelled progress leaves no case running
     rows.sort(key=lambda r: r["id"])
     out = summarize(rows, time.perf_counter() - t0)
     out["summary"].update(seed=seed, processes=int(processes), limit=limit, n_clean=n_clean,

@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import time
 
 import numpy as np
 
-from ..errors import ConvergenceError, LubevizError
+from ..errors import LubevizError
 from ..progress import ProgressFn, silent
 from ..units import MLMIN_PER_M3S
 
@@ -144,99 +145,182 @@ def bench_coverage(machine_path=None, *, n: int = 120, seed: int = 2026, calibra
     return out
 
 
-ORBIT_FLOWS = (0.75, 1.25)  # `bench_orbit`: each flow over its Q_T, uniform ...
+ORBIT_FLOWS = (0.75, 1.25)  # `bench_orbit`'s defaults: each flow over its Q_T, uniform ...
 ORBIT_SCALES = (0.5, 1.0)  # ... and the machine's unbalance, times this (the paper's unbalance at 1; its 2X against
-# the 1X: docs/notes/large-orbits.md, "What it says about the paper's machine")
+# the 1X: docs/notes/large-orbits.md, "What it says about the paper's machine"). Another machine's orbit is large
+# at another multiple of its own unbalance (the fan's at 2.5-4: docs/notes/any-machine.md): `scales`.
 
 
-def bench_orbit(machine_path=None, *, n: int = 12, seed: int = 2026, speed_hz: float = 75.0, source: str = "time",
-                harmonics=(5, 16), time_rounds: int = 0, workers: int = 1, progress: ProgressFn = silent) -> dict:
-    """Large-orbit records (`orbit_record.make_orbit_record`, `source` "time": the time integration, every harmonic;
-    "balance": the source's 6-harmonic balance on 200 x 200 films) at `speed_hz`, flows ORBIT_FLOWS x Q_T and the
-    unbalance ORBIT_SCALES x the machine's, seeded, identified with `large_orbit` declared at each of `harmonics`
-    (and `time_rounds` time rounds after the balance's, `IdentificationSettings.orbit_time_rounds`): error, 95 %
-    interval coverage, chi2 flag rate and time per record, with Wilson intervals. The records not yet cached are
-    made two at a time first (~4 min each from the time integration); then identified on `workers` processes."""
-    from concurrent.futures import ProcessPoolExecutor
-
+def orbit_jobs(machine_path=None, *, n: int, seed: int, speed_hz: float | None = None, flows=ORBIT_FLOWS,
+               scales=ORBIT_SCALES) -> list:
+    """`bench_orbit`'s draws: n pairs (IndependentSpec, unbalance scale), every fluid-film bearing's flow uniform in
+    `flows` x its Q_T at `speed_hz` (default the machine's operating speed), the unbalance uniform in `scales` x the
+    machine's; record i seeded seed * 1000 + i. On the paper's machine the draws of every session before."""
+    from ..model.machine import load_machine
     from ..verification.independent import IndependentSpec, thresholds_mlmin
-    from ..verification.orbit_record import make_orbit_records
 
-    t0 = time.perf_counter()
-    qt = thresholds_mlmin(speed_hz, machine_path)
+    speed = float(load_machine(machine_path).operating_speed if speed_hz is None else speed_hz)
+    qt = thresholds_mlmin(speed, machine_path)
     rng = np.random.default_rng(seed)
     jobs = []
     for i in range(n):
-        q = qt * rng.uniform(*ORBIT_FLOWS, 2)
-        scale = float(rng.uniform(*ORBIT_SCALES))
-        jobs.append((IndependentSpec(speed_hz=speed_hz, q1_mlmin=float(q[0]), q2_mlmin=float(q[1]),
-                                     seed=seed * 1000 + i), scale))
-    progress(0, n, f"making the records not yet cached ({source})")
-    make_orbit_records(jobs, method=source)
+        q = qt * rng.uniform(*flows, qt.size)
+        scale = float(rng.uniform(*scales))
+        jobs.append((IndependentSpec(speed_hz=speed, q_mlmin=tuple(float(v) for v in q), seed=seed * 1000 + i,
+                                     machine=None if machine_path is None else str(machine_path)), scale))
+    return jobs
+
+
+def bench_orbit(machine_path=None, *, n: int = 12, seed: int = 2026, speed_hz: float | None = None,
+                source: str = "time", harmonics=(5, 16), time_rounds: int = 0, workers: int = 2,
+                flows=ORBIT_FLOWS, scales=ORBIT_SCALES, rows_path=None, progress: ProgressFn = silent) -> dict:
+    """Large-orbit records on any machine (`orbit_record.make_orbit_record`, `source` "time": the time integration,
+    every harmonic; "balance": the source's 6-harmonic balance on 200 x 200 films) drawn by `orbit_jobs` (flows
+    `flows` x Q_T, the unbalance `scales` x the machine's), identified with `large_orbit` declared at each of
+    `harmonics` (and `time_rounds` time rounds after the balance's, `IdentificationSettings.orbit_time_rounds`):
+    error, 95 % interval coverage, chi2 flag rate and time per record, with Wilson intervals. Each record is made
+    (cached on disk) and identified by one of `workers` worker processes (one thread each). A record the source
+    cannot make (no periodic orbit near the linear one, a balance that does not settle) is counted apart
+    (`not_made`), not as a miss of the identification. `rows_path`: a JSON-lines file each record's rows are
+    appended to as they end; a record already there (the same draw and settings) is not identified again."""
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from multiprocessing import get_context
+
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise ValueError(f"workers = {workers!r}: expected a positive integer")
+    t0 = time.perf_counter()
+    jobs = orbit_jobs(machine_path, n=n, seed=seed, speed_hz=speed_hz, flows=flows, scales=scales)
     hs = tuple(int(h) for h in harmonics)
-    args = [(machine_path, spec, scale, source, hs, int(time_rounds)) for spec, scale in jobs]
+    mp = None if machine_path is None else str(machine_path)
+    args = [(mp, spec, scale, source, hs, int(time_rounds), int(workers) > 1) for spec, scale in jobs]
+    keys = [_orbit_key(a) for a in args]
+    done = _saved(rows_path, keys)
+    results = {i: done[k] for i, k in enumerate(keys) if k in done}
+    progress(len(results), n, f"making and identifying the records ({source})")
     if workers <= 1:
-        results = []
-        for i, a in enumerate(args, start=1):
-            results.append(_orbit_rows(*a))
-            progress(i, n, f"record {i}")
+        for i, a in enumerate(args):
+            if i not in results:
+                _keep(results, i, _orbit_rows(*a), rows_path, keys, progress, n)
     else:
-        with ProcessPoolExecutor(max_workers=int(workers)) as pool:
-            futures = [pool.submit(_orbit_rows, *a) for a in args]
-            results = []
-            for i, f in enumerate(futures, start=1):
-                results.append(f.result())
-                progress(i, n, f"record {i}")
-    rows = {h: [res[h] for res in results] for h in hs}
-    out = {"records": n, "seed": seed, "speed_hz": speed_hz, "source": source, "flows_over_qt": list(ORBIT_FLOWS),
-           "unbalance_scales": list(ORBIT_SCALES), "time_rounds": int(time_rounds), "workers": int(workers),
-           "seconds": time.perf_counter() - t0}
+        from .workers import one_thread, one_thread_each
+
+        # spawned workers take the environment as it is when they start (numpy reads it on import): one thread each
+        with one_thread_each():
+            pool = ProcessPoolExecutor(max_workers=int(workers), mp_context=get_context("spawn"),
+                                       initializer=one_thread)
+            try:
+                futures = {pool.submit(_orbit_rows, *a): i for i, a in enumerate(args) if i not in results}
+                for f in as_completed(futures):
+                    _keep(results, futures[f], f.result(), rows_path, keys, progress, n)
+            finally:
+                pool.shutdown(wait=True, cancel_futures=True)  # a Cancelled progress leaves no record running
+    ordered = [results[i] for i in range(n)]
+    made = [res for res in ordered if "not_made" not in res]
+    rows = {h: [res[str(h)] for res in made] for h in hs}
+    out = {"records": len(made), "drawn": n, "seed": seed, "speed_hz": jobs[0][0].speed_hz if jobs else speed_hz,
+           "source": source, "flows_over_qt": list(flows), "unbalance_scales": list(scales),
+           "time_rounds": int(time_rounds), "workers": int(workers), "seconds": time.perf_counter() - t0,
+           "not_made": [{"q_mlmin": res["q_mlmin"], "unbalance_scale": res["unbalance_scale"],
+                         "error": res["not_made"]} for res in ordered if "not_made" in res]}
     for h, rr in rows.items():
         out[f"harmonics {h}"] = orbit_summary(rr)
     out["rows"] = {str(h): rr for h, rr in rows.items()}
     return out
 
 
+def _keep(results: dict, i: int, rows: dict, rows_path, keys, progress, n: int) -> None:
+    results[i] = rows
+    if rows_path is not None:
+        _append(rows_path, keys[i], rows)
+    progress(len(results), n, f"record {i + 1}")
+
+
+def _orbit_key(args) -> str:
+    """A record's key in `bench_orbit`'s rows file: its draw and the settings it is identified with."""
+    import json
+
+    machine_path, spec, scale, source, hs, time_rounds, _ = args
+    return json.dumps({"machine": machine_path, "speed_hz": spec.speed_hz, "q_mlmin": list(spec.flows_mlmin),
+                       "seed": spec.seed, "scale": scale, "source": source, "harmonics": list(hs),
+                       "time_rounds": time_rounds}, sort_keys=True)
+
+
+def _saved(path, keys) -> dict:
+    """{key: rows} of the records `path` (JSON lines of {"key", "rows"}) holds among `keys`."""
+    import json
+
+    if path is None or not os.path.exists(path):
+        return {}
+    wanted, out = set(keys), {}
+    with open(path, encoding="utf-8") as fh:
+        for line in fh:
+            try:
+                item = json.loads(line)
+            except ValueError:
+                continue  # a line cut short by a stopped run
+            if item.get("key") in wanted:
+                out[item["key"]] = item["rows"]
+    return out
+
+
+def _append(path, key, rows) -> None:
+    import json
+
+    with open(path, "a", encoding="utf-8") as fh:
+        fh.write(json.dumps({"key": key, "rows": rows}) + "\n")
+
+
 def _pct(flows_mlmin, q) -> list:
     return (np.asarray(flows_mlmin) / q * 100 - 100).tolist()
 
 
-def _orbit_rows(machine_path, spec, scale, source, harmonics, time_rounds) -> dict:
-    """`bench_orbit`'s rows of one record, {harmonics: row} (a process of its pool runs this)."""
+def _orbit_rows(machine_path, spec, scale, source, harmonics, time_rounds, one_thread=False) -> dict:
+    """`bench_orbit`'s rows of one record, {str(harmonics): row}, or {"not_made": the source's error} (a process of
+    its pool runs this; `one_thread`: it is one of several, one per core)."""
     from ..effects import parse_effect
     from ..identify.batch import identify_record
     from ..identify.fit.settings import IdentificationSettings
     from ..model.machine import load_machine
     from ..verification.orbit_record import make_orbit_record
 
+    if one_thread:
+        from ..rotor import orbit_balance
+
+        orbit_balance.FILM_THREADS = 1  # BLAS's threads: the pool's environment (`bench_orbit`)
     machine = load_machine(machine_path)
-    made = make_orbit_record(spec, unbalance_scale=scale, method=source)
-    q = np.array([spec.q1_mlmin, spec.q2_mlmin])
+    q = np.array(spec.flows_mlmin)
+    try:
+        made = make_orbit_record(spec, unbalance_scale=scale, method=source)
+    except LubevizError as exc:  # no periodic orbit the source can make: not a miss of the identification
+        return {"not_made": str(exc), "q_mlmin": q.tolist(), "unbalance_scale": scale}
     out = {}
     for h in harmonics:
         try:
-            r = identify_record(made.record, machine, IdentificationSettings(orbit_harmonics=h,
-                                                                             orbit_time_rounds=time_rounds),
-                                effects=(parse_effect("large_orbit"),)).result
-        except ConvergenceError as e:  # a balance that does not settle: a miss, counted, not the bench's end
-            out[h] = {"failed": str(e), "q_mlmin": q.tolist(), "unbalance_scale": scale}
+            ident = identify_record(made.record, machine, IdentificationSettings(orbit_harmonics=h,
+                                                                                 orbit_time_rounds=time_rounds),
+                                    effects=(parse_effect("large_orbit"),))
+            r = ident.result
+        except LubevizError as e:  # a balance that does not settle (or a refusal): a miss, counted, not the end
+            out[str(h)] = {"failed": str(e), "q_mlmin": q.tolist(), "unbalance_scale": scale}
             continue
         lo = r.effects["large_orbit"]
-        out[h] = {**_flow_row(spec.speed_hz, q, r), "unbalance_scale": scale,
-                  "ratio_2x": list(made.truth["ratio_2x"]), "half_order": made.truth.get("half_order"),
-                  "signed_error_pct": _pct(r.q * MLMIN_PER_M3S, q),
-                  "sigma_pct": (np.asarray(r.q_std) / r.q * 100).tolist(),
-                  **({"time_rounds": [{"signed_error_pct_after": _pct(t["flows_after_mlmin"], q),
-                                       "gap_1x_percent": t["gap_1x_percent"], "settled_percent": t["settled_percent"],
-                                       "chi2": t["chi2"], "seconds": t["seconds"],
-                                       "not_kept": [{"signed_error_pct_at": _pct(o["flows_at_mlmin"], q),
-                                                     "signed_error_pct_after": _pct(o["flows_after_mlmin"], q),
-                                                     "chi2": o["chi2"], "consistent": o["consistent"]}
-                                                    for o in t["not_kept"]]} for t in lo["time_rounds"]],
-                      # the time rounds' own intervals (no truncation term, no union with the balance's)
-                      "time_round_covered": [_inside(low, high, qk) for (low, high), qk in
-                                             zip(lo["time_round_intervals_mlmin"], q)]}
-                     if lo.get("time_rounds") else {})}
+        out[str(h)] = {**_flow_row(spec.speed_hz, q, r), "unbalance_scale": scale,
+                       "ratio_2x": list(made.truth["ratio_2x"]), "half_order": made.truth.get("half_order"),
+                       "signed_error_pct": _pct(r.q * MLMIN_PER_M3S, q),
+                       "sigma_pct": (np.asarray(r.q_std) / r.q * 100).tolist(),
+                       "warnings": list(ident.warnings)[:5],
+                       **({"time_rounds": [{"signed_error_pct_after": _pct(t["flows_after_mlmin"], q),
+                                            "gap_1x_percent": t["gap_1x_percent"],
+                                            "settled_percent": t["settled_percent"],
+                                            "chi2": t["chi2"], "seconds": t["seconds"],
+                                            "not_kept": [{"signed_error_pct_at": _pct(o["flows_at_mlmin"], q),
+                                                          "signed_error_pct_after": _pct(o["flows_after_mlmin"], q),
+                                                          "chi2": o["chi2"], "consistent": o["consistent"]}
+                                                         for o in t["not_kept"]]} for t in lo["time_rounds"]],
+                          # the time rounds' own intervals (no truncation term, no union with the balance's)
+                          "time_round_covered": [_inside(low, high, qk) for (low, high), qk in
+                                                 zip(lo["time_round_intervals_mlmin"], q)]}
+                          if lo.get("time_rounds") else {})}
     return out
 
 

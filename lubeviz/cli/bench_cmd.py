@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from ..bench.film import bench_film, bench_mesh, bench_smoothness
 from ..progress import StderrBar
 from .common import add_common, finite_float
@@ -37,15 +39,22 @@ def register(sub) -> None:
                    help="coverage: records with the static shaft position and the oil's viscosity x0.7-1.3 of the "
                         "declared, identified with the oil free: flows' and oil's error and coverage")
     p.add_argument("--large-orbit", action="store_true",
-                   help="coverage: large-orbit records at 75 Hz (flows 75-125 %% Q_T, the unbalance x0.5-1, made by "
-                        "--orbit-source), identified with large_orbit declared at each --orbit-harmonics: error, "
-                        "coverage, chi2 flag rate, time (give --records; minutes per time-integration record, cached)")
+                   help="coverage: large-orbit records at the machine's operating speed (each flow --orbit-flows x "
+                        "its Q_T, the unbalance --unbalance-scales x the machine's, made by --orbit-source), "
+                        "identified with large_orbit declared at each --orbit-harmonics: error, coverage, chi2 flag "
+                        "rate, time (give --records; minutes per record, cached; --rows to go on after a stop)")
+    p.add_argument("--orbit-flows", default="0.75,1.25", metavar="LOW,HIGH",
+                   help="coverage --large-orbit: each flow drawn uniform in LOW-HIGH x its Q_T (default 0.75,1.25)")
+    p.add_argument("--unbalance-scales", default="0.5,1", metavar="LOW,HIGH",
+                   help="coverage --large-orbit: the unbalance drawn uniform in LOW-HIGH x the machine's (default "
+                        "0.5,1: the paper's orbits; another machine's are large at another multiple, the fan's "
+                        "at 2.5,4)")
     p.add_argument("--orbit-harmonics", default="5,16",
                    help="coverage --large-orbit: the balance's harmonics to identify with, comma-separated (default 5,16)")
     p.add_argument("--orbit-time-rounds", type=int, default=0, metavar="N",
                    help="coverage --large-orbit: time rounds after the balance's (0-5, default 0; minutes each a record)")
-    p.add_argument("--orbit-workers", type=int, default=1, metavar="N",
-                   help="coverage --large-orbit: records identified on N processes at once (default 1)")
+    p.add_argument("--orbit-workers", type=int, default=2, metavar="N",
+                   help="coverage --large-orbit: records made and identified on N processes at once (default 2)")
     p.add_argument("--seed", type=int, default=2026,
                    help="coverage, budget, loop: the corpus seed (2026: the budget's calibration corpus; another seed "
                         "is a held-out check)")
@@ -70,8 +79,8 @@ def register(sub) -> None:
                    help="loop: only the first N cases (drawn round-robin over the kinds; the same cases as the "
                         "full run's)")
     p.add_argument("--rows", default=None, metavar="PATH",
-                   help="loop: append each case's row to this JSON-lines file as it ends, and skip the cases it "
-                        "already holds (a long run goes on where a stopped one ended)")
+                   help="loop, coverage --large-orbit: append each case's (record's) rows to this JSON-lines file "
+                        "as it ends, and skip those it already holds (a long run goes on where a stopped one ended)")
     p.add_argument("--no-ross", action="store_true", help="rotor: skip the side-by-side ROSS timings")
     p.add_argument("--extra-bearing", action="store_true",
                    help="flows: the machine's first [[supports]] replaced by a sleeve bearing (N + 1 flows)")
@@ -175,7 +184,10 @@ def run_bench(args) -> dict:
                     raise ValueError(f"--orbit-time-rounds {args.orbit_time_rounds}: expected 0-5")
                 if args.orbit_workers < 1:
                     raise ValueError(f"--orbit-workers {args.orbit_workers}: expected at least 1")
+                flows = _range("--orbit-flows", args.orbit_flows, 0.05, 5.0)
+                scales = _range("--unbalance-scales", args.unbalance_scales, 0.0, 50.0)
                 return vb.bench_orbit(args.machine, n=args.records, seed=args.seed, source=args.orbit_source or "time",
+                                      flows=flows, scales=scales, rows_path=args.rows,
                                       harmonics=hs, time_rounds=args.orbit_time_rounds, workers=args.orbit_workers,
                                       progress=StderrBar())
             if args.static:
@@ -226,3 +238,15 @@ def _budgets(text: str) -> list[dict]:
             raise ValueError(f"--budgets {text!r}: {exc}") from None
         out.append(values)
     return out
+
+
+def _range(option: str, text: str, low: float, high: float) -> tuple[float, float]:
+    """`text` "LOW,HIGH" as two numbers with low < LOW <= HIGH <= high (else a ValueError naming `option`)."""
+    try:
+        lo, hi = (float(v) for v in text.split(","))
+    except ValueError:
+        raise ValueError(f"{option} {text!r}: expected two numbers LOW,HIGH") from None
+    if not (low < lo <= hi <= high) or not all(math.isfinite(v) for v in (lo, hi)):
+        raise ValueError(f"{option} {text!r}: expected {low:g} < LOW <= HIGH <= {high:g}")
+    return lo, hi
+

@@ -1,15 +1,16 @@
 """Large-orbit records along another path than the identification's large-orbit model.
 
 The identification with `large_orbit` declared (`identify.fit.large_orbit`) uses the linear chain (tables on
-the 100 x 100 film, the 20-element rotor, beta = 2e-5 s) plus a harmonic balance on that film with 5
-harmonics and 24 points per revolution. This source computes the periodic orbit with
+the 100 x 100 film, the machine's rotor as its file declares it, beta = 2e-5 s) plus a harmonic balance on that film
+with 5-16 harmonics. This source computes the periodic orbit of any machine (every fluid-film bearing's flow, every
+plane) with
 
 | stage     | identification                              | this source                                      |
 |-----------|---------------------------------------------|--------------------------------------------------|
 | film      | 100 x 100, groove refinement 4              | 200 x 200, groove refinement 1 (`fine_bearing`)  |
-| rotor     | 20 elements, beta = 2e-5 s                  | 40 elements (`split_rotor`), beta = 3e-5 s        |
-| loads     | support reactions of the 20-element rotor   | of the 40-element rotor                          |
-| balance   | 5 harmonics, 24 points per revolution       | 6 harmonics, 28 points                           |
+| rotor     | the file's elements, beta = 2e-5 s          | each element split in two (`split_rotor`), 3e-5 s |
+| loads     | the model's statics                         | the split rotor's (`_film_loads`)                |
+| balance   | 5-16 harmonics, its own points              | 6 harmonics, 28 points                           |
 
 and samples it for 5 s at 10 kHz with white noise at 12 dB (seeded), as the probes at their declared
 angles read it (the DC removed). It shares the harmonic-balance method with the model, not its
@@ -21,7 +22,7 @@ velocity turns sharply where the film is thinnest, the orbit's lines fall off on
 with 5 harmonics is measurably off the time integration's at the paper's unbalance; more harmonics close the
 gap only slowly (docs/notes/large-orbits.md, sessions 17-18).
 A source that shares the method shares that error. `method="time"` takes another path: the time integration
-(`rotor.film_time_response`, implicit coupling, TIME_STEPS steps per revolution) of the 40-element rotor on the
+(`rotor.film_time_response`, implicit coupling, TIME_STEPS steps per revolution) of the split rotor on the
 declared films (the model's mesh), started on this source's own balance on them, over TIME_REVOLUTIONS
 revolutions; the record holds the harmonics 0..TIME_HARMONICS of the last TIME_WINDOW (every line the
 integration holds), about 4 minutes per record on one core.
@@ -96,7 +97,7 @@ def _balance_key(spec: IndependentSpec, unbalance_scale: float, method: str = "b
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def _shapes(n_nodes: int, method: str = "balance", n_bearings: int = 2) -> dict:
+def _shapes(n_nodes: int, method: str, n_bearings: int) -> dict:
     h = (TIME_HARMONICS if method == "time" else HARMONICS) + 1
     return {"x": (h, n_nodes), "y": (h, n_nodes), "bearing_x": (h, n_bearings), "bearing_y": (h, n_bearings),
             "linear_x": (n_nodes,), "linear_y": (n_nodes,), "iterations": (), "max_eccentricity": (), "seconds": (),
@@ -235,7 +236,7 @@ def make_orbit_record(spec: IndependentSpec, *, unbalance_scale: float = 1.0, me
         {"truth_q_mlmin": ", ".join(f"{q:.10g}" for q in spec.flows_mlmin)}  # N flows: as `make_record` keeps them
     meta = {**flows, "seed": str(spec.seed),
             "snr_db": "none" if spec.snr_db is None else f"{spec.snr_db:g}", "synthetic": "independent",
-            "effects": "large_orbit", "unbalance_scale": f"{unbalance_scale:g}", "orbit_method": method}
+            "effects": "large_orbit", "x_unbalance_scale": f"{unbalance_scale:g}", "x_orbit_method": method}
     record = record_from_arrays(*readings.reshape(2 * len(spec.nodes), -1), speed_hz=spec.speed_hz,
                                 sample_rate_hz=spec.sample_rate_hz, units="m", nodes=spec.nodes,
                                 probe_angles_deg=spec.probe_angles_deg, t0=float(t[0]),
@@ -271,19 +272,43 @@ def _solve_into_cache(spec: IndependentSpec, unbalance_scale: float, method: str
     make_orbit_record(spec, unbalance_scale=unbalance_scale, method=method)
 
 
-def make_orbit_records(jobs, *, processes: int = 2, method: str = "balance") -> list[IndependentRecord]:
-    """The records of `jobs`, pairs (spec, unbalance_scale): the orbits not yet cached are solved in
-    `processes` worker processes at once (each is serial: two make a 2-core machine twice as fast), then
-    every record is made from the cache."""
+def solve_orbits(jobs, *, processes: int = 2, method: str = "balance") -> list:
+    """Solve into the cache the orbits of `jobs`, pairs (spec, unbalance_scale), not yet there, in `processes`
+    worker processes at once (each is serial: two make a 2-core machine twice as fast). Returns, per job, None or
+    the error (a LubevizError: no periodic orbit, a balance that did not settle) that kept its orbit from being
+    made; the other jobs go on."""
     import concurrent.futures
     import multiprocessing
 
+    from ..errors import LubevizError
+
     jobs = [(spec, float(scale)) for spec, scale in jobs]
-    missing = [(s, u) for s, u in jobs
+    out: list = [None] * len(jobs)
+    missing = [i for i, (s, u) in enumerate(jobs)
                if not (cache_dir() / "independent" / f"orbit-{_balance_key(s, u, method)}.npz").exists()]
     if len(missing) > 1 and processes > 1:
         ctx = multiprocessing.get_context("spawn")  # no fork of a process holding numba/BLAS threads
         with concurrent.futures.ProcessPoolExecutor(min(processes, len(missing)), mp_context=ctx) as pool:
-            for f in [pool.submit(_solve_into_cache, s, u, method) for s, u in missing]:
-                f.result()
+            futures = {i: pool.submit(_solve_into_cache, *jobs[i], method) for i in missing}
+            for i, f in futures.items():
+                try:
+                    f.result()
+                except LubevizError as exc:
+                    out[i] = exc
+    else:
+        for i in missing:
+            try:
+                make_orbit_record(jobs[i][0], unbalance_scale=jobs[i][1], method=method)
+            except LubevizError as exc:
+                out[i] = exc
+    return out
+
+
+def make_orbit_records(jobs, *, processes: int = 2, method: str = "balance") -> list[IndependentRecord]:
+    """The records of `jobs`, pairs (spec, unbalance_scale): the orbits not yet cached are solved first
+    (`solve_orbits`), then every record is made from the cache; the first orbit that could not be made raises."""
+    jobs = [(spec, float(scale)) for spec, scale in jobs]
+    for error in solve_orbits(jobs, processes=processes, method=method):
+        if error is not None:
+            raise error
     return [make_orbit_record(s, unbalance_scale=u, method=method) for s, u in jobs]

@@ -49,6 +49,10 @@ def test_static_coverage_refuses_the_clean_corpus_options(capsys, extra):
     (["--calibrations", "0.8"], ["--large-orbit", "--calibrations"]),
     (["--orbit-time-rounds", "6"], ["--orbit-time-rounds", "0-5"]),
     (["--orbit-workers", "0"], ["--orbit-workers", "at least 1"]),
+    (["--unbalance-scales", "4,2.5"], ["--unbalance-scales", "'4,2.5'", "LOW <= HIGH"]),
+    (["--unbalance-scales", "3"], ["--unbalance-scales", "two numbers"]),
+    (["--orbit-flows", "0.6,nan"], ["--orbit-flows", "'0.6,nan'"]),
+    (["--orbit-flows", "0,1"], ["--orbit-flows", "0.05 < LOW"]),
 ])
 def test_large_orbit_coverage_checks_its_options_before_making_records(capsys, extra, words):
     assert main(["bench", "coverage", "--large-orbit", "--records", "1", *extra]) == 2

@@ -99,3 +99,17 @@ def test_every_plane_s_static_position_is_written_in_micrometres():
     for name in static_features(3):
         assert feature_unit(name) == ("um", 1e6) and feature_unit(f"60Hz:{name}") == ("um", 1e6)
     assert feature_unit("zf3")[0] == "-" and feature_unit("phi3")[0] == "deg"
+
+
+def test_the_text_names_every_flow_of_a_large_orbit_fit_and_of_an_alternative_on_any_machine():
+    """The linear model's flows and an alternative's, in the text a person reads, name as many flows as were given:
+    'Q1, Q2, Q3 = ...' on a machine of three bearings (the text once said 'Q1, Q2' before any number of them)."""
+    from lubeviz.identify.output.export import _flows_mlmin_text, _large_orbit_lines
+
+    assert _flows_mlmin_text([410.2, 599.6]) == "Q1, Q2 = 410, 600 ml/min"
+    assert _flows_mlmin_text([136.0, 379.4, 131.7]) == "Q1, Q2, Q3 = 136, 379, 132 ml/min"
+    lo = {"ratio_2x_model": [0.25, 0.11, 0.19], "plain_q_mlmin": [154.0, 390.0, 150.0], "rounds": 4, "harmonics": 5,
+          "plain_chi2": 17726.0, "unbalance_scale": 3.95}
+    line = _large_orbit_lines(lo)[0]
+    assert "the linear model alone gives Q1, Q2, Q3 = 154, 390, 150 ml/min, chi2 17726" in line
+    assert "2X/1X at the planes: 0.25, 0.11, 0.19" in line and "3.95 x the declared unbalance" in line

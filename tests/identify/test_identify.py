@@ -163,3 +163,25 @@ def test_the_std_shown_is_never_narrower_than_the_profile_interval():
     assert np.allclose(np.sqrt(np.diag(c2)), s2)
     s3, c3 = std_within(names, values, std, cov, {"q1": (values[0] - 1e-7, values[0] + 1e-7)})
     assert np.array_equal(s3, std) and np.array_equal(c3, cov)
+
+
+def test_every_plane_s_1x_line_is_checked_not_only_the_first_two():
+    """A record of three planes (the fan's) whose third plane holds no 1X line, or no backward one, is refused
+    naming that plane; the same record with the line there passes the check."""
+    from types import SimpleNamespace
+
+    from lubeviz.identify.fit.result import check_record
+    from lubeviz.identify.fit.settings import IdentificationSettings
+
+    model = SimpleNamespace(omega=2 * math.pi * 24.75, nodes=(7, 15, 22))
+
+    def measured(snr):
+        return SimpleNamespace(speed_hz=24.75, nodes=(7, 15, 22), line_snr=np.array(snr, float), source="fan.csv",
+                               strongest_line_hz=24.75)
+
+    settings = IdentificationSettings()
+    check_record(model, measured([[90, 40], [80, 30], [70, 20]]), settings)
+    with pytest.raises(InputError, match=r"fan.csv: plane 3 \(node 22\): no usable 1X line"):
+        check_record(model, measured([[90, 40], [80, 30], [1.0, 0.5]]), settings)
+    with pytest.raises(InputError, match=r"plane 3 \(node 22\): the backward 1X component is buried in noise"):
+        check_record(model, measured([[90, 40], [80, 30], [70, 1.0]]), settings)

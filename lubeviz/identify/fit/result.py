@@ -233,7 +233,7 @@ def check_record(model, measured, settings) -> None:
                          f"(more than {settings.speed_tolerance:.0%}); build the model at the record's speed")
     if tuple(measured.nodes) != tuple(model.nodes):
         raise InputError(f"record planes at nodes {measured.nodes}, model at {model.nodes}")
-    for k in range(2):
+    for k in range(len(measured.nodes)):  # every plane of the record
         f_snr, b_snr = measured.line_snr[k]
         if f_snr < settings.min_line_snr:
             raise InputError(_no_line_message(measured, k, f_snr))

@@ -28,9 +28,9 @@ class MeasuredFeatures:
     cov: np.ndarray
     x: np.ndarray
     y: np.ndarray
-    nodes: tuple[int, int]
+    nodes: tuple[int, ...]
     speed_hz: float
-    line_snr: np.ndarray  # |Zf|, |Zb| of each plane over their noise std: (2 planes, 2)
+    line_snr: np.ndarray  # |Zf|, |Zb| of each plane over their noise std: (planes, 2)
     static_names: tuple[str, ...] = ()  # static offsets the record holds (SPEC §6 `static: absolute`)
     source: str | None = None  # the record's file, for messages
     strongest_line_hz: float | None = None  # the strongest line of the record's full spectrum (Hz), if any

@@ -123,19 +123,24 @@ def result_text(item) -> list[str]:
     if lo:
         out += _large_orbit_lines(lo)
     for a in s["alternatives"]:
-        out.append("  another fit passes as well: Q1, Q2 = " + ", ".join(f"{v:.0f}" for v in a["flows_mlmin"])
-                   + " ml/min")
+        out.append("  another fit passes as well: " + _flows_mlmin_text(a["flows_mlmin"]))
     for ln in item.lines:
         d = ln.as_dict()
         out.append(f"  beyond 1X: {d['kind']} at plane {d['plane']}, {100 * d['relative_to_1x']:.1f} % of 1X")
     return out
 
 
+def _flows_mlmin_text(flows_mlmin) -> str:
+    """'Q1, Q2, Q3 = 420, 600, 180 ml/min': every flow given, named by its place in the file."""
+    return (", ".join(f"Q{k + 1}" for k in range(len(flows_mlmin))) + " = "
+            + ", ".join(f"{v:.0f}" for v in flows_mlmin) + " ml/min")
+
+
 def _large_orbit_lines(lo: dict) -> list[str]:
     ratio = ", ".join(f"{v:.2f}" for v in lo["ratio_2x_model"])
-    plain = ", ".join(f"{v:.0f}" for v in lo["plain_q_mlmin"])
+    plain = _flows_mlmin_text(lo["plain_q_mlmin"])
     out = [f"  large orbits: the film force along the orbit ({lo['rounds']} harmonic balances with "
-           f"{lo.get('harmonics', 5)} harmonics; the linear model alone gives Q1, Q2 = {plain} ml/min, "
+           f"{lo.get('harmonics', 5)} harmonics; the linear model alone gives {plain}, "
            f"chi2 {lo['plain_chi2']:.0f}); its 2X/1X at the planes: {ratio}; the orbit's size implies "
            f"{lo.get('unbalance_scale', 1.0):.2f} x the declared unbalance"]
     if lo.get("stability"):
