@@ -36,7 +36,6 @@ cases never named alone, and the time per diagnosis; each rate with its Wilson 9
 from __future__ import annotations
 
 import math
-import os
 import re
 import time
 import warnings
@@ -47,7 +46,7 @@ import numpy as np
 from ..progress import ProgressFn, silent
 from ..units import MLMIN_PER_M3S
 from .records import _held, wilson
-from .workers import one_thread, one_thread_each
+from .workers import append_saved, one_thread, one_thread_each, read_saved
 
 KINDS = ("clean", "effect", "set", "pair", "out")
 LIBRARY = ("viscosity", "clearance", "unbalance2", "pedestals", "probe_rotation", "probe_gain", "bow", "side_load")
@@ -768,29 +767,12 @@ def _case_key(case) -> str:
 
 def _saved_rows(path, cases) -> dict:
     """{case id: row} of the rows `path` (JSON lines of {"case": key, "row": row}) holds for these very cases."""
-    import json
-
-    if path is None or not os.path.exists(path):
-        return {}
-    keys = {_case_key(c): c["id"] for c in cases}
-    out = {}
-    with open(path, encoding="utf-8") as fh:
-        for line in fh:
-            try:
-                item = json.loads(line)
-            except ValueError:
-                continue  # a line cut short by a stopped run
-            cid = keys.get(item.get("case"))
-            if cid is not None:
-                out[cid] = item["row"]
-    return out
+    saved = read_saved(path, "case", "row")
+    return {c["id"]: saved[k] for c in cases if (k := _case_key(c)) in saved}
 
 
 def _append_row(path, case, row) -> None:
-    import json
-
-    with open(path, "a", encoding="utf-8") as fh:
-        fh.write(json.dumps({"case": _case_key(case), "row": row}, default=_plain) + "\n")
+    append_saved(path, "case", _case_key(case), "row", row, default=_plain)
 
 
 def _plain(v):

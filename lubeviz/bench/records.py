@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
 import time
 
 import numpy as np
@@ -18,6 +17,7 @@ import numpy as np
 from ..errors import LubevizError
 from ..progress import ProgressFn, silent
 from ..units import MLMIN_PER_M3S
+from .workers import append_saved, read_saved
 
 
 def wilson(k: int, n: int, z: float = 1.959964) -> list[float]:
@@ -194,7 +194,7 @@ def bench_orbit(machine_path=None, *, n: int = 12, seed: int = 2026, speed_hz: f
     mp = None if machine_path is None else str(machine_path)
     args = [(mp, spec, scale, source, hs, int(time_rounds), int(workers) > 1) for spec, scale in jobs]
     keys = [_orbit_key(a) for a in args]
-    done = _saved(rows_path, keys)
+    done = read_saved(rows_path, "key", "rows")  # the records a stopped run identified
     results = {i: done[k] for i, k in enumerate(keys) if k in done}
     progress(len(results), n, f"making and identifying the records ({source})")
     if workers <= 1:
@@ -231,7 +231,7 @@ def bench_orbit(machine_path=None, *, n: int = 12, seed: int = 2026, speed_hz: f
 def _keep(results: dict, i: int, rows: dict, rows_path, keys, progress, n: int) -> None:
     results[i] = rows
     if rows_path is not None:
-        _append(rows_path, keys[i], rows)
+        append_saved(rows_path, "key", keys[i], "rows", rows)
     progress(len(results), n, f"record {i + 1}")
 
 
@@ -243,31 +243,6 @@ def _orbit_key(args) -> str:
     return json.dumps({"machine": machine_path, "speed_hz": spec.speed_hz, "q_mlmin": list(spec.flows_mlmin),
                        "seed": spec.seed, "scale": scale, "source": source, "harmonics": list(hs),
                        "time_rounds": time_rounds}, sort_keys=True)
-
-
-def _saved(path, keys) -> dict:
-    """{key: rows} of the records `path` (JSON lines of {"key", "rows"}) holds among `keys`."""
-    import json
-
-    if path is None or not os.path.exists(path):
-        return {}
-    wanted, out = set(keys), {}
-    with open(path, encoding="utf-8") as fh:
-        for line in fh:
-            try:
-                item = json.loads(line)
-            except ValueError:
-                continue  # a line cut short by a stopped run
-            if item.get("key") in wanted:
-                out[item["key"]] = item["rows"]
-    return out
-
-
-def _append(path, key, rows) -> None:
-    import json
-
-    with open(path, "a", encoding="utf-8") as fh:
-        fh.write(json.dumps({"key": key, "rows": rows}) + "\n")
 
 
 def _pct(flows_mlmin, q) -> list:

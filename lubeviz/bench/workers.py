@@ -1,9 +1,11 @@
-"""The rate benches' worker processes: one BLAS / OpenMP / numba thread each, so that N workers share N cores
-instead of each taking them all (`bench.loop`, `bench.records.bench_orbit`)."""
+"""The rate benches' long runs (`bench.loop`, `bench.records.bench_orbit`): worker processes of one BLAS / OpenMP /
+numba thread each, so that N workers share N cores instead of each taking them all, and a rows file (JSON lines)
+each finished case is appended to, so that a stopped run goes on where it ended."""
 
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 
 THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS",
@@ -30,3 +32,27 @@ def one_thread_each():
                 os.environ.pop(v, None)
             else:
                 os.environ[v] = old
+
+
+def read_saved(path, key_field: str, value_field: str) -> dict:
+    """{item[key_field]: item[value_field]} of every whole line of the rows file `path` ({} when there is none); a
+    line cut short by a stopped run is passed over."""
+    if path is None or not os.path.exists(path):
+        return {}
+    out = {}
+    with open(path, encoding="utf-8") as fh:
+        for line in fh:
+            try:
+                item = json.loads(line)
+            except ValueError:
+                continue
+            if isinstance(item, dict) and key_field in item and value_field in item:
+                out[item[key_field]] = item[value_field]
+    return out
+
+
+def append_saved(path, key_field: str, key, value_field: str, value, default=None) -> None:
+    """One line {key_field: key, value_field: value} appended to the rows file `path` (`default`: json's, for
+    values it cannot write itself)."""
+    with open(path, "a", encoding="utf-8") as fh:
+        fh.write(json.dumps({key_field: key, value_field: value}, default=default) + "\n")
