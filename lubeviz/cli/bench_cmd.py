@@ -249,4 +249,3 @@ def _range(option: str, text: str, low: float, high: float) -> tuple[float, floa
     if not (low < lo <= hi <= high) or not all(math.isfinite(v) for v in (lo, hi)):
         raise ValueError(f"{option} {text!r}: expected {low:g} < LOW <= HIGH <= {high:g}")
     return lo, hi
-
