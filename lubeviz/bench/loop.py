@@ -772,15 +772,7 @@ def _saved_rows(path, cases) -> dict:
 
 
 def _append_row(path, case, row) -> None:
-    append_saved(path, "case", _case_key(case), "row", row, default=_plain)
-
-
-def _plain(v):
-    if isinstance(v, np.generic):
-        return v.item()
-    if isinstance(v, np.ndarray):
-        return v.tolist()
-    raise TypeError(f"{type(v).__name__} is not JSON")
+    append_saved(path, "case", _case_key(case), "row", row)
 
 
 __all__ = ["bench_loop", "draw_cases", "judge", "rates", "run_case", "summarize"]

@@ -17,7 +17,7 @@ import numpy as np
 from ..errors import LubevizError
 from ..progress import ProgressFn, silent
 from ..units import MLMIN_PER_M3S
-from .workers import append_saved, read_saved
+from .workers import append_saved, one_thread, one_thread_each, read_saved
 
 
 def wilson(k: int, n: int, z: float = 1.959964) -> list[float]:
@@ -202,8 +202,6 @@ def bench_orbit(machine_path=None, *, n: int = 12, seed: int = 2026, speed_hz: f
             if i not in results:
                 _keep(results, i, _orbit_rows(*a), rows_path, keys, progress, n)
     else:
-        from .workers import one_thread, one_thread_each
-
         # spawned workers take the environment as it is when they start (numpy reads it on import): one thread each
         with one_thread_each():
             pool = ProcessPoolExecutor(max_workers=int(workers), mp_context=get_context("spawn"),
@@ -249,16 +247,16 @@ def _pct(flows_mlmin, q) -> list:
     return (np.asarray(flows_mlmin) / q * 100 - 100).tolist()
 
 
-def _orbit_rows(machine_path, spec, scale, source, harmonics, time_rounds, one_thread=False) -> dict:
+def _orbit_rows(machine_path, spec, scale, source, harmonics, time_rounds, pooled=False) -> dict:
     """`bench_orbit`'s rows of one record, {str(harmonics): row}, or {"not_made": the source's error} (a process of
-    its pool runs this; `one_thread`: it is one of several, one per core)."""
+    its pool runs this; `pooled`: it is one of several, one per core)."""
     from ..effects import parse_effect
     from ..identify.batch import identify_record
     from ..identify.fit.settings import IdentificationSettings
     from ..model.machine import load_machine
     from ..verification.orbit_record import make_orbit_record
 
-    if one_thread:
+    if pooled:
         from ..rotor import orbit_balance
 
         orbit_balance.FILM_THREADS = 1  # BLAS's threads: the pool's environment (`bench_orbit`)

@@ -8,6 +8,8 @@ import contextlib
 import json
 import os
 
+import numpy as np
+
 THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS",
                "VECLIB_MAXIMUM_THREADS", "NUMBA_NUM_THREADS")
 
@@ -51,8 +53,16 @@ def read_saved(path, key_field: str, value_field: str) -> dict:
     return out
 
 
-def append_saved(path, key_field: str, key, value_field: str, value, default=None) -> None:
-    """One line {key_field: key, value_field: value} appended to the rows file `path` (`default`: json's, for
-    values it cannot write itself)."""
+def append_saved(path, key_field: str, key, value_field: str, value) -> None:
+    """One line {key_field: key, value_field: value} appended to the rows file `path` (numpy scalars and arrays
+    written as numbers and lists)."""
     with open(path, "a", encoding="utf-8") as fh:
-        fh.write(json.dumps({key_field: key, value_field: value}, default=default) + "\n")
+        fh.write(json.dumps({key_field: key, value_field: value}, default=_plain) + "\n")
+
+
+def _plain(v):
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    raise TypeError(f"{type(v).__name__} is not JSON")

@@ -38,7 +38,7 @@ def test_another_machine_s_draws_hold_every_flow_at_its_own_speed_and_ranges():
 
 
 def _fake_rows(calls):
-    def fake(machine_path, spec, scale, source, harmonics, time_rounds, one_thread=False):
+    def fake(machine_path, spec, scale, source, harmonics, time_rounds, pooled=False):
         calls.append(spec.seed)
         q = list(spec.flows_mlmin)
         if spec.seed % 1000 == 1:  # the source found no periodic orbit for this draw
@@ -98,3 +98,15 @@ def test_workers_ask_for_one_thread_each_and_the_environment_is_given_back(monke
     with pytest.raises(RuntimeError), one_thread_each():
         raise RuntimeError("a stopped bench")
     assert os.environ["OMP_NUM_THREADS"] == "7" and "NUMBA_NUM_THREADS" not in os.environ
+
+
+def test_a_rows_file_keeps_numpy_values_as_numbers_and_lists(tmp_path):
+    import numpy as np
+
+    from lubeviz.bench.workers import append_saved, read_saved
+
+    path = tmp_path / "rows.jsonl"
+    append_saved(path, "key", "a", "rows", {"held": np.bool_(True), "chi2": np.float64(1.5), "q": np.arange(3.0)})
+    assert read_saved(path, "key", "rows") == {"a": {"held": True, "chi2": 1.5, "q": [0.0, 1.0, 2.0]}}
+    with pytest.raises(TypeError, match="set is not JSON"):
+        append_saved(path, "key", "b", "rows", {1, 2})
