@@ -127,9 +127,13 @@ def pytest_terminal_summary(terminalreporter, config):
     built = [f for sub in SEEDED for f in (_cache_root() / sub).glob("*.npz")
              if f.stat().st_mtime >= start and not (SEEDS / sub / f.name).exists()]
     if built:
+        kinds = collections.Counter(f"{f.parent.name}/{f.name.split('-')[0] + '-' if '-' in f.name else ''}"
+                                    for f in built)
         terminalreporter.write_line(
             f"lubeviz: this run built {len(built)} cache file(s) the seeds lack (independent records, film "
             f"slices): the seeds are stale or missing; `bash tests/seeds/refresh.sh` makes them again")
+        # which kind: a slice, a film's equilibrium, a kept integration (memo-) or a large orbit (orbit-)
+        terminalreporter.write_line("lubeviz: built " + ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())))
 
 
 @pytest.hookimpl(trylast=True)  # after -m and -k have deselected

@@ -27,16 +27,20 @@ from lubeviz.identify.tables.cache import cache_dir
 from lubeviz.rotor.film_transient import FilmTimeResponse, film_time_response
 from lubeviz.verification import equilibria
 
-MEMO_FORMAT = 2  # 2: floats to DIGITS digits (keys that hold on another host)
+MEMO_FORMAT = 3  # 2: floats to DIGITS digits (keys that hold on another host); 3: DIGITS 9 -> 6
 
 
 # A number the suite computes (a film's equilibrium, the rotor's matrices) is the host's in its last bits: another
 # CPU's BLAS and numpy kernels moved them by ~1e-14, and every memo's key with its bytes, so that a fresh clone there
 # ran each of the seeded integrations again (session 60). So floats enter a key to DIGITS significant digits, and a
 # float array by its sum of magnitudes to DIGITS digits and three weighted sums as fractions of it to DIGITS
-# decimals: a change to one entry by more than a part in 1e9 of the whole changes the key; noise of 1e-14 does not,
-# but at a rounding edge (about once in 1e5 numbers). Integers, booleans and strings enter as they are.
-DIGITS = 9
+# decimals: a change to one entry by more than a part in 10**DIGITS of the whole changes the key; noise well below
+# that does not, but at a rounding edge. DIGITS was 9 until session 66: on another host (an AMD EPYC, the
+# packages of its own fresh install) the films' equilibria came out ~1e-11 apart, not ~1e-14 (the kept
+# integrations' outputs 0.8-2.4e-11 apart), and every one of the 7 seeded integrations ran again. At 6 digits such
+# noise flips a rounding about once in 1e5 numbers; inputs 1e-6 apart give integrations 1e-6 apart, far inside
+# every tolerance the tests that read them hold (percents).
+DIGITS = 6
 
 
 def _number(v) -> str:

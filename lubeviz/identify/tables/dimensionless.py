@@ -97,7 +97,10 @@ def sommerfeld_nodes(s_range=S_RANGE, coarse: float = COARSE_STEP, fine: float =
     else:
         k_lo = math.floor(lo / coarse)
         ln_s = np.arange(k_lo, top + 1) * coarse
-    return anchor * np.exp(ln_s)
+    # One node at a time through the C library's exp, not numpy's: numpy's vectorized exp takes another code path on
+    # another CPU, and on an AMD EPYC (session 66) two of the 54 nodes came out one ulp off, and a slice is keyed
+    # by its node's value (every slice at those nodes was solved again on a fresh clone there).
+    return np.array([anchor * math.exp(float(v)) for v in ln_s])
 
 
 def sommerfeld_number(bearing: Bearing, load, omega: float, *, viscosity: float | None = None,
