@@ -38,8 +38,24 @@ def _feed(args) -> Feed:
     return Feed.flow(mlmin_to_m3s(args.q_mlmin))
 
 
-def _bearing(args, index: int = 0):
+def bearing_index(machine, given) -> int:
+    """`--bearing`: a fluid-film bearing of `machine` by its number (1..N, file order) or its name in the model file;
+    0-based."""
+    names = [b.name.strip().casefold() for b in machine.bearings]
+    text = str(given).strip()
+    n = len(machine.bearings)
+    if text.isdigit() and 1 <= int(text) <= n:
+        return int(text) - 1
+    if not text.isdigit() and names.count(text.casefold()) == 1:
+        return names.index(text.casefold())
+    listed = ", ".join(f"{k} ({b.name})" for k, b in enumerate(machine.bearings, start=1))
+    raise InputError(f"--bearing {text!r}: expected the number (1..{n}) or the name of a fluid-film bearing of "
+                     f"{machine.source or machine.name}: {listed}")
+
+
+def _bearing(args):
     machine = load_machine(args.machine)
+    index = bearing_index(machine, args.bearing)
     b = machine.bearings[index]
     changes = {}
     for flag, name, scale in (("length_mm", "length", 1e-3), ("radius_mm", "radius", 1e-3),
@@ -62,7 +78,12 @@ def _bearing(args, index: int = 0):
     speed_hz = machine.operating_speed if args.speed_hz is None else args.speed_hz
     if speed_hz <= 0.0:
         raise InputError(f"--speed-hz {speed_hz:g}: expected a positive shaft speed")
-    return machine, b, 2.0 * math.pi * speed_hz
+    return machine, index, b, 2.0 * math.pi * speed_hz
+
+
+def _bearing_arg(p) -> None:
+    p.add_argument("--bearing", default="1", metavar="K",
+                   help="which fluid-film bearing: its number in the model file (1..N) or its name (default 1)")
 
 
 def register(sub) -> None:
@@ -72,6 +93,7 @@ def register(sub) -> None:
                    help="eccentricity ratio e/c, 0 <= E < 1")
     p.add_argument("--attitude-deg", type=finite_float, default=0.0, metavar="A",
                    help="direction of the journal centre, from -Y in the direction of rotation (deg)")
+    _bearing_arg(p)
     _feed_args(p, plain=True)
     for flag, what in (("--length-mm", "bearing length"), ("--radius-mm", "journal radius"),
                        ("--clearance-um", "radial clearance"), ("--viscosity-pas", "oil viscosity (Pa*s)")):
@@ -84,7 +106,7 @@ def register(sub) -> None:
 
     p = sub.add_parser("bearing", help="static equilibrium and dynamic coefficients of one bearing")
     add_common(p)
-    p.add_argument("--bearing", type=int, choices=(1, 2), default=1)
+    _bearing_arg(p)
     _feed_args(p, plain=False)
     p.add_argument("--speed-hz", type=finite_float, default=None, help="shaft speed (default: the machine's)")
     p.add_argument("--load-n", type=finite_float, default=None,
@@ -100,7 +122,7 @@ def run_film(args) -> dict:
     t0 = time.perf_counter()
     if not 0.0 <= args.eccentricity < 1.0:
         raise InputError(f"--eccentricity {args.eccentricity:g}: expected 0 <= E < 1 (the journal inside the clearance)")
-    _, b, omega = _bearing(args)
+    _, _, b, omega = _bearing(args)
     feed = _feed(args)
     e = args.eccentricity * b.clearance
     psi = math.radians(args.attitude_deg)
@@ -127,10 +149,10 @@ def run_film(args) -> dict:
 
 def run_bearing(args) -> dict:
     t0 = time.perf_counter()
-    machine, b, omega = _bearing(args, args.bearing - 1)
+    machine, index, b, omega = _bearing(args)
     feed = _feed(args)
     if args.load_n is None:
-        load = bearing_static_loads(machine)[args.bearing - 1]
+        load = bearing_static_loads(machine)[index]
         w = float(-load[1])
     else:
         w = args.load_n
@@ -144,7 +166,7 @@ def run_bearing(args) -> dict:
         raise InputError(f"no static equilibrium found for {feed.describe()} under {w:g} N: {eq.message}")
     s = summarize(eq.film, eq.position)
     return {
-        "bearing": args.bearing, "q_mlmin": m3s_to_mlmin(eq.film.supply),
+        "bearing": index + 1, "bearing_name": b.name, "q_mlmin": m3s_to_mlmin(eq.film.supply),
         "eccentricity_ratio": eq.eccentricity_ratio, "attitude_deg": math.degrees(eq.attitude_angle),
         "position_m": eq.position, "K": eq.coefficients.K, "C": eq.coefficients.C,
         "coefficient_method": eq.coefficients.method,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import sys
 import time
 
@@ -45,15 +46,30 @@ def register(sub) -> None:
     p.set_defaults(run=run_reproduce)
 
 
+def _check_effects(args) -> None:
+    """The declared effects parsed against the machine of the first record (a bearing, plane or support may be
+    named as in its model file); a record that cannot be read is left to the identification's own message."""
+    from ..effects import parse_effects
+    from ..errors import LubevizError
+    from ..identify.batch import read_for_machine
+
+    if not any(re.search(r"\b(bearing|plane|support)\s*=\s*(?!\d|both\b|all\b)", e) for e in args.effect):
+        parse_effects(args.effect)  # no part named: no record read for it
+        return
+    try:
+        machine = read_for_machine(args.files[0], args.machine)[1]
+    except LubevizError:
+        machine = None
+    parse_effects(args.effect, machine)
+
+
 def run_identify(args) -> dict:
     from ..identify.batch import identify_files
     from ..identify.fit.settings import IdentificationSettings
     from ..identify.output.export import result_dict
 
-    from ..effects import parse_effects
-
     t0 = time.perf_counter()
-    parse_effects(args.effect)  # a bad effect is a bad-input error before any work
+    _check_effects(args)  # a bad effect is a bad-input error before any work
     settings = IdentificationSettings(mode=args.mode, oil_check="always" if args.oil_check else "warn",
                                       **({} if args.orbit_harmonics is None else
                                          {"orbit_harmonics": args.orbit_harmonics}),

@@ -191,7 +191,7 @@ def run_simulate(args) -> dict:
         raise InputError(f"-o {out}: expected a .csv, .npz or .mat file name")
     if not out.parent.exists():
         raise InputError(f"-o {out}: folder {out.parent} does not exist")
-    effects = parse_effects(args.effect)
+    effects = parse_effects(args.effect, machine)
     flows = _flows(args, machine)
     method = args.method or ("steady" if effects else "time")
     if effects and method != "steady":

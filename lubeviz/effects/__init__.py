@@ -28,13 +28,14 @@ from .wiring import Wiring
 from .large_orbit import LargeOrbit
 
 
-def parse_effect(text: str) -> Effect:
-    """One effect from SPEC §7's `NAME:key=value,...`; the parameters given are held, the rest free."""
-    return EFFECTS.parse(text)
+def parse_effect(text: str, machine=None) -> Effect:
+    """One effect from SPEC §7's `NAME:key=value,...`; the parameters given are held, the rest free. With `machine`,
+    a bearing, plane or support may be given by its name in the model file (SPEC §8)."""
+    return EFFECTS.parse(text, machine)
 
 
-def parse_effects(texts: Iterable[str]) -> tuple[Effect, ...]:
-    return tuple(parse_effect(t) for t in texts)
+def parse_effects(texts: Iterable[str], machine=None) -> tuple[Effect, ...]:
+    return tuple(parse_effect(t, machine) for t in texts)
 
 
 def label_title(label: str) -> str:

@@ -342,7 +342,9 @@ class Registry(dict):
         self[cls.effect_name] = cls
         return cls
 
-    def parse(self, text: str) -> Effect:
+    def parse(self, text: str, machine=None) -> Effect:
+        """`machine` (optional): a bearing, plane or support may then be given by its name in the model file (SPEC
+        §8), as well as by its number."""
         text = str(text).strip()
         name, _, rest = text.partition(":")
         name = name.strip()
@@ -364,11 +366,31 @@ class Registry(dict):
                                  f"(allowed: {', '.join(allowed)})")
             if key in params:
                 raise InputError(f"effect {name}: parameter {key!r} given twice")
-            params[key] = _convert(cls, key, value, name)
+            params[key] = _convert(cls, key, _part_number(machine, key, value, name), name)
         try:
             return cls(**params)
         except ValueError as exc:  # param's bound or selector message
             raise InputError(f"effect {name}: {exc}") from None
+
+
+def _part_number(machine, key: str, value: str, name: str) -> str:
+    """A placement given by the name of a bearing, plane or support of `machine` as its number (1-based, file order);
+    any other value as given. A name shared by two parts of the kind is refused: the number says which."""
+    parts = None if machine is None else {"bearing": machine.bearings, "plane": machine.measurement_planes,
+                                          "support": machine.supports}.get(key)
+    if not parts or value.isdigit() or value in EVERY_BEARING:
+        return value
+    hits = [k for k, part in enumerate(parts, start=1) if getattr(part, "name", "").strip().casefold()
+            == value.casefold()]
+    if len(hits) > 1:
+        raise InputError(f"effect {name}: {key}={value!r} names {key}s {', '.join(map(str, hits))} of "
+                         f"{machine.source or machine.name}; give the number (1..{len(parts)})")
+    if not hits:
+        known = ", ".join(f"{k} ({part.name})" if getattr(part, "name", "") else str(k)
+                          for k, part in enumerate(parts, start=1))
+        raise InputError(f"effect {name}: {key}={value!r} is neither a number nor the name of a {key} of "
+                         f"{machine.source or machine.name}: {known}")
+    return str(hits[0])
 
 
 def _convert(cls, key: str, value: str, name: str):

@@ -344,20 +344,21 @@ def identify_file(path, machine=None, settings: IdentificationSettings | None = 
                   progress: ProgressFn = silent, model: ForwardModel | None = None,
                   effects=()) -> RecordIdentification:
     """Read a record (SPEC §6) and identify Q1, Q2. The model is built at the record's speed."""
+    from ..effects import parse_effect
+
     if machine is None:
         rec, machine, notes = read_for_machine(path)
     else:
         rec, notes = read_record(path, **machine.record_defaults()), ()
+    effects = tuple(parse_effect(e, machine) if isinstance(e, str) else e for e in effects)  # names: this machine's
     out = identify_record(rec, machine, settings, progress=progress, model=model, effects=effects)
     return dataclasses.replace(out, file=str(path), warnings=notes + out.warnings)
 
 
 def _worker(path, machine_path, settings, effect_specs=()):
-    from ..effects import parse_effects
-
     try:
         return identify_file(path, None if machine_path is None else load_machine(machine_path), settings,
-                             effects=parse_effects(effect_specs)), None
+                             effects=tuple(effect_specs)), None
     except LubevizError as exc:
         return None, str(exc)
 
@@ -383,11 +384,10 @@ def identify_files(paths, machine_path=None, settings: IdentificationSettings | 
     out: dict[str, tuple] = {}
     t0 = time.perf_counter()
     if workers == 1 or len(paths) == 1:
-        effects = parse_effects(effect_specs)
         for n, p in enumerate(paths, start=1):
             try:
                 rec, mach, notes = read_for_machine(p, machine_path)
-                r = identify_record(rec, mach, settings, effects=effects)
+                r = identify_record(rec, mach, settings, effects=parse_effects(effect_specs, mach))
                 out[p] = (dataclasses.replace(r, file=p, warnings=notes + r.warnings), None)
             except LubevizError as exc:
                 out[p] = (None, str(exc))
@@ -418,12 +418,12 @@ def _set_groups(paths, machine_path=None):
 def _identify_groups(groups, machine_path, settings, progress, effect_specs):
     from ..effects import parse_effects
 
-    effects = parse_effects(effect_specs)
     out = []
     for group in groups:
         label = "+".join(str(r.source) for r in group)
         try:
             machine, notes = machine_for(group[0], machine_path)
+            effects = parse_effects(effect_specs, machine)  # names: this machine's
             if len(group) == 1:
                 item = identify_record(group[0], machine, settings, effects=effects, progress=progress)
             else:

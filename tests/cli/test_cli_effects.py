@@ -68,6 +68,25 @@ def test_a_bad_effect_is_bad_input(capsys, tmp_path, argv, fragment):
     assert fragment in err and len(err.strip().splitlines()) == 1
 
 
+def test_identify_places_a_declared_effect_by_the_bearing_s_name_and_refuses_a_name_the_machine_lacks(capsys,
+                                                                                                     tmp_path):
+    """SPEC §8: `bearing` = 1..N or the bearing's name in the model file (the paper's are "bearing 1", "bearing 2").
+    A probe gain on y2 held at its value and the oil of bearing 2 fitted, named by its bearing's name: the fitted
+    factor is the record's (the declared oil), the same as with the number."""
+    rec = tmp_path / "gain.csv"
+    assert run(capsys, "simulate", "--q1-mlmin", 450, "--q2-mlmin", 620, "--seed", 5, "-o", rec)[0] == 0
+    answers = []
+    for bearing in ("Bearing 2", "2"):
+        code, out, err = run(capsys, "identify", rec, "--effect", f"viscosity:bearing={bearing}", "--json")
+        assert code == 0, err
+        answers.append(json.loads(out)["effects"]["viscosity"])
+    assert answers[0] == answers[1]
+    assert abs(answers[0]["factor"] - 1.0) < 3 * answers[0]["factor_std"] + 0.01
+    code, out, err = run(capsys, "identify", rec, "--effect", "viscosity:bearing=bearing 3", "--json")
+    assert code == 2 and out == ""
+    assert "neither a number nor the name of a bearing of" in err and "1 (bearing 1), 2 (bearing 2)" in err
+
+
 def test_time_integration_with_an_effect_is_refused(capsys, tmp_path):
     code, _, err = run(capsys, "simulate", "--q1-mlmin", 450, "--q2-mlmin", 620, "--effect", "bow",
                        "--method", "time", "-o", tmp_path / "r.csv")

@@ -57,6 +57,10 @@ def test_bearing_json_reports_equilibrium_and_coefficients(capsys):
     (["bearing", "--q-mlmin", "400", "--load-n", "0"], "--load-n"),
     (["bearing", "--q-mlmin", "400", "--groove-refinement", "0"], "groove_refinement"),
     (["bearing"], "required"),
+    (["bearing", "--bearing", "3", "--flooded"], "1..2"),
+    (["bearing", "--bearing", "sleeve A", "--flooded"], "1 (bearing 1), 2 (bearing 2)"),
+    (["film", "--bearing", "4", "--eccentricity", "0.3", "--flooded", "--machine", "models/three_bearing_fan.toml"],
+     "1 (sleeve A (drive end)), 2 (sleeve B (middle)), 3 (sleeve C (non-drive end))"),
 ])
 def test_bad_input_exits_2_with_one_line(capsys, argv, needle):
     with pytest.raises(SystemExit) as exc_info:
@@ -73,3 +77,22 @@ def test_console_script_prints_only_json_on_stdout():
     assert proc.returncode == 0, proc.stderr
     data = json.loads(proc.stdout)
     assert data["side_leakage_mlmin"] == pytest.approx(400.0, rel=1e-8)
+
+
+def test_bearing_takes_any_bearing_of_the_machine_by_number_or_name(capsys):
+    """SPEC §8: a bearing is 1..N or its name in the model file. The fan's third bearing by either, with its load
+    from the machine's coupled statics (three films share the weight), the same answer both ways."""
+    from lubeviz.model.files import load_machine
+    from lubeviz.rotor.statics import bearing_static_loads
+
+    fan = "models/three_bearing_fan.toml"
+    code, out, _ = run(capsys, "bearing", "--machine", fan, "--bearing", "3", "--flooded", "--json")
+    assert code == 0
+    by_number = json.loads(out)
+    code, out, _ = run(capsys, "bearing", "--machine", fan, "--bearing", "Sleeve C (non-drive end)", "--flooded",
+                       "--json")
+    assert code == 0
+    by_name = json.loads(out)
+    assert by_number["bearing"] == by_name["bearing"] == 3 and by_name["bearing_name"] == "sleeve C (non-drive end)"
+    assert by_name["q_threshold_mlmin"] == by_number["q_threshold_mlmin"]
+    assert by_number["load_n"] == pytest.approx(-bearing_static_loads(load_machine(fan))[2][1], rel=1e-12)

@@ -84,6 +84,7 @@ FILM = {
 
 BEARING = {
     "bearing": "number",
+    "bearing_name": "str",
     "q_mlmin": "number",
     "eccentricity_ratio": "number",
     "attitude_deg": "number",
