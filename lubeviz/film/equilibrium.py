@@ -132,7 +132,11 @@ def find_equilibrium(bearing: Bearing, omega: float, load, feed: Feed, *,
             converged = True
             break
         J = force_jacobian(sol)[:, :2]  # dF/de = -K
-        step = -np.linalg.solve(J, g)
+        try:
+            step = -np.linalg.solve(J, g)
+        except np.linalg.LinAlgError:  # the film does not answer a move of the journal here (e.g. in a groove)
+            message = f"the film's stiffness is singular at eccentricity {np.hypot(*e) / c:.4g}: no Newton step"
+            break
         # Backtrack: stay inside the clearance and do not let the force error grow.
         lam = 1.0
         for _ in range(30):

@@ -192,6 +192,58 @@ def _statics_key(machine) -> str:
     return json.dumps(parts, sort_keys=True, default=plain)
 
 
+OFFSET_STEPS = (0.0, 0.25, 0.5, 0.75, 1.0)  # the offsets' share at each step when rigid supports lift a journal off
+
+
+def _lift_off(machine, R, where: str) -> None:
+    """Refuse a start that pulls a journal up (R: the forces on the journals, +Y up). Only the start: a film can push
+    its journal down, and the coupled answer may load one upwards (its tables turn with the load, `film_frame`)."""
+    if np.all(R[:, 1] > 0.0):
+        return
+    bad = ", ".join(f"{k + 1} ({machine.bearings[k].name})" for k in np.flatnonzero(R[:, 1] <= 0.0))
+    raise InputError(f"{machine.source or machine.name}: [[bearings]] {bad} would be lifted off: {where} the "
+                     f"journals press down with {np.round(R[:, 1], 1).tolist()} N, and a film cannot pull a journal "
+                     "down; check the bearings' offset_um (alignment) and the supports' nodes")
+
+
+def _coupled_steps(machine, rotor, F, omega, dofs, housed, offsets, R, positions, max_iter: int):
+    """Newton on the reactions R from the given start (`coupled_statics`): (R, positions, shaft displacement,
+    iterations)."""
+    from ..errors import ConvergenceError
+    from ..film.equilibrium import find_equilibrium
+    from ..film.feed import Feed
+
+    positions = list(positions)
+    for it in range(1, max_iter + 1):
+        Kf = []
+        for k, b in enumerate(machine.bearings):
+            eq = find_equilibrium(b, omega, -R[k], Feed.flooded(), start=positions[k])
+            if not eq.converged:
+                raise ConvergenceError(f"coupled statics: bearing {k + 1}'s film found no equilibrium under "
+                                       f"{np.round(-R[k], 1).tolist()} N ({eq.message})")
+            positions[k] = eq.position
+            Kf.append(np.asarray(eq.coefficients.K, dtype=float))
+        A = rotor.K.copy()
+        rhs = F.copy()
+        for k in range(len(dofs)):
+            h = housed[k]
+            A[np.ix_(dofs[k], dofs[k])] += Kf[k]
+            rhs[dofs[k]] += R[k] + Kf[k] @ (offsets[k] + positions[k])
+            if h is not None:  # the film pushes the housing back as it pushes the journal
+                A[np.ix_(h, h)] += Kf[k]
+                A[np.ix_(dofs[k], h)] -= Kf[k]
+                A[np.ix_(h, dofs[k])] -= Kf[k]
+                rhs[h] -= R[k] + Kf[k] @ (offsets[k] + positions[k])
+        u = np.linalg.solve(A, rhs)
+        new = np.array([R[k] - Kf[k] @ (u[dofs[k]] - (0.0 if housed[k] is None else u[housed[k]]) - offsets[k]
+                                        - positions[k]) for k in range(len(dofs))])
+        change = np.max(np.abs(new - R)) / np.max(np.abs(new))
+        R = new
+        if change < COUPLED_TOL:
+            return R, positions, u, it
+    raise ConvergenceError(f"coupled statics: the loads still changed by {change:.1e} after {max_iter} steps")
+
+
 def coupled_statics(machine, *, max_iter: int = 30) -> CoupledStatics:
     """The shaft's static equilibrium on its fluid films (flooded, at the machine's operating speed) and its
     constant supports, bearing offsets included (SPEC §8: a statically indeterminate machine).
@@ -204,8 +256,6 @@ def coupled_statics(machine, *, max_iter: int = 30) -> CoupledStatics:
     weight with exactly those reactions. Stiff films: the pinned (Clapeyron) reactions. The films are taken
     flooded at the operating speed: starvation or another speed moves a journal by micrometres and the loads
     by what the shaft's stiffness makes of that (not carried in the loads). Memoized per machine."""
-    from ..film.equilibrium import find_equilibrium
-    from ..film.feed import Feed
     from .assembly import rotor_from_machine
 
     key = _statics_key(machine)
@@ -218,47 +268,19 @@ def coupled_statics(machine, *, max_iter: int = 30) -> CoupledStatics:
     omega = 2.0 * np.pi * machine.operating_speed
     R = support_reactions(rotor, F, nodes, offsets)
     pinned = -R.copy()
-    if np.any(R[:, 1] <= 0.0):
-        bad = [k + 1 for k in np.flatnonzero(R[:, 1] <= 0.0)]
-        raise InputError(f"{machine.source or machine.name}: bearing(s) {bad} would be lifted off (no downward "
-                         f"load on the journal: {np.round(-R[:, 1], 1).tolist()} N): a film cannot carry that")
     dofs = np.array([node_dofs(n)[[X, Y]] for n in nodes])
     housed = [film_dofs(rotor, n)[1] for n in nodes]  # a pedestal's DOFs under the film, or None
     positions = [None] * len(nodes)
-    for it in range(1, max_iter + 1):
-        Kf = []
-        for k, b in enumerate(machine.bearings):
-            eq = find_equilibrium(b, omega, -R[k], Feed.flooded(), start=positions[k])
-            if not eq.converged:
-                from ..errors import ConvergenceError
-
-                raise ConvergenceError(f"coupled statics: bearing {k + 1}'s film found no equilibrium under "
-                                       f"{np.round(-R[k], 1).tolist()} N ({eq.message})")
-            positions[k] = eq.position
-            Kf.append(np.asarray(eq.coefficients.K, dtype=float))
-        A = rotor.K.copy()
-        rhs = F.copy()
-        for k in range(len(nodes)):
-            h = housed[k]
-            idx = np.ix_(dofs[k], dofs[k])
-            A[idx] += Kf[k]
-            rhs[dofs[k]] += R[k] + Kf[k] @ (offsets[k] + positions[k])
-            if h is not None:  # the film pushes the housing back as it pushes the journal
-                A[np.ix_(h, h)] += Kf[k]
-                A[np.ix_(dofs[k], h)] -= Kf[k]
-                A[np.ix_(h, dofs[k])] -= Kf[k]
-                rhs[h] -= R[k] + Kf[k] @ (offsets[k] + positions[k])
-        u = np.linalg.solve(A, rhs)
-        new = np.array([R[k] - Kf[k] @ (u[dofs[k]] - (0.0 if housed[k] is None else u[housed[k]]) - offsets[k]
-                                        - positions[k]) for k in range(len(nodes))])
-        change = np.max(np.abs(new - R)) / np.max(np.abs(new))
-        R = new
-        if change < COUPLED_TOL:
-            break
-    else:
-        from ..errors import ConvergenceError
-
-        raise ConvergenceError(f"coupled statics: the loads still changed by {change:.1e} after {max_iter} steps")
+    # On rigid supports a few micrometres of offset can lift a journal off that its film, far softer, still
+    # loads: then the offsets are brought in by steps from the straight line, each step started from the last
+    # (Newton from the rigid reactions would start from films pulled upwards by the full offsets).
+    scales = (1.0,) if np.all(R[:, 1] > 0.0) else OFFSET_STEPS
+    if scales is OFFSET_STEPS:
+        R = support_reactions(rotor, F, nodes, 0.0 * offsets)
+        _lift_off(machine, R, "on rigid supports in a straight line")
+    for scale in scales:
+        R, positions, u, it = _coupled_steps(machine, rotor, F, omega, dofs, housed, scale * offsets, R, positions,
+                                             max_iter)
     full = -R
     support_forces = []
     for j, (n, k, _) in enumerate(rotor.supports):  # over a pedestal: the shaft's motion relative to the housing

@@ -63,6 +63,35 @@ def test_stiff_films_give_the_continuous_beam_s_reactions_and_a_raised_middle_be
     assert np.allclose(cs.loads, cs.pinned_loads, rtol=5e-3, atol=5e-3 * np.abs(cs.pinned_loads).max())
 
 
+@pytest.mark.parametrize("raised_um", [10.0, 25.0])
+def test_an_offset_that_lifts_a_journal_off_rigid_supports_is_taken_up_by_the_films(tmp_path, raised_um):
+    """The middle bearing raised: on rigid supports the end journals would be pulled up (the pinned reactions point
+    up, and such a machine was refused before session 67), while the films, far softer than the shaft, let the
+    middle journal sink: at 10 um they still press every journal down; at 25 um the end films push their journals
+    down (a film carries a load in any direction). Either way the answer is the equilibrium by its definition: the
+    shaft pinned where the films hold the journals, offsets included, carries its weight with the films' loads, each
+    film puts its journal there under its load, and the loads add up to the weight."""
+    from lubeviz.film.equilibrium import find_equilibrium
+    from lubeviz.film.feed import Feed
+
+    m = uniform_machine(tmp_path, offset_um=raised_um, name="raised")
+    cs = coupled_statics(m)
+    assert cs.pinned_loads[0, 1] > 0 and cs.pinned_loads[2, 1] > 0  # rigid supports: the ends pulled up
+    assert (cs.loads[0, 1] < 0) == (raised_um == 10.0)  # on the films: pressed down at 10 um, not at 25 um
+    rotor = rotor_from_machine(m)
+    offsets = np.array([b.offset for b in m.bearings])
+    again = support_reactions(rotor, gravity_load(rotor, m.gravity), [b.node for b in m.bearings],
+                              offsets + cs.positions)
+    assert np.allclose(-again, cs.loads, rtol=1e-6, atol=1e-6 * np.abs(cs.loads).max())
+    omega = 2 * math.pi * m.operating_speed
+    for k, b in enumerate(m.bearings):  # from where the statics put it (a journal pushed up has no cold start)
+        eq = find_equilibrium(b, omega, cs.loads[k], Feed.flooded(), start=cs.positions[k])
+        assert eq.converged and np.allclose(eq.position, cs.positions[k], atol=1e-4 * b.clearance)
+    assert -cs.loads[:, 1].sum() == pytest.approx(weight(rotor, m.gravity), rel=1e-9)
+    cold = find_equilibrium(m.bearings[0], omega, cs.loads[0], Feed.flooded())  # no start: a singular step (a
+    assert cold.converged or cold.message  # journal in its groove) is said in the result, not raised by numpy
+
+
 def test_a_constant_support_shares_the_weight_and_two_bearings_stay_determinate(tmp_path):
     m = uniform_machine(tmp_path, support=True, name="supported")
     cs = coupled_statics(m)
