@@ -25,3 +25,19 @@ def test_a_held_flow_comes_from_the_search_s_flows_with_no_std():
     f = _fit(["q1", "q3"], [1e-5, 3e-5], [1e-7, 3e-7], flows=np.array([0.9e-5, 2e-5, 2.9e-5]))
     np.testing.assert_array_equal(f.flow_values(), [1e-5, 2e-5, 3e-5])  # fitted ones from `values`
     np.testing.assert_array_equal(f.flow_stds(), [1e-7, 0.0, 3e-7])
+
+
+def test_an_unbounded_flow_says_why_the_film_flooded_or_the_bearing_barely_seen():
+    """A flow the record does not bound from above: over an interval that starts near or above its Q_T the film is
+    flooded (more oil barely changes the vibration); one that starts well below reaches the starved side too, so the
+    record barely sees that bearing (session 67: a four-bearing record of two planes far from bearing 1 read Q1 at
+    1.78 Q_T, interval [140, open] ml/min, and said its film was flooded while the truth was 0.9 Q_T)."""
+    from lubeviz.identify.fit.least_squares import _unbounded_text
+    from lubeviz.units import MLMIN_PER_M3S
+
+    qt = 560.0 / MLMIN_PER_M3S
+    flooded = _unbounded_text(0, 0.97 * qt, qt)
+    assert "the film is flooded" in flooded and "not bounded from above" in flooded
+    unseen = _unbounded_text(0, 140.0 / MLMIN_PER_M3S, qt)
+    assert "the film is flooded" not in unseen
+    assert "anything from 140 ml/min up" in unseen and "Q_T (560 ml/min)" in unseen and "barely see" in unseen

@@ -38,7 +38,8 @@ from ..forward.budget import ModelBudget, model_sensitivity, set_covariance
 from ..forward.model import feature_plane, wrap_difference
 from ...units import MLMIN_PER_M3S
 from ..tables.supply import DEFAULT_SPAN
-from .result import Z95, FitParameter, flow_parameter, summary  # noqa: F401 - Z95 is read from here too
+from .result import (UNBOUNDED_FLOODED, Z95, FitParameter, flow_parameter,  # noqa: F401 - Z95 is read from here
+                     summary)
 
 STATUS = {
     0: "converged: the step fell below the tolerance",
@@ -556,8 +557,7 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
     # 4. the profile intervals of the flows (made above)
     for k in free_flows:
         if ref.names[k] in ivals and ivals[ref.names[k]][1] is None:
-            warnings.append(f"Q{k + 1} is not bounded from above by this record (the film is flooded: "
-                            "more oil barely changes the vibration)")
+            warnings.append(_unbounded_text(k, ivals[ref.names[k]][0], ref.q_threshold[k]))
     fs = prob.difference(theta) + fm
     n = len(all_names)
     std, cov = std_within([ref.names[i] for i in free], theta[free], std, cov, ivals)
@@ -572,6 +572,18 @@ def fit(chain, measured, *, names: Sequence[str] | None = None, budget: ModelBud
                paths=tuple(x[5] for x in reversed(refined)), inflation=inflation, warnings=tuple(warnings),
                q_threshold=ref.q_threshold.copy(), features_sigma=np.sqrt(np.sum(prob.L ** 2, axis=1)),
                params=params, flows=theta[:nq].copy())
+
+
+def _unbounded_text(k: int, low: float, q_threshold: float) -> str:
+    """Why the record does not bound flow k from above: its film is flooded over the whole interval (more oil barely
+    changes the vibration), or the interval reaches down into the starved side too, so the planes measured barely see
+    that bearing at all (no probe near it)."""
+    if low >= UNBOUNDED_FLOODED * q_threshold:
+        return (f"Q{k + 1} is not bounded from above by this record (the film is flooded: more oil barely changes "
+                "the vibration)")
+    return (f"Q{k + 1} is not bounded by this record: anything from {low * MLMIN_PER_M3S:.0f} ml/min up fits, on both "
+            f"sides of this bearing's Q_T ({q_threshold * MLMIN_PER_M3S:.0f} ml/min), so its answer says nothing of "
+            "its lubrication: the planes measured barely see this bearing (a probe pair at or near it would)")
 
 
 def _clipped_text(chain, k: int, held: float) -> str:

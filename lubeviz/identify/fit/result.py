@@ -19,6 +19,9 @@ from ...errors import InputError
 from ...units import MLMIN_PER_M3S
 
 VERDICT_BAND = (0.95, 1.05)  # a flow within this fraction of Q_T is "normal"
+UNBOUNDED_FLOODED = VERDICT_BAND[0]  # an interval open above and starting here x Q_T or higher: the film is flooded
+# over all of it (more oil barely changes the vibration); one starting lower spans the starved side too: the
+# record barely sees that bearing
 Z95 = float(stats.norm.ppf(0.975))  # 1.96: a 95 % interval's half-width in standard deviations
 
 

@@ -12,7 +12,7 @@ import math
 import re
 
 from ...units import MLMIN_PER_M3S
-from ..fit.result import verdict_over_interval
+from ..fit.result import UNBOUNDED_FLOODED, verdict_over_interval
 
 
 def _flows(params) -> list:
@@ -104,8 +104,9 @@ def result_text(item) -> list[str]:
     for k, p in enumerate(_flows(r.params)):
         qt = r.q_threshold[k] * MLMIN_PER_M3S
         iv = p.interval
+        open_end = "open (flooded)" if iv is not None and iv[0] >= UNBOUNDED_FLOODED * qt else "open"
         span = ("no interval" if iv is None else
-                f"95 % interval {iv[0]:.0f}-{'open (flooded)' if iv[1] is None else format(iv[1], '.0f')}")
+                f"95 % interval {iv[0]:.0f}-{open_end if iv[1] is None else format(iv[1], '.0f')}")
         ends = verdict_over_interval(p.value, iv, qt)
         verdict = ends[0] if ends[0] == ends[1] else f"{ends[0]} to {ends[1]} (the interval spans Q_T's band)"
         out.append(f"  Q{k + 1} = {p.value:.1f} ml/min, {span}; Q_T = {qt:.0f} ml/min "
