@@ -38,24 +38,9 @@ def _feed(args) -> Feed:
     return Feed.flow(mlmin_to_m3s(args.q_mlmin))
 
 
-def bearing_index(machine, given) -> int:
-    """`--bearing`: a fluid-film bearing of `machine` by its number (1..N, file order) or its name in the model file;
-    0-based."""
-    names = [b.name.strip().casefold() for b in machine.bearings]
-    text = str(given).strip()
-    n = len(machine.bearings)
-    if text.isdigit() and 1 <= int(text) <= n:
-        return int(text) - 1
-    if not text.isdigit() and names.count(text.casefold()) == 1:
-        return names.index(text.casefold())
-    listed = ", ".join(f"{k} ({b.name})" for k, b in enumerate(machine.bearings, start=1))
-    raise InputError(f"--bearing {text!r}: expected the number (1..{n}) or the name of a fluid-film bearing of "
-                     f"{machine.source or machine.name}: {listed}")
-
-
 def _bearing(args):
     machine = load_machine(args.machine)
-    index = bearing_index(machine, args.bearing)
+    index = int(machine.part_number("bearing", args.bearing, "--bearing")) - 1
     b = machine.bearings[index]
     changes = {}
     for flag, name, scale in (("length_mm", "length", 1e-3), ("radius_mm", "radius", 1e-3),

@@ -374,23 +374,11 @@ class Registry(dict):
 
 
 def _part_number(machine, key: str, value: str, name: str) -> str:
-    """A placement given by the name of a bearing, plane or support of `machine` as its number (1-based, file order);
-    any other value as given. A name shared by two parts of the kind is refused: the number says which."""
-    parts = None if machine is None else {"bearing": machine.bearings, "plane": machine.measurement_planes,
-                                          "support": machine.supports}.get(key)
-    if not parts or value.isdigit() or value in EVERY_BEARING:
+    """A placement on a bearing, plane or support of `machine` by its number or its name (`Machine.part_number`);
+    any other key's value, or any value without a machine, as given."""
+    if machine is None or key not in ("bearing", "plane", "support"):
         return value
-    hits = [k for k, part in enumerate(parts, start=1) if getattr(part, "name", "").strip().casefold()
-            == value.casefold()]
-    if len(hits) > 1:
-        raise InputError(f"effect {name}: {key}={value!r} names {key}s {', '.join(map(str, hits))} of "
-                         f"{machine.source or machine.name}; give the number (1..{len(parts)})")
-    if not hits:
-        known = ", ".join(f"{k} ({part.name})" if getattr(part, "name", "") else str(k)
-                          for k, part in enumerate(parts, start=1))
-        raise InputError(f"effect {name}: {key}={value!r} is neither a number nor the name of a {key} of "
-                         f"{machine.source or machine.name}: {known}")
-    return str(hits[0])
+    return machine.part_number(key, value, f"effect {name}: {key}", words=EVERY_BEARING if key == "bearing" else ())
 
 
 def _convert(cls, key: str, value: str, name: str):

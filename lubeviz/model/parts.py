@@ -138,6 +138,31 @@ class Machine(param.Parameterized):
         return {"default_nodes": tuple(p.node for p in planes),
                 "default_probe_angles": tuple(tuple(float(a) for a in p.probe_angles_deg) for p in planes)}
 
+    def part_number(self, kind: str, given, what: str, words=()) -> str:
+        """A bearing, plane or support (`kind`) of this machine given by its number (1..N, file order) or by its name
+        in the model file (case aside), as its number; a word of `words` (e.g. "all") as given. A number out of
+        range, a name no part has or two parts share: InputError naming `what`, the file and the parts."""
+        from ..errors import InputError
+
+        parts = {"bearing": self.bearings, "plane": self.measurement_planes, "support": self.supports}[kind]
+        text = str(given).strip()
+        if text in words:
+            return text
+        if text.isdigit() and 1 <= int(text) <= len(parts):
+            return text
+        hits = [] if text.isdigit() else [k for k, part in enumerate(parts, start=1)
+                                          if getattr(part, "name", "").strip().casefold() == text.casefold()]
+        if len(hits) == 1:
+            return str(hits[0])
+        where = self.source or self.name
+        if hits:
+            raise InputError(f"{what} {text!r} names {kind}s {', '.join(map(str, hits))} of {where}; give the "
+                             f"number (1..{len(parts)})")
+        listed = ", ".join(f"{k} ({part.name})" if getattr(part, "name", "") else str(k)
+                           for k, part in enumerate(parts, start=1))
+        raise InputError(f"{what} {text!r}: expected the number (1..{len(parts)}) or the name of a {kind} of "
+                         f"{where}: {listed or 'none declared'}")
+
     @property
     def measurement_planes(self) -> list[Plane]:
         """The declared planes, or one at each bearing's node with probes along X and Y (SPEC §8)."""

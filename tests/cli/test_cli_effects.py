@@ -84,7 +84,7 @@ def test_identify_places_a_declared_effect_by_the_bearing_s_name_and_refuses_a_n
     assert abs(answers[0]["factor"] - 1.0) < 3 * answers[0]["factor_std"] + 0.01
     code, out, err = run(capsys, "identify", rec, "--effect", "viscosity:bearing=bearing 3", "--json")
     assert code == 2 and out == ""
-    assert "neither a number nor the name of a bearing of" in err and "1 (bearing 1), 2 (bearing 2)" in err
+    assert "expected the number (1..2) or the name of a bearing of" in err and "1 (bearing 1), 2 (bearing 2)" in err
 
 
 def test_time_integration_with_an_effect_is_refused(capsys, tmp_path):

@@ -25,14 +25,15 @@ def test_a_bearing_plane_or_support_named_is_the_one_with_that_number():
 
 def test_a_name_the_machine_lacks_or_shares_is_refused_with_its_parts_listed():
     fan = load_machine(FAN)
-    with pytest.raises(InputError, match=r"bearing='sleeve D' is neither a number nor the name of a bearing of "
-                                         r".*three_bearing_fan.toml: 1 \(sleeve A \(drive end\)\), 2 \(sleeve B"):
+    with pytest.raises(InputError, match=r"effect clearance: bearing 'sleeve D': expected the number \(1..3\) or the "
+                                         r"name of a bearing of .*three_bearing_fan.toml: 1 \(sleeve A \(drive end\)\), "
+                                         r"2 \(sleeve B"):
         parse_effect("clearance:bearing=sleeve D", fan)
     with pytest.raises(InputError, match="expected one of both, all, 1"):  # no machine: numbers only, as before
         parse_effect("clearance:bearing=sleeve B (middle)")
     twins = load_machine(FAN)  # two planes of one name: the number must say which
     twins.planes = [dataclasses.replace(p, name="probe") for p in fan.planes]
-    with pytest.raises(InputError, match=r"plane='probe' names planes 1, 2, 3 of .*; give the number \(1..3\)"):
+    with pytest.raises(InputError, match=r"plane 'probe' names planes 1, 2, 3 of .*; give the number \(1..3\)"):
         parse_effect("probe_rotation:plane=probe,angle_deg=2", twins)
 
 
