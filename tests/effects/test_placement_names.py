@@ -26,8 +26,8 @@ def test_a_bearing_plane_or_support_named_is_the_one_with_that_number():
 def test_a_name_the_machine_lacks_or_shares_is_refused_with_its_parts_listed():
     fan = load_machine(FAN)
     with pytest.raises(InputError, match=r"effect clearance: bearing 'sleeve D': expected the number \(1..3\) or the "
-                                         r"name of a bearing of .*three_bearing_fan.toml: 1 \(sleeve A \(drive end\)\), "
-                                         r"2 \(sleeve B"):
+                                         r"name of a bearing of .*three_bearing_fan.toml: "
+                                         r"1 \(sleeve A \(drive end\)\), 2 \(sleeve B"):
         parse_effect("clearance:bearing=sleeve D", fan)
     with pytest.raises(InputError, match="expected one of both, all, 1"):  # no machine: numbers only, as before
         parse_effect("clearance:bearing=sleeve B (middle)")
