@@ -38,8 +38,7 @@ from ..forward.budget import ModelBudget, model_sensitivity, set_covariance
 from ..forward.model import feature_plane, wrap_difference
 from ...units import MLMIN_PER_M3S
 from ..tables.supply import DEFAULT_SPAN
-from .result import (UNBOUNDED_FLOODED, Z95, FitParameter, flow_parameter,  # noqa: F401 - Z95 is read from here
-                     summary)
+from .result import Z95, FitParameter, flooded_above, flow_parameter, summary  # noqa: F401 - Z95 read from here
 
 STATUS = {
     0: "converged: the step fell below the tolerance",
@@ -578,7 +577,7 @@ def _unbounded_text(k: int, low: float, q_threshold: float) -> str:
     """Why the record does not bound flow k from above: its film is flooded over the whole interval (more oil barely
     changes the vibration), or the interval reaches down into the starved side too, so the planes measured barely see
     that bearing at all (no probe near it)."""
-    if low >= UNBOUNDED_FLOODED * q_threshold:
+    if flooded_above(low, q_threshold):
         return (f"Q{k + 1} is not bounded from above by this record (the film is flooded: more oil barely changes "
                 "the vibration)")
     return (f"Q{k + 1} is not bounded by this record: anything from {low * MLMIN_PER_M3S:.0f} ml/min up fits, on both "

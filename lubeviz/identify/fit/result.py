@@ -22,6 +22,12 @@ VERDICT_BAND = (0.95, 1.05)  # a flow within this fraction of Q_T is "normal"
 UNBOUNDED_FLOODED = VERDICT_BAND[0]  # an interval open above and starting here x Q_T or higher: the film is flooded
 # over all of it (more oil barely changes the vibration); one starting lower spans the starved side too: the
 # record barely sees that bearing
+
+
+def flooded_above(low: float, q_threshold: float) -> bool:
+    """Whether a flow interval open above (its low end `low`, same unit as `q_threshold`) is open because the film
+    is flooded over all of it, rather than because the record barely sees that bearing (`UNBOUNDED_FLOODED`)."""
+    return low >= UNBOUNDED_FLOODED * q_threshold
 Z95 = float(stats.norm.ppf(0.975))  # 1.96: a 95 % interval's half-width in standard deviations
 
 

@@ -12,7 +12,7 @@ import math
 import re
 
 from ...units import MLMIN_PER_M3S
-from ..fit.result import UNBOUNDED_FLOODED, verdict_over_interval
+from ..fit.result import flooded_above, verdict_over_interval
 
 
 def _flows(params) -> list:
@@ -104,7 +104,7 @@ def result_text(item) -> list[str]:
     for k, p in enumerate(_flows(r.params)):
         qt = r.q_threshold[k] * MLMIN_PER_M3S
         iv = p.interval
-        open_end = "open (flooded)" if iv is not None and iv[0] >= UNBOUNDED_FLOODED * qt else "open"
+        open_end = "open (flooded)" if iv is not None and flooded_above(iv[0], qt) else "open"
         span = ("no interval" if iv is None else
                 f"95 % interval {iv[0]:.0f}-{open_end if iv[1] is None else format(iv[1], '.0f')}")
         ends = verdict_over_interval(p.value, iv, qt)
