@@ -53,9 +53,10 @@ def test_the_chain_equals_a_direct_solve_and_the_declared_support_changes_nothin
     one, base = chain.output(np.r_[q, 1.0]), plain.output(q)
     np.testing.assert_allclose(one.x, base.x, rtol=1e-12)
     np.testing.assert_allclose(chain.static_loads(np.r_[q, 1.0]), plain.static_loads(q), rtol=1e-12)
-    # and it does move them: a support at a third of its stiffness changes plane A's 1X by more than 5 %
+    # and it does move them: a support at a third of its stiffness changes plane A's 1X by a few percent (5.3 %, and
+    # 4.95 % with the films corrected for their loads' lean, session 68)
     soft = chain.output(np.r_[q, 0.3])
-    assert np.abs(soft.x[0] - base.x[0]) > 0.05 * np.abs(base.x[0])
+    assert np.abs(soft.x[0] - base.x[0]) > 0.03 * np.abs(base.x[0])
 
 
 @pytest.mark.slow

@@ -69,7 +69,9 @@ def test_a_profile_point_below_the_optimum_restarts_the_fit(viscous, monkeypatch
     res = _fit(viscous, start=start)
     monkeypatch.setattr(LS, "PROFILE_RESTARTS", 0)
     once = _fit(viscous, start=start)
-    assert res.chi2 < once.chi2 - LS.BETTER_BY and _holds(res) and not _holds(once)
+    # (without the restart Q1's interval missed its truth until session 68; with the rigid turn of the films' leaning
+    # loads in the budget it is wide enough to hold it: the restart's answer is still the better one, and nearer)
+    assert res.chi2 < once.chi2 - LS.BETTER_BY and _holds(res)
     assert abs(res.values[-1] - 1.289) < abs(once.values[-1] - 1.289)
 
 

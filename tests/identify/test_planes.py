@@ -94,13 +94,15 @@ def test_the_budget_counts_bearings_and_planes(chains):
     names3 = plane_features(3) + static_features((1, 3))
     S2 = model_sensitivity(two, theta, ALL_FEATURES + static_features(2))
     S3 = model_sensitivity(three, theta, names3)
-    # the large-orbit correction's own error: a real and an imaginary column per 1X entry, 4 per plane
-    assert S2.shape[1] == n_terms(2, 2) == 44 and S3.shape[1] == n_terms(2, 3) == 52
-    assert mesh_columns(2, 3).sum() == 20
+    # per bearing 12 film columns and a flow's scale, 2 of the shaft's damping, 4 static ones per plane, each film's
+    # position through the loads (x, y per bearing: empty on two supports) and the large-orbit correction's own
+    # error (a real and an imaginary column per 1X entry, 4 per plane)
+    assert S2.shape[1] == n_terms(2, 2) == 48 and S3.shape[1] == n_terms(2, 3) == 56
+    assert mesh_columns(2, 3).sum() == 20 + 4  # the mesh's and the turn's: they differ by operating point
     # the journals' features carry the same terms, column for column where the layout is the same
     rows2 = list(range(len(ALL_FEATURES)))
     rows3 = [names3.index(AS_THIRD[n]) for n in ALL_FEATURES]
-    first = n_terms(2, 2) - 8 - 8  # the dynamic terms and the flows' scale come before the static columns
+    first = n_terms(2, 2) - 8 - 4 - 8  # the dynamic terms and the flows' scale come before the static columns
     assert np.allclose(S3[rows3, :first], S2[rows2, :first], rtol=1e-6, atol=1e-12 * np.abs(S2).max())
     # each static feature has its own plane's film and rest-reading columns, and only those
     static3 = S3[len(plane_features(3)):, first:first + 12]
@@ -164,13 +166,14 @@ def test_a_coarse_grid_is_searched_at_its_cells_centres_too():
     np.testing.assert_allclose(np.sqrt(centres[:, 0, 0, 0] / chain.q_threshold[0]), 0.5 * (u[1:] + u[:-1]))
 
 
-@pytest.mark.parametrize("speed,nodes,over_qt", [(29.0, (15, 23), (1.75, 0.53, 1.64)),
-                                                 (26.5, (15, 23), (1.01, 1.53, 1.4))])
+@pytest.mark.parametrize("speed,nodes,over_qt", [(26.5, (15, 23), (1.01, 1.53, 1.4))])
 def test_the_search_finds_a_valley_narrower_than_the_grid_s_step(monkeypatch, speed, nodes, over_qt):
     """The fan's over-fed films make the flows' valley narrower than the 3-flow grid's step: two of the records the
     coverage bench flagged (seed 12), here made by the model (12 dB, seed 0). The grid alone led the search into a
-    wrong basin (chi2 131 at Q1 = 0.60 Q_T, chi2 13 at 0.67, 1.87, 1.34 Q_T); with its cells' centres it finds the
-    flows within 3 % (chi2 0.2 and 1.5 for 3 dof)."""
+    wrong basin (chi2 131 at Q1 = 0.60 Q_T, chi2 13 at 0.67, 1.87, 1.34 Q_T; the second 6.6 with the films' turn in
+    the budget, session 68); with its cells' centres it finds the flows within 3 % (chi2 0.2 and 1.5 for 3 dof). The
+    first (29 Hz; 1.75, 0.53, 1.64 Q_T) is no longer a test of it: with the chain's films corrected for their loads'
+    lean (session 68) the grid alone finds its valley too."""
     from lubeviz.identify.fit import least_squares
     from lubeviz.identify.forward.chain import simulate
     from lubeviz.identify.forward.measured import measure
@@ -186,4 +189,7 @@ def test_the_search_finds_a_valley_narrower_than_the_grid_s_step(monkeypatch, sp
     monkeypatch.setattr(least_squares, "_grid_starts",
                         lambda *a, centres=False: grid_only(*a))  # the centres as the grid itself: the old search
     least_squares._SEARCHES.clear()  # (not the search the first fit made, remembered)
-    assert fit(chain, meas, intervals=False).chi2 > 10.0
+    old = fit(chain, meas, intervals=False)
+    # another basin: its flows a third off (session 68, with the rigid turn in the budget: chi2 128 and 6.6 against
+    # 0.1 and 1.2), worse than the valley by far more than chance
+    assert old.chi2 > res.chi2 + 4.0 and np.abs(old.values[:3] / theta - 1.0).max() > 0.2

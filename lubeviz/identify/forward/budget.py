@@ -185,15 +185,23 @@ def orbit_terms(n_planes: int) -> int:
 
 def n_terms(n_bearings: int, n_planes: int) -> int:
     """The budget's columns for a machine of `n_bearings` fluid-film bearings measured at `n_planes` planes."""
-    return n_bearings * (MESH_TERMS + 2) + 2 + n_bearings + 4 * n_planes + orbit_terms(n_planes)
+    return n_bearings * (MESH_TERMS + 2) + 2 + n_bearings + 4 * n_planes + 2 * n_bearings + orbit_terms(n_planes)
+
+
+def _position_columns(n_bearings: int, n_planes: int) -> slice:
+    """The columns of each film's position error carried through the load shift (x and y of each bearing)."""
+    start = n_bearings * (MESH_TERMS + 2) + 2 + n_bearings + 4 * n_planes
+    return slice(start, start + 2 * n_bearings)
 
 
 def mesh_columns(n_bearings: int, n_planes: int) -> np.ndarray:
-    """Mask of `model_sensitivity`'s columns that are film mesh terms (the rest: tolerances, shaft damping, static
-    and large-orbit terms, one physical value for every record of a set)."""
+    """Mask of `model_sensitivity`'s columns that are film terms which differ by operating point: the mesh's and the
+    rigid turn's (the rest: tolerances, shaft damping, static and large-orbit terms, one physical value for every
+    record of a set)."""
     mask = np.zeros(n_terms(n_bearings, n_planes), dtype=bool)
     for k in range(n_bearings):
         mask[k * (MESH_TERMS + 2):k * (MESH_TERMS + 2) + MESH_TERMS] = True
+    mask[_position_columns(n_bearings, n_planes)] = True
     return mask
 
 
@@ -222,24 +230,47 @@ def set_covariance(blocks, correlation: float, n_bearings: int, n_planes: int) -
 # (tests/effects/test_side_load_direction.py measures it)
 TURN_ERROR_PER_RAD = 0.45
 TURN_ERROR_PER_RAD_STARVED = 0.2
+# What the correction of a turned film leaves (`forward.shifted.lean_corrected`, 3+ supports), as a share of the
+# turn's own error per radian (`forward.turn`): the corrected film against the film solved at the leaning load on the
+# rehearsal train's four bearings (two axial grooves at L/D 0.5, one top groove at L/D 0.69), leans -15 to 12 deg,
+# flows 0.6-2.5 Q_T between the measured ones, loads 0.85-1.2 x the declared (81 points a bearing): K's and C's left
+# median 0.08-0.29 of the rigid turn's by bearing, the largest per radian 0.95 against the rigid turn's 1.84 (the
+# motor's bearing with two grooves); the position's median 0.09-0.16, the largest 0.041 c per radian against 0.32 c
+# (session 68, docs/notes/any-machine.md "The rigid turn of a film")
+TURN_RESIDUAL = 0.5
+TURN_RESIDUAL_POSITION = 0.15
 # A fit's answer whose film loads lean further than this off their declared lines is said not to be trusted
 # (`ForwardChain.turned_loads`): twice the largest lean the turn's error was measured at
 TURN_SAID_DEG = 20.0
 
 
-def _turn_error(src, q: float, bearing) -> float:
-    """The rigid turn's share of |K| and |C| for a film at flow q leaning `bearing.lean` off its table's line."""
-    lean = abs(float(bearing.lean))
+def turn_errors(chain, k: int, q: float, bearing, lean: float) -> tuple[float, float, float]:
+    """What the film turned with its load leaves out (1 sigma) for bearing k's film at flow q (m^3/s), with its
+    `BearingChange`, leaning `lean` (rad) off its table's line (`ForwardChain.film_turns`): its journal position (m,
+    each component) and the shares of |K| and of |C|, from the turn's error measured on the bearing's own film per
+    radian (`forward.turn`). On 3+ supports the chain corrects the turn by that measurement (`shifted.lean_corrected`)
+    and what is left is TURN_RESIDUAL of it (TURN_RESIDUAL_POSITION of the position's); on two supports (a side load's
+    lean) the turn is rigid, and K's and C's never below the paper bearing's sizes against the fine mesh
+    (TURN_ERROR_PER_RAD, the starved one below Q_T)."""
+    lean = abs(float(lean))
     if lean == 0.0:
-        return 0.0
-    u = float(np.clip((q / src.view(*bearing).q_threshold - 1.0) / 0.1, 0.0, 1.0))
-    return lean * (TURN_ERROR_PER_RAD_STARVED + (TURN_ERROR_PER_RAD - TURN_ERROR_PER_RAD_STARVED)
-                   * u * u * (3.0 - 2.0 * u))
+        return 0.0, 0.0, 0.0
+    src = chain.sources[k]
+    ratio = q / src.view(*bearing).q_threshold
+    position, stiffness, damping = src.turn_error().at(ratio)
+    clearance = src.bearing.clearance if bearing.clearance is None else bearing.clearance
+    if chain._shift is not None:
+        return (lean * TURN_RESIDUAL_POSITION * position * clearance, lean * TURN_RESIDUAL * stiffness,
+                lean * TURN_RESIDUAL * damping)
+    u = float(np.clip((ratio - 1.0) / 0.1, 0.0, 1.0))
+    floor = TURN_ERROR_PER_RAD_STARVED + (TURN_ERROR_PER_RAD - TURN_ERROR_PER_RAD_STARVED) * u * u * (3.0 - 2.0 * u)
+    return lean * position * clearance, lean * max(floor, stiffness), lean * max(floor, damping)
 
 
-def _dynamic_perturbations(chain, theta, budget: ModelBudget) -> list[np.ndarray]:
+def _dynamic_perturbations(chain, theta, budget: ModelBudget, turns) -> list[np.ndarray]:
     """Unit perturbations dB (2N, 2N) of the bearings' dynamic stiffness, each scaled to its 1-sigma size, in
-    a fixed order (the same physical term at every speed, so joint fits over a set correlate them)."""
+    a fixed order (the same physical term at every speed, so joint fits over a set correlate them). `turns`: each
+    film's `turn_errors`."""
     out = []
     w = chain.omega
     nb = len(chain.sources)
@@ -254,18 +285,19 @@ def _dynamic_perturbations(chain, theta, budget: ModelBudget) -> list[np.ndarray
         else:
             u = 0.0
         mesh = budget.calibration * (1.0 - (1.0 - budget.flooded_mesh) * u * u * (3.0 - 2.0 * u))
-        turn = _turn_error(src, theta[k], bearing)
-        for M, s, scale in ((K, math.hypot(budget.coefficient_k * mesh, turn), 1.0),
-                            (C, math.hypot(budget.coefficient_c * mesh, turn), 1j * w)):
+        _, turn_k, turn_c = turns[k]
+        for M, s, turn, scale in ((K, budget.coefficient_k * mesh, turn_k, 1.0),
+                                  (C, budget.coefficient_c * mesh, turn_c, 1j * w)):
             d = np.zeros((2 * nb, 2 * nb), dtype=complex)
             d[sl, sl] = s * scale * M
             out.append(d)  # common scale error (the mesh moves all entries together)
             big = np.abs(M).max()
+            entry = math.hypot(s, turn) / np.sqrt(2.0)  # the turn's: its largest entry's change, any entry
             for i in range(2):
                 for j in range(2):
                     d = np.zeros((2 * nb, 2 * nb), dtype=complex)
-                    d[2 * k + i, 2 * k + j] = s / np.sqrt(2.0) * scale * big
-                    out.append(d)  # entrywise, the other half of the variance
+                    d[2 * k + i, 2 * k + j] = entry * scale * big
+                    out.append(d)  # entrywise, the other half of the mesh's variance
         for change, s in (("viscosity", budget.viscosity), ("clearance", budget.clearance)):
             d = np.zeros((2 * nb, 2 * nb), dtype=complex)
             if s > 0:
@@ -295,7 +327,10 @@ def model_sensitivity(chain, theta, names, budget: ModelBudget | None = None) ->
     nb, npl = len(chain.sources), len(chain.nodes)
     dyn = [j for j, n in enumerate(names) if not is_static(n)]
     S = np.zeros((len(names), n_terms(nb, npl)))
-    perts = np.stack(_dynamic_perturbations(chain, theta, budget))
+    leans = _budget_leans(chain, theta)
+    turns = [turn_errors(chain, k, theta[k], chain.bearing_changes(k, theta, ()).as_floats(), leans[k])
+             for k in range(nb)]
+    perts = np.stack(_dynamic_perturbations(chain, theta, budget, turns))
     n_dyn = perts.shape[0]
     # the features at theta and at each flow's +-supply_flow in one call (each call costs ~0.2 ms before its points)
     s = budget.supply_flow
@@ -324,9 +359,11 @@ def model_sensitivity(chain, theta, names, budget: ModelBudget | None = None) ->
             if k is None:
                 raise InputError(f"feature {n}: plane {p + 1} is not at a bearing centre")
             c = chain.sources[k].bearing.clearance
-            # position from the film (mesh) and the rest reading, each its own column
-            S[j, col + 2 * p + (0 if n[1] == "x" else 1)] = budget.static_position * c
+            # position from the film (mesh, rigid turn) and the rest reading, each its own column
+            S[j, col + 2 * p + (0 if n[1] == "x" else 1)] = math.hypot(budget.static_position * c, turns[k][0])
             S[j, col + 2 * npl + 2 * p + (0 if n[1] == "x" else 1)] = budget.rest_reading
+    if chain._shift is not None:  # 3+ supports: the loads follow the journals, and so their positions' errors
+        S[:, _position_columns(nb, npl)] = _position_through_loads(chain, theta, names, budget, turns)
     if chain.defect is not None and (budget.orbit_defect > 0 or budget.orbit_truncation > 0):
         d = chain.defect  # the correction's own error, entry by entry
         size = orbit_defect_error(chain, theta, budget)
@@ -339,6 +376,39 @@ def model_sensitivity(chain, theta, names, budget: ModelBudget | None = None) ->
             S[:, S.shape[1] - terms + j] = wrap_difference(chain.with_defect(moved).features(theta, names) - base,
                                                            names)
     return S
+
+
+def _budget_leans(chain, theta) -> np.ndarray:
+    """The films' leans the budget's turn terms are sized at (`ForwardChain.film_turns`). On 3+ supports the leans the
+    flows give the declared machine, not those an effect's static loads add: a diagnosis compares its candidates by
+    chi2 without the covariance's determinant, and a side load or a moved bearing that leaned the loads would widen
+    its own budget and win by it (the fan's loop case 45, a turned probe and a worn bearing, read as a side load at
+    chi2 12 for 5 dof, session 68). On two supports a side load's lean, as before (`TURN_ERROR_PER_RAD`)."""
+    if chain._shift is None:
+        return chain.film_turns(theta)
+    nb = len(chain.sources)
+    plain = chain if not chain.effects else chain.__dict__.get("_plain_chain")
+    if plain is None:
+        plain = chain.__dict__["_plain_chain"] = chain.with_effects(())
+    return plain.film_turns(np.asarray(theta, dtype=float)[:nb])
+
+
+def _position_through_loads(chain, theta, names, budget: ModelBudget, turns) -> np.ndarray:
+    """(n_features, 2N) each film position's 1-sigma error (the mesh's `static_position` and the rigid turn's,
+    `turn_errors`), x and y of each bearing, carried through the static loads of 3+ supports into every feature:
+    the journals held that much off (`ForwardChain.with_position_error`), both ways in one call. On a rigidly
+    coupled train a tenth of a micrometre moves ~10 N between the bearings beside the coupling, and the turned film
+    of a flooded bearing sits up to 1.6 um off the film at its load (session 68): the loads, and with them K and C,
+    of the bearings the coupling joins differed from the independent source's by 2-4 %."""
+    nb = len(chain.sources)
+    sizes = [math.hypot(budget.static_position * chain.sources[k].bearing.clearance, turns[k][0]) for k in range(nb)]
+    error = np.zeros((4 * nb, nb, 2))
+    for k in range(nb):
+        for d in range(2):
+            error[2 * (2 * k + d), k, d] = sizes[k]
+            error[2 * (2 * k + d) + 1, k, d] = -sizes[k]
+    g = chain.with_position_error(error).features(np.tile(theta, (4 * nb, 1)), names)
+    return (0.5 * wrap_difference(g[0::2] - g[1::2], names)).T
 
 
 def truncation_factor(harmonics: int) -> float:

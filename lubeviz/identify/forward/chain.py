@@ -60,6 +60,7 @@ def flow_names(n_bearings: int) -> tuple[str, ...]:
 # --- bearings stage ------------------------------------------------------------------------------
 
 _HELD_KEY = ("slices",)  # a views store's entry for the slices its sources loaded (`BearingSource.share_views`)
+_TURN_KEY = ("turn",)  # its entry for the bearing's turn error (`BearingSource.turn_error`)
 
 
 class _HeldSlices:
@@ -239,6 +240,32 @@ class BearingSource:
         out = out.reshape(q.shape + (10,))
         return out[..., 0:4].reshape(q.shape + (2, 2)), out[..., 4:8].reshape(q.shape + (2, 2)), out[..., 8:10]
 
+    def turn_error(self):
+        """What the rigid turn of this bearing's film leaves out (`forward.turn.TurnError`), measured on its film in
+        its load's frame at the declared load and speed (once, then kept in memory and on disk)."""
+        if self._views.get(_TURN_KEY) is None:
+            from .turn import turn_error
+
+            self._views[_TURN_KEY] = turn_error(self._seen, self.omega, self._seen_load, self.nominal.q_threshold)
+        return self._views[_TURN_KEY]
+
+    def flow_ratio(self, q, factor=1.0, clearance=None, load_factor=1.0) -> np.ndarray:
+        """Each flow q (m^3/s) over the Q_T of this bearing with the given changes (`BearingChange`'s fields, each a
+        number or an array of q's shape): from the slices in memory where they serve, else from the changed bearing's
+        own view."""
+        q = np.asarray(q, dtype=float)
+        f, c, lf = (np.broadcast_to(np.asarray(a, dtype=float), q.shape).ravel()
+                    for a in (factor, self.bearing.clearance if clearance is None else clearance, load_factor))
+        qf = q.ravel()
+        out = np.full(qf.shape, np.nan)
+        stack = self._slice_stack()
+        if stack is not None:
+            v, served = stack.values(qf, f, c, lf, ratio=True)
+            out[served] = v[served, 10]
+        for i in np.flatnonzero(np.isnan(out)):
+            out[i] = qf[i] / self.view(f[i], c[i], lf[i]).q_threshold
+        return out.reshape(q.shape)
+
     def _slice_stack(self):
         """The `SliceStack` of the slices this bearing's views have loaded (the declared bearing's, first)."""
         if self._held.table is None:
@@ -255,6 +282,34 @@ class BearingSource:
                 except InputError:
                     return None
             return held.stack
+
+
+def _lean_corrected(src: BearingSource, state, q, change, lean):
+    """A bearing's (K, C, position) from its table (`BearingSource.evaluate`, in the machine's frame at its table's
+    lean) corrected for what the rigid turn by `lean` (rad, the batch's shape) leaves out, as the compiled loop
+    corrects it (`forward.shifted.lean_corrected`, in the table's own frame), before the turn itself (`_turned`)."""
+    from .shifted import lean_corrected_rows, turn_arrays
+
+    K, C, pos = state
+    lean = np.asarray(lean, dtype=float)
+    if not np.any(lean != 0.0):
+        return state
+    shape = np.shape(pos)[:-1]
+    rows = np.empty(shape + (11,))
+    rows[..., 0:4], rows[..., 4:8], rows[..., 8:10] = K.reshape(shape + (4,)), C.reshape(shape + (4,)), pos
+    back = src._turn  # the machine's frame from the table's: rows_machine = rows_table @ back.T
+    if back is not None:
+        rows[..., 0:10] = rows[..., 0:10] @ back
+    rows[..., 10] = src.flow_ratio(q, change.viscosity_factor, change.clearance, change.load_factor)
+    clearance = np.broadcast_to(np.asarray(src.bearing.clearance if change.clearance is None else change.clearance,
+                                           dtype=float), shape)
+    ratio, errors, count = turn_arrays((src.turn_error(),))
+    flat = np.ascontiguousarray(rows.reshape(-1, 11))
+    lean_corrected_rows(flat, np.ascontiguousarray(np.broadcast_to(lean, shape).ravel()),
+                        np.ascontiguousarray(clearance.ravel()), ratio[0], errors[0], int(count[0]))
+    v = flat[:, 0:10] if back is None else flat[:, 0:10] @ back.T
+    v = v.reshape(shape + (10,))
+    return v[..., 0:4].reshape(shape + (2, 2)), v[..., 4:8].reshape(shape + (2, 2)), v[..., 8:10]
 
 
 def _sagged(positions, stiffness, loads, sags):
@@ -567,6 +622,7 @@ class ForwardChain:
         self._build_reference()
         self.evaluations = 0
         self.defect: ResponseDefect | None = None
+        self.position_error: np.ndarray | None = None  # (`with_position_error`)
         self._damped_rotors: dict = {}  # shaft damping beta -> rotor (`damped_rotor`), shared with derived chains
 
     def with_defect(self, defect: ResponseDefect | None) -> "ForwardChain":
@@ -579,6 +635,18 @@ class ForwardChain:
                              f"{self.n_flows} fluid-film bearing(s)")
         new = copy.copy(self)
         new.defect = defect
+        new.__dict__.pop("_budget_chains", None)
+        return new
+
+    def with_position_error(self, error) -> "ForwardChain":
+        """The same chain with each film's journal held `error` (..., N, 2; m, broadcast against the batch) further
+        from its bearing's centre than the film puts it: what the static loads of 3+ supports do when the films'
+        positions are that much off (the model budget's columns of the position's error, carried through the
+        load shift; on two supports the loads do not follow the journals and nothing changes)."""
+        import copy
+
+        new = copy.copy(self)
+        new.position_error = None if error is None else np.asarray(error, dtype=float)
         new.__dict__.pop("_budget_chains", None)
         return new
 
@@ -786,13 +854,20 @@ class ForwardChain:
         A off its film: its loop's case 138), is not that film."""
         from .budget import TURN_SAID_DEG
 
+        turns = np.degrees(self.film_turns(theta))
+        return [(k, float(t)) for k, t in enumerate(turns) if abs(t) > TURN_SAID_DEG]
+
+    def film_turns(self, theta) -> np.ndarray:
+        """(N,) how far each film's load leans off its table's line at parameters theta (one point; rad, in
+        [-pi, pi)): the journals' positions shift it on 3+ supports (`static_loads`), an effect's `lean` (a side
+        load) on two. The film is the table's turned rigidly by it (`_turned`); the model budget carries what that
+        leaves out (`forward.turn`)."""
         theta = np.asarray(theta, dtype=float)
         if self._shift is not None:
             turns = _lean(self.static_loads(theta)) - _lean(self.loads)
         else:
             turns = np.array([float(self.bearing_changes(k, theta).lean) for k in range(self.n_flows)])
-        turns = np.degrees((turns + np.pi) % (2 * np.pi) - np.pi)
-        return [(k, float(t)) for k, t in enumerate(turns) if abs(t) > TURN_SAID_DEG]
+        return (turns + np.pi) % (2 * np.pi) - np.pi
 
     def static_loads(self, theta) -> np.ndarray:
         """Each bearing's static load (..., N, 2), N, at parameters theta: the flooded statics' moved by the
@@ -836,6 +911,9 @@ class ForwardChain:
         """(..., N, 2) how far each bearing's centre sits from its declared place at parameters theta (the
         bearings-stage effects' `bearing_offset`, m), or None when no effect moves one."""
         out = None
+        if self.position_error is not None:  # the model budget's (`with_position_error`)
+            out = np.zeros(shape + (self.n_flows, 2))
+            out += self.position_error
         for e in self.effects:
             if e.stage != "bearings":
                 continue
@@ -879,9 +957,10 @@ class ForwardChain:
             factors = self._within_grid(np.linalg.norm(loads, axis=-1) / np.linalg.norm(self.loads, axis=-1),
                                         changes)
             turns = _lean(loads) - _lean(self.loads)
+            turns = (turns + np.pi) % (2 * np.pi) - np.pi
             moved = [c._replace(load_factor=c.load_factor * factors[..., k]) for k, c in enumerate(changes)]
-            states = [_turned(src.evaluate(theta[..., k], *c), turns[..., k])
-                      for k, (c, src) in enumerate(zip(moved, self.sources))]
+            states = [_turned(_lean_corrected(src, src.evaluate(theta[..., k], *c), theta[..., k], c, turns[..., k]),
+                              turns[..., k]) for k, (c, src) in enumerate(zip(moved, self.sources))]
         return list(zip(moved, states)), loads
 
     def _on_grid(self, changes, shape) -> list:
@@ -965,7 +1044,7 @@ class ForwardChain:
 
                 # each table's frame (`film_frame`): the lean its slices were turned by
                 angles = [0.0 if src._turn is None else frame_lean(src.load) for src in self.sources]
-                packed = self._packed = packed_stacks(stacks, angles)
+                packed = self._packed = packed_stacks(stacks, angles, [src.turn_error() for src in self.sources])
             self._packed_held = tuple((src._held, src._held.table, len(src._held.table.slices))
                                       for src in self.sources) if stacks is not packed.stacks else held
             rows = None if target is None else _rows(target, shape, (n, 2))

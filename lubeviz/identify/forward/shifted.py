@@ -33,16 +33,19 @@ _lock = threading.Lock()
 _KEPT = 32
 
 
-def packed_stacks(stacks, angles) -> "PackedStacks":
-    """The `PackedStacks` of these stacks and table angles, kept (a diagnosis's ~200 chains of one machine share
-    their bearings' stacks: packing each chain's anew was 1.7 s of the fan's diagnosis, session 45)."""
-    key = (tuple(id(st) for st in stacks), tuple(float(a) for a in angles))
+def packed_stacks(stacks, angles, turns=None) -> "PackedStacks":
+    """The `PackedStacks` of these stacks, table angles and turn errors (`forward.turn.TurnError` per bearing, or
+    None), kept (a diagnosis's ~200 chains of one machine share their bearings' stacks: packing each chain's anew
+    was 1.7 s of the fan's diagnosis, session 45)."""
+    turns = tuple(turns) if turns is not None else (None,) * len(stacks)
+    key = (tuple(id(st) for st in stacks), tuple(float(a) for a in angles), tuple(id(t) for t in turns))
     with _lock:
         hit = _packed.get(key)
-        if hit is not None and all(a is b for a, b in zip(hit.stacks, stacks)):
+        if hit is not None and all(a is b for a, b in zip(hit.stacks, stacks)) and all(
+                a is b for a, b in zip(hit.turns, turns)):
             _packed.move_to_end(key)
             return hit
-    packed = PackedStacks(stacks, angles)  # it holds the stacks: their ids cannot be reused meanwhile
+    packed = PackedStacks(stacks, angles, turns)  # it holds the stacks: their ids cannot be reused meanwhile
     with _lock:
         _packed[key] = packed
         while len(_packed) > _KEPT:
@@ -52,10 +55,13 @@ def packed_stacks(stacks, angles) -> "PackedStacks":
 
 class PackedStacks:
     """The `SliceStack`s of a machine's bearings, padded into common arrays for `states_kernel`, with each
-    bearing's table angle (its film frame's lean, 0 when vertical) and the stacks they were packed from."""
+    bearing's table angle (its film frame's lean, 0 when vertical), its turn error (`forward.turn`: the correction of
+    a film whose load leans off its table's line; none: `turn_count` 0) and the stacks they were packed from."""
 
-    def __init__(self, stacks, angles):
+    def __init__(self, stacks, angles, turns=None):
         self.stacks = tuple(stacks)
+        self.turns = tuple(turns) if turns is not None else (None,) * len(self.stacks)
+        self.turn_ratio, self.turn_errors, self.turn_count = turn_arrays(self.turns)
         n = len(self.stacks)
         n_nodes = max(st.nodes.size for st in self.stacks)
         n_ratio = max(st.ratio.size for st in self.stacks)
@@ -90,6 +96,76 @@ class PackedStacks:
         self.angles = np.asarray(angles, dtype=float)
 
 
+def turn_arrays(turns):
+    """Each bearing's turn error (`forward.turn.TurnError`, or None) padded into the kernel's arrays: the flows'
+    ratios (N, R), the errors at the measured leans (N, R, 4, 10) and each bearing's count of ratios (0: none)."""
+    from .turn import TURN_LEANS_DEG
+
+    n = len(turns)
+    r = max([t.ratio.size for t in turns if t is not None], default=2)
+    ratio, errors = np.ones((n, r)), np.zeros((n, r, len(TURN_LEANS_DEG), 10))
+    count = np.zeros(n, np.int64)
+    for k, t in enumerate(turns):
+        if t is not None:
+            m = t.ratio.size
+            ratio[k, :m], errors[k, :m], count[k] = t.ratio, t.errors, m
+    return ratio, errors, count
+
+
+# The largest lean the correction follows (rad): past it the film is the correction's at this lean, turned further
+# rigidly (the budget says a fit there is not to be trusted, `budget.TURN_SAID_DEG`)
+LEAN_LIMIT = math.radians(20.0)
+# The leans the errors are measured at (`forward.turn.TURN_LEANS_DEG`: -outer, -inner, +inner, +outer), in radians
+_INNER, _OUTER = math.radians(3.0), math.radians(8.0)
+
+
+@numba.njit(cache=True, nogil=True)
+def _at_lean(e, a):
+    """The error at lean `a` from the measured ones `e` (4: at -8, -3, 3, 8 deg): zero at none, linear between the
+    measured leans, and past the outer ones on the slope between the last two."""
+    if a >= 0.0:
+        inner, outer = e[2], e[3]
+    else:
+        inner, outer = e[1], e[0]
+        a = -a
+    if a <= _INNER:
+        return inner * a / _INNER
+    return inner + (outer - inner) * (a - _INNER) / (_OUTER - _INNER)
+
+
+@numba.njit(cache=True, nogil=True)
+def lean_corrected(v, lean, clearance, ratio, errors, count):
+    """The table's ten values `v` (in its frame; `v[10]`: the flow over Q_T) of a film whose load leans `lean` (rad)
+    off the table's line, corrected in place for what the rigid turn leaves out (`forward.turn.TurnError`: its errors
+    at the measured leans, `_at_lean`, between its measured flows, held at their ends; K's and C's parts scaled by
+    their own Frobenius norms, the position's by the clearance)."""
+    if count < 2 or lean == 0.0:
+        return
+    a = min(max(lean, -LEAN_LIMIT), LEAN_LIMIT)
+    r = v[10]
+    if r <= ratio[0]:
+        j, w = 0, 0.0
+    elif r >= ratio[count - 1]:
+        j, w = count - 2, 1.0
+    else:
+        j = min(max(np.searchsorted(ratio[:count], r, side="right") - 1, 0), count - 2)
+        w = (r - ratio[j]) / (ratio[j + 1] - ratio[j])
+    nk = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[3] * v[3])
+    nc = math.sqrt(v[4] * v[4] + v[5] * v[5] + v[6] * v[6] + v[7] * v[7])
+    e = np.empty(4)
+    for i in range(10):
+        for m in range(4):
+            e[m] = (1.0 - w) * errors[j, m, i] + w * errors[j + 1, m, i]
+        v[i] += (nk if i < 4 else (nc if i < 8 else clearance)) * _at_lean(e, a)
+
+
+@numba.njit(cache=True, nogil=True)
+def lean_corrected_rows(rows, lean, clearance, ratio, errors, count):
+    """`lean_corrected` for each row of `rows` (M, 11) with its own lean and clearance (M,)."""
+    for p in range(rows.shape[0]):
+        lean_corrected(rows[p], lean[p], clearance[p], ratio, errors, count)
+
+
 def shifted_states(packed: PackedStacks, q, f, c, lf, k_s, reference, loads, steps: int, target=None):
     """K (M, N, 4), C (M, N, 4), positions (M, N, 2) in the machine's frame, each bearing's load factor over the
     flooded load (M, N), the loads (M, N, 2), which points were served (M,) and, for the others, the bearing and
@@ -116,7 +192,8 @@ def shifted_states(packed: PackedStacks, q, f, c, lf, k_s, reference, loads, ste
                   packed.ratio, packed.n_ratio, packed.split, packed.below, packed.m_below, packed.above,
                   packed.m_above, packed.scalars, packed.angles, _dimensionless.SNAP_LN,
                   np.ascontiguousarray(k_s, dtype=float), ref, loads, held, lean0,
-                  int(steps), out, factors, loads_out, served, missed)
+                  int(steps), packed.turn_ratio, packed.turn_errors, packed.turn_count, out,
+                  factors, loads_out, served, missed)
     return out, factors, loads_out, served, missed
 
 
@@ -171,11 +248,11 @@ def _within_grid(k, f, c, lf, factor, scalars, nodes, n_nodes):
 
 @numba.njit(cache=True, nogil=True)
 def states_kernel(q, f, c, lf, nodes, log_nodes, n_nodes, mask, log_qbar, ratio, n_ratio, split, below, m_below,
-                  above, m_above, scalars, angles, snap_ln, k_s, reference, loads, target, lean0, steps, out, factors,
-                  loads_out, served, missed):
+                  above, m_above, scalars, angles, snap_ln, k_s, reference, loads, target, lean0, steps, turn_ratio,
+                  turn_errors, turn_count, out, factors, loads_out, served, missed):
     """`shifted_states` point by point."""
     m, n = q.shape
-    v = np.empty(10)
+    v = np.empty(11)
     a = np.empty((2 * n, 2 * n))
     rhs = np.empty(2 * n)
     w = np.empty((n, 2))
@@ -222,7 +299,8 @@ def states_kernel(q, f, c, lf, nodes, log_nodes, n_nodes, mask, log_qbar, ratio,
                 w0 = math.hypot(loads[k, 0], loads[k, 1])
                 factors[p, k] = _within_grid(k, f[p, k], c[p, k], lf[p, k], math.hypot(w[k, 0], w[k, 1]) / w0,
                                              scalars, nodes, n_nodes)
-                turn = angles[k] + math.atan2(w[k, 0], -w[k, 1]) - lean0[k]
+                lean = math.atan2(w[k, 0], -w[k, 1]) - lean0[k]
+                lean = (lean + math.pi) % (2.0 * math.pi) - math.pi
                 if not _bearing(k, q[p, k], f[p, k], c[p, k], lf[p, k] * factors[p, k], nodes, log_nodes, n_nodes,
                                 mask, log_qbar, ratio, n_ratio, split, below, m_below, above, m_above, scalars,
                                 snap_ln, v):
@@ -230,7 +308,8 @@ def states_kernel(q, f, c, lf, nodes, log_nodes, n_nodes, mask, log_qbar, ratio,
                     missed[p, 0] = k
                     missed[p, 1] = _sommerfeld(k, f[p, k], c[p, k], lf[p, k] * factors[p, k], scalars)
                     break
-                _turn(v, turn, out[p, k])
+                lean_corrected(v, lean, c[p, k], turn_ratio[k], turn_errors[k], turn_count[k])
+                _turn(v, angles[k] + lean, out[p, k])
             if not ok:
                 break
         if ok:

@@ -130,13 +130,14 @@ class SliceStack:
     def covers(self, table: DimensionlessTable) -> bool:
         return self.loaded == frozenset(int(i) for i in table.slices)
 
-    def values(self, q, factor, clearance, load_factor) -> tuple[np.ndarray, np.ndarray]:
+    def values(self, q, factor, clearance, load_factor, *, ratio: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """K (4), C (4) and journal position (2) per point (SI; flows clipped to each point's span, as a view
         clips), for 1-D arrays of one length; and which points the loaded slices serve (the others' rows are
         undefined: their owner makes their views, which load the slices). A compiled loop (`_values_kernel`):
-        numpy's per-call overhead was most of a fit on three bearings whose loads follow the flows."""
+        numpy's per-call overhead was most of a fit on three bearings whose loads follow the flows. `ratio`: an
+        eleventh value, the flow over the point's Q_T (clipped to the slices' grid)."""
         q, f, c, lf = (np.ascontiguousarray(a, dtype=float) for a in (q, factor, clearance, load_factor))
-        out = np.empty(q.shape + (10,))
+        out = np.empty(q.shape + (11 if ratio else 10,))
         served = np.zeros(q.shape, dtype=np.bool_)
         below = self.coef[0]
         above = self.coef[1] if len(self.coef) > 1 else self.coef[0][:, :, :0, :]
@@ -198,6 +199,8 @@ def value_at(q, f, c, lf, s0, c0, scale0, w0, omega, nodes, log_nodes, mask, log
         lq += wt[a] * log_qbar[idx[a]]
     q_t = np.exp(lq) * scale0 * (c / c0)
     r = min(max(q / q_t, ratio[0]), ratio[ratio.size - 1])
+    if out.size > 10:  # room for the flow's ratio to Q_T (clipped to the grid): the lean's correction reads it
+        out[10] = r
     if split < 0 or r > 1.0:
         coef = below if split < 0 else above
         m = m_below if split < 0 else m_above
