@@ -102,41 +102,92 @@ def _flow_row(speed_hz: float, q, r) -> dict:
             "truth_in_alt": any(np.all(np.abs(a * MLMIN_PER_M3S / q - 1) < 0.05) for a in r.alternatives)}
 
 
+def _coverage_budgets(calibrations=(), budgets=()) -> list:
+    """[(key, ModelBudget or None)]: the shipped budget (None), each other calibration, each budget of `budgets`
+    (dicts of `ModelBudget` values) and the noise alone, in the rows' order."""
+    from ..identify.forward.budget import ModelBudget
+
+    variants = [(" ".join(f"{k}={v:g}" for k, v in b.items()), ModelBudget(**b)) for b in budgets]
+    return ([("budget", None)] + [(f"calibration {c:g}", ModelBudget(calibration=float(c))) for c in calibrations]
+            + variants + [("noise_only", ModelBudget.none())])
+
+
+def _coverage_rows(machine, spec, calibrations=(), budgets=()) -> dict:
+    """One clean record of the coverage corpus made (`independent.make_record`) and identified under each of
+    `_coverage_budgets`: {key: row}, or {"not_made": ...} when the source cannot make it (a figure of the bench,
+    not its end)."""
+    from ..identify.batch import identify_record
+    from ..verification.independent import make_record
+
+    try:
+        rec = make_record(spec).record
+    except LubevizError as exc:
+        return {"not_made": {"speed_hz": spec.speed_hz, "q_mlmin": list(spec.flows_mlmin), "error": str(exc)}}
+    q = np.array(spec.flows_mlmin)
+    return {key: {**_flow_row(spec.speed_hz, q, identify_record(rec, machine, budget=budget).result),
+                  "nodes": list(spec.nodes), "probe_angles_deg": [list(a) for a in spec.probe_angles_deg]}
+            for key, budget in _coverage_budgets(calibrations, budgets)}
+
+
+def _coverage_job(machine_path, seed: int, i: int, calibrations, budgets) -> dict:
+    """Record i of the corpus `bench_coverage` draws with worker processes: one clean spec from its own stream
+    (`np.random.default_rng([seed, i])`), made and identified (`_coverage_rows`)."""
+    from ..model.machine import load_machine
+    from ..verification.independent import clean_corpus
+
+    spec = clean_corpus(1, np.random.default_rng([int(seed), int(i)]), machine=machine_path)[0]
+    return _coverage_rows(load_machine(machine_path), spec, calibrations, budgets)
+
+
 def bench_coverage(machine_path=None, *, n: int = 120, seed: int = 2026, calibrations=(), budgets=(),
-                   progress: ProgressFn = silent) -> dict:
+                   processes: int = 1, progress: ProgressFn = silent) -> dict:
     """Clean independent records (seeds x speeds `corpus_speeds` x flows 30-180 % Q_T x centre/outside planes x
     X/Y or 45/135 probes): error, 95 % interval coverage and chi^2 flag rate, with the model budget and with
     the noise alone; by speed band. `calibrations`: other values of the budget's calibration factor to try
     on the same records (the default budget's calibration comes from `bench_budget` at seed 2026, so a
     held-out check uses another seed). `budgets`: other budgets (dicts of `ModelBudget` values, e.g. one
-    term scaled alone), likewise."""
-    from ..identify.batch import identify_record
+    term scaled alone), likewise.
+
+    `processes` 1: the corpus of every session before (`clean_corpus(n, default_rng(seed))`, one draw after the
+    other). More: each record drawn from its own stream (`default_rng([seed, i])`), made and identified by one of
+    that many worker processes (one thread each): another corpus for the same seed, the same whatever the count of
+    processes. A draw whose operating point must decay is checked on the source's films, minutes a record on a
+    machine of four bearings: the rehearsal train's rate needs the workers."""
     from ..identify.forward.budget import ModelBudget
     from ..model.machine import load_machine
-    from ..verification.independent import clean_corpus, make_record
+    from ..verification.independent import clean_corpus
 
+    if isinstance(processes, bool) or not isinstance(processes, (int, np.integer)) or processes < 1:
+        raise ValueError(f"processes = {processes!r}: expected a positive integer")
     t0 = time.perf_counter()
     machine = load_machine(machine_path)
-    specs = clean_corpus(n, np.random.default_rng(seed), machine=machine_path)
-    variants = [(" ".join(f"{k}={v:g}" for k, v in b.items()), ModelBudget(**b)) for b in budgets]
-    budgets = ([("budget", None)] + [(f"calibration {c:g}", ModelBudget(calibration=float(c))) for c in calibrations]
-               + variants + [("noise_only", ModelBudget.none())])
-    rows = {key: [] for key, _ in budgets}
-    failed = []
-    for i, spec in enumerate(specs, start=1):
-        try:
-            rec = make_record(spec).record
-        except LubevizError as exc:  # a record the source cannot make is a figure of the bench, not its end
-            failed.append({"speed_hz": spec.speed_hz, "q_mlmin": list(spec.flows_mlmin), "error": str(exc)})
-            progress(i, len(specs), f"{spec.speed_hz:g} Hz (not made)")
-            continue
-        q = np.array(spec.flows_mlmin)
-        for key, budget in budgets:
-            r = identify_record(rec, machine, budget=budget).result
-            rows[key].append({**_flow_row(spec.speed_hz, q, r), "nodes": list(spec.nodes),
-                              "probe_angles_deg": [list(a) for a in spec.probe_angles_deg]})
-        progress(i, len(specs), f"{spec.speed_hz:g} Hz")
-    out = {"records": len(specs) - len(failed), "not_made": failed, "seed": seed,
+    keys = [key for key, _ in _coverage_budgets(calibrations, budgets)]
+    results = {}
+    if processes == 1:
+        specs = clean_corpus(n, np.random.default_rng(seed), machine=machine_path)
+        for i, spec in enumerate(specs):
+            results[i] = _coverage_rows(machine, spec, calibrations, budgets)
+            progress(i + 1, len(specs), f"{spec.speed_hz:g} Hz" + (" (not made)" if "not_made" in results[i] else ""))
+    else:
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+        from multiprocessing import get_context
+
+        mp = None if machine_path is None else str(machine_path)
+        with one_thread_each():
+            pool = ProcessPoolExecutor(max_workers=int(processes), mp_context=get_context("spawn"),
+                                       initializer=one_thread)
+            try:
+                futures = {pool.submit(_coverage_job, mp, seed, i, tuple(calibrations), tuple(budgets)): i
+                           for i in range(int(n))}
+                for f in as_completed(futures):
+                    results[futures[f]] = f.result()
+                    progress(len(results), int(n), f"record {futures[f] + 1}")
+            finally:
+                pool.shutdown(wait=True, cancel_futures=True)
+    ordered = [results[i] for i in sorted(results)]
+    failed = [res["not_made"] for res in ordered if "not_made" in res]
+    rows = {key: [res[key] for res in ordered if "not_made" not in res] for key in keys}
+    out = {"records": len(ordered) - len(failed), "not_made": failed, "seed": seed, "processes": int(processes),
            "calibration": ModelBudget().calibration, "seconds": time.perf_counter() - t0}
     for key, rr in rows.items():
         out[key] = {"all": _summary(rr)}

@@ -73,8 +73,10 @@ def register(sub) -> None:
                         "films (coverage's default; every harmonic; minutes "
                         "per record, cached)")
     p.add_argument("--n-clean", type=int, default=40, help="loop: clean records among the cases (default 40)")
-    p.add_argument("--processes", type=int, default=2,
-                   help="loop: cases made and diagnosed at once, one worker process each (default 2)")
+    p.add_argument("--processes", type=int, default=None,
+                   help="loop: cases made and diagnosed at once, one worker process each (default 2); coverage: "
+                        "records drawn, made and identified at once (default 1: the corpus of one stream; more: "
+                        "each record its own stream, another corpus for the same seed)")
     p.add_argument("--limit", type=int, default=None,
                    help="loop: only the first N cases (drawn round-robin over the kinds; the same cases as the "
                         "full run's)")
@@ -150,6 +152,7 @@ def run_bench(args) -> dict:
 
         if args.n_clean < 0:
             raise ValueError(f"--n-clean {args.n_clean}: expected 0 or more")
+        args.processes = 2 if args.processes is None else args.processes
         if args.processes < 1:
             raise ValueError(f"--processes {args.processes}: expected at least 1")
         if args.limit is not None and args.limit < 1:
@@ -195,8 +198,11 @@ def run_bench(args) -> dict:
                     raise ValueError("--static: its records are identified with the oil free under the model budget; "
                                      "--calibrations and --budgets apply to the clean coverage corpus only")
                 return vb.bench_static(args.machine, n=args.records, seed=args.seed, progress=StderrBar())
+            processes = 1 if args.processes is None else args.processes
+            if processes < 1:
+                raise ValueError(f"--processes {processes}: expected at least 1")
             return vb.bench_coverage(args.machine, n=args.records, seed=args.seed, calibrations=cal,
-                                     budgets=_budgets(args.budgets), progress=StderrBar())
+                                     budgets=_budgets(args.budgets), processes=processes, progress=StderrBar())
         if args.what == "budget":
             return vb.bench_budget(args.machine, n=args.records, seed=args.seed, progress=StderrBar())
         if args.seeds < 1:

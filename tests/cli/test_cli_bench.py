@@ -59,3 +59,29 @@ def test_large_orbit_coverage_checks_its_options_before_making_records(capsys, e
     err = capsys.readouterr().err
     for w in words:
         assert w in err
+
+
+@pytest.mark.parametrize("n", ["0", "-2"])
+def test_coverage_workers_are_counted_before_any_record_is_made(capsys, n):
+    """`--processes` for the coverage corpus (session 68: each record its own stream, drawn, made and identified by a
+    worker): fewer than one is refused before a record is drawn."""
+    assert main(["bench", "coverage", "--records", "1", "--processes", n]) == 2
+    assert "--processes" in capsys.readouterr().err
+
+
+def test_a_coverage_record_of_the_workers_is_drawn_from_its_own_stream(monkeypatch):
+    """Record i of a run with worker processes comes from `default_rng([seed, i])` whatever ran before it (so the
+    corpus is the same for any count of processes, and a record can be made again alone)."""
+    from lubeviz.bench import records
+
+    drawn = []
+
+    def corpus(n, rng, machine=None):
+        drawn.append(rng.integers(0, 2**31))
+        raise StopIteration  # no record made: the draw is what is checked
+
+    monkeypatch.setattr("lubeviz.verification.independent.clean_corpus", corpus)
+    for i in (3, 0, 3):
+        with pytest.raises(StopIteration):
+            records._coverage_job(None, 68, i, (), ())
+    assert drawn[0] == drawn[2] != drawn[1]
