@@ -93,7 +93,7 @@ def _distributed(config) -> bool:
 # read, and the records are made again. The run then says so at its end: `bash tests/seeds/refresh.sh` makes the
 # seeds again from a run on an empty cache.
 SEEDS = Path(__file__).parent / "seeds"
-SEEDED = ("slices", "independent")
+SEEDED = ("slices", "independent", "turns")  # turns: each bearing's measured turn error (`forward.turn`)
 
 
 def _cache_root() -> Path:

@@ -6,9 +6,9 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 cache=$(mktemp -d)
 trap 'rm -rf "$cache"' EXIT
-rm -rf tests/seeds/slices tests/seeds/independent  # no seed planted in this run: it builds every file
+rm -rf tests/seeds/slices tests/seeds/independent tests/seeds/turns  # no seed planted: it builds every file
 LUBEVIZ_CACHE_DIR="$cache" .venv/bin/python -m pytest -q -n auto --dist loadfile "$@" || true
-for sub in slices independent; do
+for sub in slices independent turns; do
     rm -rf "tests/seeds/$sub" && mkdir -p "tests/seeds/$sub"
     find "$cache/$sub" -maxdepth 1 -name '*.npz' ! -name '.*' -exec cp {} "tests/seeds/$sub/" \;
 done

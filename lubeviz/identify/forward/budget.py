@@ -17,6 +17,11 @@ fitted parameters, so it grows where the features amplify it, e.g. just above th
 - the shaft's damping: the model file's stiffness-proportional beta is a guess (the paper gives none);
 - the oil's viscosity and each bearing's clearance: declared values with a tolerance (the dimensionless
   tables give the coefficients at the changed Sommerfeld number without a film solve);
+- a film whose load leans off its table's line: the table's film turned with the load, whose error each bearing's
+  own film measures (`forward.turn`); on 3+ supports the chain corrects it and the budget carries what is left
+  (`TURN_RESIDUAL`), on two (a side load's lean) the turn's own size (`turn_errors`);
+- on 3+ supports the films' positions set the static loads: each film's position error (the mesh's
+  `static_position`, the turn's) carried through the loads into every feature (`_position_through_loads`);
 The noise covariance of the measured features is added to the result by the caller.
 
 Calibration. The terms above are sizes stated from the mesh study and a guess for the shaft damping; as
@@ -172,8 +177,8 @@ class ModelBudget(param.Parameterized):
 
 # The columns of `model_sensitivity`, for N bearings and P planes: per bearing K, C scale and entries (MESH_TERMS),
 # viscosity, clearance; beta (2); each bearing's supply-flow scale (N); the static position per plane, from the film
-# (2 P) and the rest reading (2 P); the large-orbit correction (`orbit_terms`: each plane's x and y 1X entries, real
-# and imaginary)
+# (2 P) and the rest reading (2 P); each film's position through the loads (2 N, x and y; empty on two supports); the
+# large-orbit correction (`orbit_terms`: each plane's x and y 1X entries, real and imaginary)
 MESH_TERMS = 10
 
 
