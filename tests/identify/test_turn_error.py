@@ -92,8 +92,11 @@ def test_a_measurement_is_kept_and_a_bad_file_is_measured_again(tmp_path, monkey
     calls = []
     real = turn._measure
     monkeypatch.setattr(turn, "_measure", lambda *a: calls.append(a) or real(*a))
-    first = turn.turn_error(b, OMEGA, LOAD, q_t)
+    said = []
+    first = turn.turn_error(b, OMEGA, LOAD, q_t, progress=lambda *a: said.append(a))
     np.testing.assert_allclose(first.position, t.position)
+    n = len(turn.TURN_RATIOS)  # progress after each flow, up to the whole
+    assert [d for d, _, _ in said] == list(range(n + 1)) and all(total == n for _, total, _ in said)
     key = turn._key(b, OMEGA, LOAD, q_t)
     path = turn._path(key)
     assert path.is_file() and len(calls) == 1

@@ -246,7 +246,8 @@ class BearingSource:
         if self._views.get(_TURN_KEY) is None:
             from .turn import turn_error
 
-            self._views[_TURN_KEY] = turn_error(self._seen, self.omega, self._seen_load, self.nominal.q_threshold)
+            self._views[_TURN_KEY] = turn_error(self._seen, self.omega, self._seen_load, self.nominal.q_threshold,
+                                                progress=self.progress)
         return self._views[_TURN_KEY]
 
     def flow_ratio(self, q, factor=1.0, clearance=None, load_factor=1.0) -> np.ndarray:

@@ -31,6 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...progress import ProgressFn, silent
+
 # The flows the turn is measured at, relative to the bearing's Q_T: the error changes fastest about Q_T, where the
 # groove's pressure comes and goes, and levels off past 2 Q_T (session 68's study)
 TURN_RATIOS = (0.5, 0.7, 0.85, 0.95, 1.0, 1.05, 1.15, 1.3, 1.6, 2.0, 3.0)
@@ -95,18 +97,18 @@ def measuring_bearing(bearing):
                         n_axial=max(2, int(round(MESH_SHARE * bearing.n_axial))))
 
 
-def _measure(bearing, omega: float, load, q_threshold: float) -> TurnError:
+def _measure(bearing, omega: float, load, q_threshold: float, progress: ProgressFn = silent) -> TurnError:
     """The turn's error at TURN_RATIOS x `q_threshold`, `bearing` under the vertical `load` (its film frame), on the
-    coarser mesh where its grooves allow it."""
+    coarser mesh where its grooves allow it; `progress` after each flow."""
     from ...errors import InputError
 
     try:
-        return _measure_on(measuring_bearing(bearing), omega, load, q_threshold)
+        return _measure_on(measuring_bearing(bearing), omega, load, q_threshold, progress)
     except InputError:  # a groove too narrow for the coarser mesh
-        return _measure_on(bearing, omega, load, q_threshold)
+        return _measure_on(bearing, omega, load, q_threshold, progress)
 
 
-def _measure_on(bearing, omega: float, load, q_threshold: float) -> TurnError:
+def _measure_on(bearing, omega: float, load, q_threshold: float, progress: ProgressFn = silent) -> TurnError:
     from ...film.equilibrium import find_equilibrium
     from ...film.feed import Feed
 
@@ -116,6 +118,7 @@ def _measure_on(bearing, omega: float, load, q_threshold: float) -> TurnError:
     errors = np.zeros((n, leans.size, 10))
     sizes = np.empty((3, n))
     for j, r in enumerate(TURN_RATIOS):
+        progress(j, n, f"the film turned with its load, {r:g} Q_T")
         feed = Feed.flow(r * q_threshold)
         base = find_equilibrium(bearing, omega, load, feed)
         found = []
@@ -136,6 +139,7 @@ def _measure_on(bearing, omega: float, load, q_threshold: float) -> TurnError:
         per_rad = np.abs(e) / np.abs(leans)[:, None]
         sizes[:, j] = (np.max(np.hypot(per_rad[:, 8], per_rad[:, 9])) / bearing.clearance,
                        per_rad[:, 0:4].max() / np.abs(K0).max(), per_rad[:, 4:8].max() / np.abs(C0).max())
+    progress(n, n, "the film turned with its load")
     return TurnError(np.asarray(TURN_RATIOS, dtype=float), errors, *sizes)
 
 
@@ -190,9 +194,10 @@ def _write(key: str, t: TurnError) -> None:
         warnings.warn(f"turn error cache {path.parent}: not written ({exc})", stacklevel=3)
 
 
-def turn_error(bearing, omega: float, load, q_threshold: float) -> TurnError:
+def turn_error(bearing, omega: float, load, q_threshold: float, progress: ProgressFn = silent) -> TurnError:
     """The rigid-turn error of `bearing` (its own mesh and grooves) at rotational speed `omega` (rad/s) under its
-    static `load` [Wx, Wy] (N) with flooded threshold `q_threshold` (m^3/s): measured once, then kept."""
+    static `load` [Wx, Wy] (N) with flooded threshold `q_threshold` (m^3/s): measured once (`progress` after each
+    flow: 3-8 s a bearing), then kept."""
     key = _key(bearing, omega, load, q_threshold)
     with _lock:
         hit = _memo.get(key)
@@ -200,7 +205,7 @@ def turn_error(bearing, omega: float, load, q_threshold: float) -> TurnError:
         return hit
     t = _read(key)
     if t is None:
-        t = _measure(bearing, omega, load, q_threshold)
+        t = _measure(bearing, omega, load, q_threshold, progress)
         _write(key, t)
     with _lock:
         _memo[key] = t
