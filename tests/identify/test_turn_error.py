@@ -95,8 +95,10 @@ def test_a_measurement_is_kept_and_a_bad_file_is_measured_again(tmp_path, monkey
     said = []
     first = turn.turn_error(b, OMEGA, LOAD, q_t, progress=lambda *a: said.append(a))
     np.testing.assert_allclose(first.position, t.position)
-    n = len(turn.TURN_RATIOS)  # progress after each flow, up to the whole
-    assert [d for d, _, _ in said] == list(range(n + 1)) and all(total == n for _, total, _ in said)
+    n = len(turn.TURN_RATIOS)  # progress at each flow, up to the whole (this bearing's groove is too narrow for the
+    # coarser mesh: the measurement starts again on its own, from 0)
+    done = [d for d, _, _ in said]
+    assert done[-1] == n and set(done) == set(range(n + 1)) and all(total == n for _, total, _ in said)
     key = turn._key(b, OMEGA, LOAD, q_t)
     path = turn._path(key)
     assert path.is_file() and len(calls) == 1
