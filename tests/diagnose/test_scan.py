@@ -226,9 +226,12 @@ def test_a_second_unbalance_the_warm_starts_missed_is_found_where_the_linear_pic
     d = run_diagnosis([make_record(spec).record], load_machine(fan)).diagnosis
     scan = next(s for s in d.scans if s.effect_name == "unbalance2")
     assert 4 in scan.nodes and scan.best in (3, 4, 5) and 4 in scan.fitting
+    # within a node of the truth (issue 36's measure of a node-placed effect): node 4 until session 68, node 5 since
+    # the films of the leaning loads are corrected (4 still among the nodes that fit)
+    near = {f"unbalance2[node={n}]" for n in (3, 4, 5)}
     best = min((c for c in d.candidates if c.fit is not None and not c.partners), key=lambda c: c.aic)
-    assert best.label == "unbalance2[node=4]" and best.passes
+    assert best.label in near and best.passes
     named = {getattr(c, "label", c) for c in ([d.added] if d.added is not None else []) + list(d.ambiguous)}
-    assert "unbalance2[node=4]" in named, d.verdict
+    assert named & near, d.verdict
     lo_hi = [d.final.intervals[f"q{k + 1}"] for k in range(3)]
     assert all(lo <= v / MLMIN_PER_M3S <= hi for (lo, hi), v in zip(lo_hi, q)), (lo_hi, q)

@@ -51,18 +51,24 @@ def test_a_raised_bearing_the_plain_model_passes_for_widens_the_interval():
     spec = IndependentSpec(speed_hz=29.289148712664314, q_mlmin=q, effects=("misalignment:bearing=3,dx_um=0,dy_um=18.08",),
                            static=False, seed=1715477020, machine=FAN, nodes=(7, 23))
     d = run_diagnosis([make_record(spec).record], load_machine(FAN)).diagnosis
-    assert d.explained and d.set_intervals is not None
-    for (lo, hi), t in zip(d.set_intervals, q):
+    assert d.explained
+    iv = d.set_intervals if d.set_intervals is not None else [d.final.intervals[f"q{k + 1}"] for k in range(3)]
+    for (lo, hi), t in zip(iv, q):
         assert lo * MLMIN_PER_M3S <= t <= (np.inf if hi is None else hi * MLMIN_PER_M3S)
-    assert any(label.startswith("misalignment") for label in d.ambiguous)
+    # a look-alike that moves the static loads as the raised bearing does widens them: the raised bearing itself until
+    # session 68, a side load since the films of the leaning loads are corrected (the same shift of the loads)
+    assert d.set_intervals is not None
+    assert any(label.startswith(("misalignment", "side_load")) for label in d.ambiguous)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("angle, static, seed, q", [
-    (-5.562, False, 647996676, (351.45371540557466, 613.5010397142637, 102.80619121462524)),
-    (3.558, True, 489748023, (359.4610144027213, 330.2114305610048, 216.85654067552736)),
+@pytest.mark.parametrize("angle, static, seed, q, freed", [
+    (-5.562, False, 647996676, (351.45371540557466, 613.5010397142637, 102.80619121462524), True),
+    # (with the films of the leaning loads corrected, session 68, the turned probe's own intervals hold the truth
+    # here: B's clearance free widens them less than UNWATCHED_WIDER, and nothing is said of it)
+    (3.558, True, 489748023, (359.4610144027213, 330.2114305610048, 216.85654067552736), False),
 ], ids=["no-dc-gap", "dc-gap"])
-def test_a_turned_probe_s_flows_hold_with_the_unwatched_bearing_s_clearance_free(angle, static, seed, q):
+def test_a_turned_probe_s_flows_hold_with_the_unwatched_bearing_s_clearance_free(angle, static, seed, q, freed):
     """The fan loop's cases 125 and 100 (session 49): plane 1's probes turned, planes A and C, bearing B unwatched. The
     turned probe is named and explains the record, but its own intervals missed a flow: Q1 by 3 % (no DC gap: 6
     features, none left to free the oil, the loads and B's clearance together, so none was freed) and Q2 by 2 %
@@ -76,4 +82,4 @@ def test_a_turned_probe_s_flows_hold_with_the_unwatched_bearing_s_clearance_free
     iv = d.set_intervals if d.set_intervals is not None else [d.final.intervals[f"q{k + 1}"] for k in range(3)]
     for (lo, hi), t in zip(iv, q):
         assert lo * MLMIN_PER_M3S <= t <= (np.inf if hi is None else hi * MLMIN_PER_M3S)
-    assert "bearing 2's clearance (no probe watches it" in d.verdict
+    assert ("bearing 2's clearance (no probe watches it" in d.verdict) == freed
