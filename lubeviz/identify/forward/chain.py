@@ -340,8 +340,9 @@ def _turned(state, angle):
     """A bearing's (K, C, position) turned by `angle` (rad, a number or the batch's shape) about its centre: the
     film whose load leans `angle` further than its table's (the shifted loads lean as the journals move; on the fan
     a starved bearing B at two thirds of the rated speed turns bearing A's load 3 deg, which turns its orbit 2.7 deg).
-    Rigid: the grooves stay where the table has them, a change far smaller than the turn's own for leans of a few
-    degrees (session 45)."""
+    Rigid: the grooves stay where the table has them. Beside a groove a flooded film is not round, and that leaves
+    up to 0.3 c of the position and 2 x K per radian of lean (session 68, `forward.turn`): on 3+ supports the film is
+    corrected for it first (`_lean_corrected`); on two (a side load's lean) the budget carries it."""
     K, C, pos = state
     angle = np.asarray(angle, dtype=float)
     if not np.any(np.abs(angle) > 1e-9):
@@ -861,8 +862,8 @@ class ForwardChain:
     def film_turns(self, theta) -> np.ndarray:
         """(N,) how far each film's load leans off its table's line at parameters theta (one point; rad, in
         [-pi, pi)): the journals' positions shift it on 3+ supports (`static_loads`), an effect's `lean` (a side
-        load) on two. The film is the table's turned rigidly by it (`_turned`); the model budget carries what that
-        leaves out (`forward.turn`)."""
+        load) on two. The film is the table's turned by it (`_turned`), on 3+ supports corrected first for what a
+        rigid turn leaves out (`_lean_corrected`, `forward.turn`); the model budget carries the rest."""
         theta = np.asarray(theta, dtype=float)
         if self._shift is not None:
             turns = _lean(self.static_loads(theta)) - _lean(self.loads)
@@ -910,7 +911,8 @@ class ForwardChain:
 
     def bearing_offsets(self, theta, shape=()):
         """(..., N, 2) how far each bearing's centre sits from its declared place at parameters theta (the
-        bearings-stage effects' `bearing_offset`, m), or None when no effect moves one."""
+        bearings-stage effects' `bearing_offset`, m, and the budget's `position_error`), or None when nothing moves
+        one."""
         out = None
         if self.position_error is not None:  # the model budget's (`with_position_error`)
             out = np.zeros(shape + (self.n_flows, 2))

@@ -1,7 +1,8 @@
 """The films of a machine on three or more supports with the loads that follow the flows, compiled.
 
 `ForwardChain.bearing_states` evaluates every bearing, shifts the static loads by the journals' positions
-(`rotor.load_shift.LoadShift`), and evaluates again, `STEPS` times, each film turned by its load's change of lean.
+(`rotor.load_shift.LoadShift`), and evaluates again, `STEPS` times, each film turned by its load's change of lean
+(corrected first for what a rigid turn leaves out, `lean_corrected`: session 68).
 In numpy that is ~9 small table evaluations, rotations and solves per call: ~3.7 ms, most of a fit on the fan
 (session 45). Here the same steps run point by point in one compiled loop over the bearings' stacked slices
 (`tables.scaled.SliceStack`, `value_at`); a point the loaded slices do not serve is reported with the bearing and
