@@ -402,9 +402,9 @@ def _position_through_loads(chain, theta, names, budget: ModelBudget, turns) -> 
     """(n_features, 2N) each film position's 1-sigma error (the mesh's `static_position` and the rigid turn's,
     `turn_errors`), x and y of each bearing, carried through the static loads of 3+ supports into every feature:
     the journals held that much off (`ForwardChain.with_position_error`), both ways in one call. On a rigidly
-    coupled train a tenth of a micrometre moves ~10 N between the bearings beside the coupling, and the turned film
-    of a flooded bearing sits up to 1.6 um off the film at its load (session 68): the loads, and with them K and C,
-    of the bearings the coupling joins differed from the independent source's by 2-4 %."""
+    coupled train a tenth of a micrometre moves ~10 N between the bearings beside the coupling; a flooded film turned
+    rigidly sat up to 1.6 um off the film at its load, and the loads of the bearings the coupling joins differed from
+    the independent source's by 2-4 % (session 68: now corrected, what is left carried here)."""
     nb = len(chain.sources)
     sizes = [math.hypot(budget.static_position * chain.sources[k].bearing.clearance, turns[k][0]) for k in range(nb)]
     error = np.zeros((4 * nb, nb, 2))
