@@ -19,7 +19,7 @@ fitted parameters, so it grows where the features amplify it, e.g. just above th
   tables give the coefficients at the changed Sommerfeld number without a film solve);
 - a film whose load leans off its table's line: the table's film turned with the load, whose error each bearing's
   own film measures (`forward.turn`); on 3+ supports the chain corrects it and the budget carries what is left
-  (`TURN_RESIDUAL`), on two (a side load's lean) the turn's own size (`turn_errors`);
+  (`turn_residual`), on two (a side load's lean) the turn's own size (`turn_errors`);
 - on 3+ supports the films' positions set the static loads: each film's position error (the mesh's
   `static_position`, the turn's) carried through the loads into every feature (`_position_through_loads`);
 The noise covariance of the measured features is added to the result by the caller.
@@ -109,6 +109,15 @@ ORBIT_TRUNCATION = 0.45
 # to 0.05. Measured: docs/notes/large-orbits.md (sessions 18, 19).
 TRUNCATION_FACTORS = ((32, 0.4), (24, 0.5), (16, 0.6), (0, 1.0))
 
+# What the correction of a turned film leaves (`forward.shifted.lean_corrected`, 3+ supports), as a share of the
+# turn's own error per radian (`forward.turn`): the corrected film against the film solved at the leaning load on the
+# rehearsal train's four bearings (two axial grooves at L/D 0.5, one top groove at L/D 0.69), leans -15 to 12 deg,
+# flows 0.6-2.5 Q_T between the measured ones, loads 0.85-1.2 x the declared (81 points a bearing): K's and C's left
+# median 0.08-0.29 of the rigid turn's by bearing, the largest per radian 0.95 against the rigid turn's 1.84 (the
+# motor's bearing with two grooves); the position's median 0.09-0.16, the largest 0.041 c per radian against 0.32 c
+# (session 68, docs/notes/any-machine.md "The rigid turn of a film")
+TURN_RESIDUAL = 0.5
+TURN_RESIDUAL_POSITION = 0.15
 
 class ModelBudget(param.Parameterized):
     """What the model does not know, each as a relative standard uncertainty (1 sigma)."""
@@ -166,6 +175,13 @@ class ModelBudget(param.Parameterized):
                                 "value (BENCHMARKS \"Mesh study\")")
     rest_reading = Quantity(1e-6, bounds=(0.0, 1e-3), unit="m", display_unit="um", display_scale=1e6,
                             doc="Repeatability of each probe's rest reading (SPEC §6 rest_position)")
+    turn_residual = Quantity(TURN_RESIDUAL, bounds=(0.0, 1.0), unit="",
+                             doc="A film whose load leans on 3+ supports, corrected for what a rigid turn leaves "
+                                 "out: K's and C's error left, as a share of the turn's own measured on the "
+                                 "bearing's film (forward.turn; the corrected film against the film at the leaning "
+                                 "load: median 0.08-0.29 by bearing, the largest 0.5)")
+    turn_residual_position = Quantity(TURN_RESIDUAL_POSITION, bounds=(0.0, 1.0), unit="",
+                                      doc="The same for the journal's position (median 0.09-0.16 by bearing)")
 
     @classmethod
     def none(cls) -> "ModelBudget":
@@ -235,28 +251,20 @@ def set_covariance(blocks, correlation: float, n_bearings: int, n_planes: int) -
 # (tests/effects/test_side_load_direction.py measures it)
 TURN_ERROR_PER_RAD = 0.45
 TURN_ERROR_PER_RAD_STARVED = 0.2
-# What the correction of a turned film leaves (`forward.shifted.lean_corrected`, 3+ supports), as a share of the
-# turn's own error per radian (`forward.turn`): the corrected film against the film solved at the leaning load on the
-# rehearsal train's four bearings (two axial grooves at L/D 0.5, one top groove at L/D 0.69), leans -15 to 12 deg,
-# flows 0.6-2.5 Q_T between the measured ones, loads 0.85-1.2 x the declared (81 points a bearing): K's and C's left
-# median 0.08-0.29 of the rigid turn's by bearing, the largest per radian 0.95 against the rigid turn's 1.84 (the
-# motor's bearing with two grooves); the position's median 0.09-0.16, the largest 0.041 c per radian against 0.32 c
-# (session 68, docs/notes/any-machine.md "The rigid turn of a film")
-TURN_RESIDUAL = 0.5
-TURN_RESIDUAL_POSITION = 0.15
 # A fit's answer whose film loads lean further than this off their declared lines is said not to be trusted
 # (`ForwardChain.turned_loads`): twice the largest lean the turn's error was measured at
 TURN_SAID_DEG = 20.0
 
 
-def turn_errors(chain, k: int, q: float, bearing, lean: float) -> tuple[float, float, float]:
+def turn_errors(chain, k: int, q: float, bearing, lean: float, budget: ModelBudget | None = None
+                ) -> tuple[float, float, float]:
     """What the film turned with its load leaves out (1 sigma) for bearing k's film at flow q (m^3/s), with its
     `BearingChange`, leaning `lean` (rad) off its table's line (`ForwardChain.film_turns`): its journal position (m,
     each component) and the shares of |K| and of |C|, from the turn's error measured on the bearing's own film per
     radian (`forward.turn`). On 3+ supports the chain corrects the turn by that measurement (`shifted.lean_corrected`)
-    and what is left is TURN_RESIDUAL of it (TURN_RESIDUAL_POSITION of the position's); on two supports (a side load's
-    lean) the turn is rigid, and K's and C's never below the paper bearing's sizes against the fine mesh
-    (TURN_ERROR_PER_RAD, the starved one below Q_T)."""
+    and what is left is the budget's `turn_residual` of it (`turn_residual_position` of the position's); on two
+    supports (a side load's lean) the turn is rigid, and K's and C's never below the paper bearing's sizes against
+    the fine mesh (TURN_ERROR_PER_RAD, the starved one below Q_T)."""
     lean = abs(float(lean))
     if lean == 0.0:
         return 0.0, 0.0, 0.0
@@ -265,8 +273,9 @@ def turn_errors(chain, k: int, q: float, bearing, lean: float) -> tuple[float, f
     position, stiffness, damping = src.turn_error().at(ratio)
     clearance = src.bearing.clearance if bearing.clearance is None else bearing.clearance
     if chain._shift is not None:
-        return (lean * TURN_RESIDUAL_POSITION * position * clearance, lean * TURN_RESIDUAL * stiffness,
-                lean * TURN_RESIDUAL * damping)
+        budget = budget or ModelBudget()
+        return (lean * budget.turn_residual_position * position * clearance, lean * budget.turn_residual * stiffness,
+                lean * budget.turn_residual * damping)
     u = float(np.clip((ratio - 1.0) / 0.1, 0.0, 1.0))
     floor = TURN_ERROR_PER_RAD_STARVED + (TURN_ERROR_PER_RAD - TURN_ERROR_PER_RAD_STARVED) * u * u * (3.0 - 2.0 * u)
     return lean * position * clearance, lean * max(floor, stiffness), lean * max(floor, damping)
@@ -333,7 +342,7 @@ def model_sensitivity(chain, theta, names, budget: ModelBudget | None = None) ->
     dyn = [j for j, n in enumerate(names) if not is_static(n)]
     S = np.zeros((len(names), n_terms(nb, npl)))
     leans = _budget_leans(chain, theta)
-    turns = [turn_errors(chain, k, theta[k], chain.bearing_changes(k, theta, ()).as_floats(), leans[k])
+    turns = [turn_errors(chain, k, theta[k], chain.bearing_changes(k, theta, ()).as_floats(), leans[k], budget)
              for k in range(nb)]
     perts = np.stack(_dynamic_perturbations(chain, theta, budget, turns))
     n_dyn = perts.shape[0]
