@@ -169,6 +169,7 @@ def test_the_budget_carries_the_turn_on_three_supports_and_not_without_a_lean():
     assert np.abs(np.degrees(chain.film_turns(theta))).max() > 0.5
     S = model_sensitivity(chain, theta, chain.dynamic_features, ModelBudget())
     assert np.abs(S[:, _position_columns(3, 2)]).max() > 0
+    assert not np.any(model_sensitivity(chain, theta, chain.dynamic_features, ModelBudget.none()))  # the noise alone
     paper = load_machine()
     two = ForwardChain(paper, 75.0, (6, 20))
     flows = np.array([400.0, 600.0]) / MLMIN_PER_M3S

@@ -188,7 +188,8 @@ class ModelBudget(param.Parameterized):
         """No model uncertainty: the noise alone (what the old identification used)."""
         return cls(coefficient_k=0.0, coefficient_c=0.0, shaft_damping_low=1.0, shaft_damping_high=1.0,
                    viscosity=0.0, clearance=0.0, supply_flow=0.0,
-                   static_position=0.0, rest_reading=0.0, orbit_defect=0.0, orbit_truncation=0.0)
+                   static_position=0.0, rest_reading=0.0, orbit_defect=0.0, orbit_truncation=0.0,
+                   turn_residual=0.0, turn_residual_position=0.0)
 
 
 # The columns of `model_sensitivity`, for N bearings and P planes: per bearing K, C scale and entries (MESH_TERMS),
