@@ -85,7 +85,7 @@ def test_the_measurement_bounds_the_turn_at_other_flows_and_leans(measured, rati
 
 def test_a_measurement_is_kept_and_a_bad_file_is_measured_again(tmp_path, monkeypatch, measured):
     """The measurement is kept on disk under a key of every input; a file that is not exactly that (cut short, for
-    other inputs, values out of range) is measured again with a warning, never used."""
+    other inputs, values out of range, a symbolic link) is measured again with a warning, never used."""
     b, q_t, t = measured
     monkeypatch.setenv("LUBEVIZ_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(turn, "_memo", {})
@@ -112,13 +112,21 @@ def test_a_measurement_is_kept_and_a_bad_file_is_measured_again(tmp_path, monkey
         monkeypatch.setattr(turn, "_memo", {})
         with pytest.warns(UserWarning, match="turn error cache"):
             turn.turn_error(b, OMEGA, LOAD, q_t)
-    assert len(calls) == 3
+    # a symbolic link in the file's place is not followed (read as the slices are)
+    path.unlink()
+    target = tmp_path / "elsewhere.npz"
+    target.write_bytes(good)
+    path.symlink_to(target)
+    monkeypatch.setattr(turn, "_memo", {})
+    with pytest.warns(UserWarning, match="not a regular file"):
+        turn.turn_error(b, OMEGA, LOAD, q_t)
+    assert len(calls) == 4
     # another load is another key: its own measurement
     monkeypatch.setattr(turn, "_memo", {})
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         turn.turn_error(b, OMEGA, 1.1 * LOAD, q_t)
-    assert len(calls) == 4 and turn._key(b, OMEGA, 1.1 * LOAD, q_t) != key
+    assert len(calls) == 5 and turn._key(b, OMEGA, 1.1 * LOAD, q_t) != key
 
 
 def test_a_journal_held_off_its_film_moves_the_loads_as_the_bearing_moved_would():

@@ -28,6 +28,7 @@ import tempfile
 import threading
 import warnings
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -160,37 +161,52 @@ def _path(key: str):
 
 
 def _read(key: str) -> TurnError | None:
-    """The stored measurement of `key`, or None when there is none or it is not exactly that (then it is solved
-    again: a file for other inputs, a truncated or edited one, values that are not finite and non-negative)."""
+    """The stored measurement of `key`, or None when there is none or it is not exactly that (then it is measured
+    again, with a warning: not a regular file, a file for other inputs, a truncated or edited one, values that are not
+    finite or sizes below zero). Read as the slices are (`tables.cache._file_bytes`: no symlink, FIFO or oversized
+    file is opened)."""
+    import io
+    import zipfile
+
+    from ..tables.cache import _file_bytes, _Untrusted
+
     path = _path(key)
-    if not path.is_file():
-        return None
     try:
-        with np.load(path, allow_pickle=False) as data:
+        content = _file_bytes(path)
+        if content is None:
+            return None
+        with np.load(io.BytesIO(content), allow_pickle=False) as data:
             if str(data["key"]) != key:
-                raise ValueError("for other inputs")
+                raise _Untrusted("for other inputs")
             arrays = [np.asarray(data[name], dtype=float) for name in _FIELDS]
-    except Exception as exc:  # any unreadable file: solved again, with a word
-        warnings.warn(f"turn error cache {path}: not used ({type(exc).__name__}: {exc}); solved again", stacklevel=3)
+    except (_Untrusted, OSError, EOFError, KeyError, ValueError, zipfile.BadZipFile) as exc:
+        warnings.warn(f"turn error cache {path}: not used ({type(exc).__name__}: {exc}); measured again",
+                      stacklevel=3)
         return None
     n = len(TURN_RATIOS)
     shapes = [(n, len(TURN_LEANS_DEG), 10), (n,), (n,), (n,)]
     if any(a.shape != shape or not np.all(np.isfinite(a)) for a, shape in zip(arrays, shapes)) or any(
             np.any(a < 0) for a in arrays[1:]):
-        warnings.warn(f"turn error cache {path}: values out of shape or range; solved again", stacklevel=3)
+        warnings.warn(f"turn error cache {path}: values out of shape or range; measured again", stacklevel=3)
         return None
     return TurnError(np.asarray(TURN_RATIOS, dtype=float), *arrays)
 
 
 def _write(key: str, t: TurnError) -> None:
+    """Atomically, as the slices are written: a temporary file in the same directory, fsync, then os.replace."""
     path = _path(key)
+    tmp = None
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=".turn-", suffix=".npz.tmp", dir=path.parent)
         with os.fdopen(fd, "wb") as fh:
             np.savez(fh, key=np.array(key), **{name: getattr(t, name) for name in _FIELDS})
+            fh.flush()
+            os.fsync(fh.fileno())
         os.replace(tmp, path)
     except OSError as exc:  # kept in memory; measured again next time
+        if tmp is not None:
+            Path(tmp).unlink(missing_ok=True)
         warnings.warn(f"turn error cache {path.parent}: not written ({exc})", stacklevel=3)
 
 
