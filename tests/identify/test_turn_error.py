@@ -129,6 +129,34 @@ def test_a_measurement_is_kept_and_a_bad_file_is_measured_again(tmp_path, monkey
     assert len(calls) == 5 and turn._key(b, OMEGA, 1.1 * LOAD, q_t) != key
 
 
+def test_the_flows_measured_side_by_side_give_the_one_thread_answer_and_a_cancel_stops_them(monkeypatch, measured):
+    """The flows are measured on two threads: each flow alone, so the numbers are those of one thread, bit for bit;
+    progress comes in the caller's thread, once per flow; a cancel raised by progress ends the measurement and leaves
+    no thread behind (a thread left would make the slices' builds start their processes by spawn)."""
+    import threading
+
+    from lubeviz.progress import Cancelled
+
+    b, q_t, _ = measured
+    monkeypatch.setattr(turn, "THREADS", 1)
+    serial = turn._measure(b, OMEGA, LOAD, q_t)
+    monkeypatch.setattr(turn, "THREADS", 2)
+    callers = []
+    side = turn._measure(b, OMEGA, LOAD, q_t, progress=lambda *a: callers.append(threading.get_ident()))
+    for name in ("errors", "position", "stiffness", "damping"):
+        np.testing.assert_array_equal(getattr(side, name), getattr(serial, name))
+    assert set(callers) == {threading.get_ident()} and len(callers) >= len(turn.TURN_RATIOS) + 1
+    before = threading.active_count()
+
+    def cancel(done, total, label=""):
+        if done >= 2:
+            raise Cancelled("stop")
+
+    with pytest.raises(Cancelled):
+        turn._measure(b, OMEGA, LOAD, q_t, progress=cancel)
+    assert threading.active_count() == before
+
+
 def test_a_journal_held_off_its_film_moves_the_loads_as_the_bearing_moved_would():
     """On three supports the loads follow the journals: a journal held 2 um further from its bearing's centre than its
     film puts it (the budget's position error, `ForwardChain.with_position_error`) moves the loads as the bearing

@@ -13,7 +13,7 @@ layouts are no constant: each bearing's are measured here, on its own film.
 `turn_error` solves the film in its load's frame (`tables.cache.film_frame`) at the declared load and at that load
 turned by each of TURN_LEANS_DEG, at TURN_RATIOS x the bearing's Q_T, on a mesh MESH_SHARE as fine each way: the
 change of each of the table's ten values (the chain's correction, `forward.shifted.lean_corrected`, on 3+ supports)
-and the largest change per radian (the model budget's sizes). ~55 film solves, 3-8 s a bearing, kept
+and the largest change per radian (the model budget's sizes). ~55 film solves, the flows side by side on THREADS threads, kept
 in memory and on disk (the user cache, keyed by the bearing, its load, the speed, the mesh share and the film
 solver's code; a file that is not exactly that is measured again, never trusted).
 """
@@ -50,6 +50,9 @@ FORMAT = 2
 # groove's place, which a coarser mesh resolves as well (0.144 / 0.260 c per radian on the rehearsal's motor bearing at
 # 0.7 / 1.3 Q_T on 60 x 30 against 0.145 / 0.261 on its 100 x 50, at half the cost); never coarser than a groove needs
 MESH_SHARE = 0.6
+# The flows are measured side by side on this many threads (the film's LU and kernels release the GIL): on the fan's
+# bearing A, 2 threads took 1.4 x less time than 1 on a loaded 2-core host (session 69)
+THREADS = min(2, os.cpu_count() or 1)
 
 _memo: dict = {}
 _lock = threading.Lock()
@@ -110,38 +113,65 @@ def _measure(bearing, omega: float, load, q_threshold: float, progress: Progress
 
 
 def _measure_on(bearing, omega: float, load, q_threshold: float, progress: ProgressFn = silent) -> TurnError:
+    """The flows' measurements side by side on THREADS threads (the film's LU and kernels release the GIL), the
+    slowest (the highest flows) first; `progress` in the calling thread as each flow finishes. Each flow is measured
+    alone, so the result is the same on any number of threads."""
+    from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+
+    load = np.asarray(load, dtype=float)
+    n = len(TURN_RATIOS)
+    errors = np.zeros((n, len(TURN_LEANS_DEG), 10))
+    sizes = np.empty((3, n))
+    order = sorted(range(n), key=lambda j: -TURN_RATIOS[j])
+    progress(0, n, f"the film turned with its load, {n} flows")
+    if THREADS <= 1:
+        for done, j in enumerate(order, start=1):
+            errors[j], sizes[:, j] = _one_flow(bearing, omega, load, TURN_RATIOS[j] * q_threshold)
+            progress(done, n, f"the film turned with its load, {TURN_RATIOS[j]:g} Q_T")
+        return TurnError(np.asarray(TURN_RATIOS, dtype=float), errors, *sizes)
+    with ThreadPoolExecutor(THREADS, thread_name_prefix="lubeviz-turn") as pool:
+        futures = {pool.submit(_one_flow, bearing, omega, load, TURN_RATIOS[j] * q_threshold): j for j in order}
+        pending, done = set(futures), 0
+        try:
+            while pending:
+                finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for f in finished:
+                    j = futures[f]
+                    errors[j], sizes[:, j] = f.result()
+                    done += 1
+                    progress(done, n, f"the film turned with its load, {TURN_RATIOS[j]:g} Q_T")
+        except BaseException:  # a cancel (raised by progress) or a failure: the flows not started are dropped
+            for f in pending:
+                f.cancel()
+            raise
+    return TurnError(np.asarray(TURN_RATIOS, dtype=float), errors, *sizes)
+
+
+def _one_flow(bearing, omega: float, load: np.ndarray, q: float) -> tuple[np.ndarray, np.ndarray]:
+    """At supply flow q: each lean's change of the ten values over their scales (4, 10), and the three sizes per
+    radian (position / c, K, C); zeros and FALLBACK where a film does not converge."""
     from ...film.equilibrium import find_equilibrium
     from ...film.feed import Feed
 
-    load = np.asarray(load, dtype=float)
     leans = np.radians(TURN_LEANS_DEG)
-    n = len(TURN_RATIOS)
-    errors = np.zeros((n, leans.size, 10))
-    sizes = np.empty((3, n))
-    for j, r in enumerate(TURN_RATIOS):
-        progress(j, n, f"the film turned with its load, {r:g} Q_T")
-        feed = Feed.flow(r * q_threshold)
-        base = find_equilibrium(bearing, omega, load, feed)
-        found = []
-        for a in leans if base.converged else ():
-            R = _rotation(a)
-            eq = find_equilibrium(bearing, omega, R @ load, feed, start=R @ np.asarray(base.position))
-            if not eq.converged:
-                break
-            found.append(_values(eq, -a) - _values(base, 0.0))
-        if len(found) < leans.size:
-            sizes[:, j] = FALLBACK
-            continue
-        K0, C0 = base.coefficients.K, base.coefficients.C
-        scale = np.concatenate([np.full(4, np.linalg.norm(K0)), np.full(4, np.linalg.norm(C0)),
-                                np.full(2, bearing.clearance)])
-        e = np.array(found)
-        errors[j] = e / scale
-        per_rad = np.abs(e) / np.abs(leans)[:, None]
-        sizes[:, j] = (np.max(np.hypot(per_rad[:, 8], per_rad[:, 9])) / bearing.clearance,
-                       per_rad[:, 0:4].max() / np.abs(K0).max(), per_rad[:, 4:8].max() / np.abs(C0).max())
-    progress(n, n, "the film turned with its load")
-    return TurnError(np.asarray(TURN_RATIOS, dtype=float), errors, *sizes)
+    feed = Feed.flow(q)
+    base = find_equilibrium(bearing, omega, load, feed)
+    found = []
+    for a in leans if base.converged else ():
+        R = _rotation(a)
+        eq = find_equilibrium(bearing, omega, R @ load, feed, start=R @ np.asarray(base.position))
+        if not eq.converged:
+            break
+        found.append(_values(eq, -a) - _values(base, 0.0))
+    if len(found) < leans.size:
+        return np.zeros((leans.size, 10)), np.asarray(FALLBACK, dtype=float)
+    K0, C0 = base.coefficients.K, base.coefficients.C
+    scale = np.concatenate([np.full(4, np.linalg.norm(K0)), np.full(4, np.linalg.norm(C0)),
+                            np.full(2, bearing.clearance)])
+    e = np.array(found)
+    per_rad = np.abs(e) / np.abs(leans)[:, None]
+    return e / scale, np.array([np.max(np.hypot(per_rad[:, 8], per_rad[:, 9])) / bearing.clearance,
+                                per_rad[:, 0:4].max() / np.abs(K0).max(), per_rad[:, 4:8].max() / np.abs(C0).max()])
 
 
 def _key(bearing, omega: float, load, q_threshold: float) -> str:
