@@ -13,8 +13,8 @@ layouts are no constant: each bearing's are measured here, on its own film.
 `turn_error` solves the film in its load's frame (`tables.cache.film_frame`) at the declared load and at that load
 turned by each of TURN_LEANS_DEG, at TURN_RATIOS x the bearing's Q_T, on a mesh MESH_SHARE as fine each way: the
 change of each of the table's ten values (the chain's correction, `forward.shifted.lean_corrected`, on 3+ supports)
-and the largest change per radian (the model budget's sizes). ~55 film solves, the flows side by side on THREADS threads, kept
-in memory and on disk (the user cache, keyed by the bearing, its load, the speed, the mesh share and the film
+and the largest change per radian (the model budget's sizes). ~55 film solves, the flows side by side on THREADS
+threads, kept in memory and on disk (the user cache, keyed by the bearing, its load, the speed, the mesh share and the film
 solver's code; a file that is not exactly that is measured again, never trusted).
 """
 
