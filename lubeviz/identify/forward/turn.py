@@ -14,8 +14,8 @@ layouts are no constant: each bearing's are measured here, on its own film.
 turned by each of TURN_LEANS_DEG, at TURN_RATIOS x the bearing's Q_T, on a mesh MESH_SHARE as fine each way: the
 change of each of the table's ten values (the chain's correction, `forward.shifted.lean_corrected`, on 3+ supports)
 and the largest change per radian (the model budget's sizes). ~55 film solves, the flows side by side on THREADS
-threads, kept in memory and on disk (the user cache, keyed by the bearing, its load, the speed, the mesh share and the film
-solver's code; a file that is not exactly that is measured again, never trusted).
+threads, kept in memory and on disk (the user cache, keyed by the bearing, its load, the speed, the mesh share and
+the film solver's code; a file that is not exactly that is measured again, never trusted).
 """
 
 from __future__ import annotations
@@ -179,8 +179,8 @@ def _key(bearing, omega: float, load, q_threshold: float) -> str:
 
     inputs = {"format": FORMAT, "bearing": _bearing_values(bearing), "omega": round(float(omega), 12),
               "load": [float(f"{v:.12g}") for v in np.asarray(load, dtype=float)],
-              "q_threshold": float(f"{q_threshold:.12g}"), "ratios": list(TURN_RATIOS), "leans": list(TURN_LEANS_DEG), "mesh_share": MESH_SHARE,
-              "solver": solver_version()}
+              "q_threshold": float(f"{q_threshold:.12g}"), "ratios": list(TURN_RATIOS), "leans": list(TURN_LEANS_DEG),
+              "mesh_share": MESH_SHARE, "solver": solver_version()}
     return hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()
 
 
