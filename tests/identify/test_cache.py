@@ -369,6 +369,39 @@ def test_whole_slice_jobs_equal_two_part_jobs_and_the_serial_build(tmp_path):
             assert other.slices[i].q_threshold == s.q_threshold
 
 
+def test_two_geometries_are_built_in_one_pool_with_the_slices_each_alone_gives(tmp_path, monkeypatch):
+    """A machine's bearings each lean their own way, and each lean is a geometry of its own: `geometry_tables` builds
+    the slices missing over every geometry in one pool (one `_build_parallel` call, not one per geometry), the same
+    slices bit for bit as each geometry built alone; a request of a geometry already asked for shares its table; an S
+    off the grid gives None when asked to skip it, and raises otherwise."""
+    from lubeviz.identify.tables.cache import geometry_table, geometry_tables
+
+    b = coarse_machine().bearings[0]
+    other = b.copy(groove_angle=b.groove_angle + 0.3)  # a lean of 0.3 rad: another geometry
+    nodes = sommerfeld_nodes()[20:26]
+    s = [float(nodes[2]) * 1.01]  # four slices around it
+    calls = []
+    real = cache._build_parallel
+    monkeypatch.setattr(cache, "_build_parallel", lambda plans, jobs, *a: calls.append(len(jobs)) or real(plans, jobs,
+                                                                                                        *a))
+    joint = geometry_tables([(b, s), (other, s), (b, [float(nodes[2]) * 1.02])], points=POINTS,
+                            directory=tmp_path / "joint", workers=2, nodes=nodes)
+    assert calls == [8] and joint[0] is joint[2]
+    alone = [geometry_table(x, s, points=POINTS, directory=tmp_path / "alone", workers=1, nodes=nodes)
+             for x in (b, other)]
+    for t, a in zip(joint, alone):
+        assert sorted(t.slices) == sorted(a.slices) and len(a.slices) == 4
+        for i in a.slices:
+            np.testing.assert_array_equal(t.slices[i].values, a.slices[i].values)
+    assert not np.array_equal(joint[0].slices[2].values, joint[1].slices[2].values)
+    off = [float(nodes[-1]) * 10.0]
+    assert geometry_tables([(b, off), (b, s)], points=POINTS, directory=tmp_path / "joint", nodes=nodes,
+                           off_grid="skip")[0] is None
+    with pytest.raises(InputError, match="outside"):
+        geometry_tables([(b, off)], points=POINTS, directory=tmp_path / "joint", nodes=nodes)
+    assert calls == [8]  # the rest came from the cache
+
+
 @pytest.mark.parametrize("workers", [1, 2])
 def test_cancel_from_progress_stops_the_build(tmp_path, workers):
     def cancel_soon(done, total, label=""):

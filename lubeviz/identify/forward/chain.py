@@ -542,6 +542,21 @@ class ChainOutput:
     static: np.ndarray | None
 
 
+def load_slices(sources, wanted: dict) -> bool:
+    """The slices queries of each source k's film frame at Sommerfeld numbers `wanted[k]` need, loaded (or built,
+    with the first source's progress) for every source at once, so the missing ones of every geometry share one pool
+    (`tables.cache.geometry_tables`); whether any was added. An S off the grid adds nothing for that source."""
+    from ..tables import cache
+
+    ks = [k for k in sorted(wanted) if wanted[k]]
+    if not ks:
+        return False
+    tables = cache.geometry_tables([(sources[k]._seen, np.asarray(wanted[k], dtype=float)) for k in ks],
+                                   progress=sources[ks[0]].progress, off_grid="skip")
+    added = [sources[k]._hold(t) for k, t in zip(ks, tables) if t is not None]
+    return any(added)
+
+
 class ForwardChain:
     """Named parameters -> probe readings and features at the measurement planes of `machine` at `speed_hz`
     (`nodes`, any number; None: the machine's measurement planes, SPEC §8, with their probe angles;
@@ -1067,7 +1082,7 @@ class ForwardChain:
             for k, s_missed in missed[~served]:
                 if np.isfinite(s_missed):
                     wanted.setdefault(int(k), []).append(float(s_missed))
-            if not any(src.load_slices(wanted[k]) for k, src in enumerate(self.sources) if k in wanted):
+            if not load_slices(self.sources, wanted):
                 break
         if not served.all():  # those points in numpy (a Sommerfeld number off the slices' grid: its views say why)
             bad = np.flatnonzero(~served)

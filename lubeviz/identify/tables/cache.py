@@ -450,53 +450,106 @@ def geometry_table(bearing: Bearing, sommerfeld=None, *, span=DEFAULT_SPAN, poin
     `workers` defaults to min(2 x number missing, CPU count) (with fewer slices than workers each slice is
     solved in two parts, r <= 1 and r > 1, one job each); `workers=1` builds in this process. Progress counts
     solved ratios over the slices being built. `nodes`: the S grid (default `sommerfeld_nodes()`)."""
-    geometry = geometry_values(bearing)
-    nodes = sommerfeld_nodes() if nodes is None else np.asarray(nodes, dtype=float)
-    table = DimensionlessTable(geometry=geometry, nodes=nodes, span=tuple(float(v) for v in span), points=int(points))
-    wanted = range(nodes.size) if sommerfeld is None else table.needed(sommerfeld)
+    return geometry_tables([(bearing, sommerfeld)], span=span, points=points, progress=progress, directory=directory,
+                           workers=workers, nodes=nodes)[0]
+
+
+def geometry_tables(requests, *, span=DEFAULT_SPAN, points: int = DEFAULT_POINTS, progress: ProgressFn = silent,
+                    directory=None, workers: int | None = None, nodes: np.ndarray | None = None,
+                    off_grid: str = "raise") -> list[DimensionlessTable | None]:
+    """`geometry_table` for several (bearing, sommerfeld) requests at once: the slices missing over all of them are
+    built in one pool, so the processes stay busy across geometries (a machine's bearings each lean their own way,
+    and each lean is a geometry of its own: three rounds of five slices on two processes leave a process idle at the
+    end of each). Requests of one geometry share one table. `off_grid`: "raise" (an S off the grid raises
+    InputError) or "skip" (that request's table is None, the others are loaded)."""
     directory = _slices_dir(directory)
-    keys = {i: slice_key(geometry, nodes[i], span=span, points=points) for i in wanted}
-    paths = {i: directory / f"{k}.npz" for i, k in keys.items()}
-
-    def load(indices):  # the trusted slices on disk (or kept in memory, unstored) into the table; returns those missing
-        for i in indices:
-            s = _load_or_discard(paths[i], keys[i], float(nodes[i]), span, points)
-            s = _UNSTORED.get(keys[i]) if s is None else s
-            if s is not None:
-                table.slices[i] = s
-        return [i for i in indices if i not in table.slices]
-
-    unstored: list[str] = []  # why slices just built could not be written
-
-    def store(i, s: Slice):  # the slice serves this table whether or not it can be written
-        table.slices[i] = s
+    nodes = sommerfeld_nodes() if nodes is None else np.asarray(nodes, dtype=float)
+    plans: dict[str, _Plan] = {}
+    out: list[_Plan | None] = []
+    for bearing, sommerfeld in requests:
+        geometry = geometry_values(bearing)
+        plan = plans.get(_digest(geometry))
+        if plan is None:
+            plan = _Plan(geometry, nodes, span, points, directory)
         try:
-            _write(paths[i], s, keys[i], slice_inputs(geometry, nodes[i], span=span, points=points))
-        except OSError as exc:
-            unstored.append(_reason(exc))
-            _keep_unstored(keys[i], s)
-
-    missing = load(wanted)
-    if not missing:
+            wanted = range(nodes.size) if sommerfeld is None else plan.table.needed(sommerfeld)
+        except InputError:
+            if off_grid != "skip":
+                raise
+            out.append(None)
+            continue
+        plans[_digest(geometry)] = plan
+        plan.want(wanted)
+        out.append(plan)
+    todo = [plan for plan in plans.values() if plan.load()]
+    if not todo:
         progress(1, 1, "tables from cache")
-        return table
-    lock = _lock_path(directory, geometry, span, points)
-    with _build_lock(lock, progress) as lock_problem:
-        missing = load(missing)  # what another builder stored while this one waited
-        if not missing:
+        return [None if plan is None else plan.table for plan in out]
+    with contextlib.ExitStack() as stack:
+        problems = {}
+        for lock in sorted({_lock_path(directory, plan.geometry, span, points) for plan in todo}):
+            problems[lock] = stack.enter_context(_build_lock(lock, progress))
+        todo = [plan for plan in todo if plan.load()]  # what another builder stored while this one waited
+        if not todo:
             progress(1, 1, "tables from cache (built by another process)")
-            return table
+            return [None if plan is None else plan.table for plan in out]
         try:
-            _build_missing(nodes, missing, geometry, span, points, progress, workers, store)
+            _build_missing(todo, span, points, progress, workers)
         finally:
+            unstored = [why for plan in todo for why in plan.unstored]
             if unstored:
                 warnings.warn(f"could not store {len(unstored)} coefficient table slice(s) in {directory}: "
                               f"{unstored[0]}; they are used from memory and will be rebuilt next time",
                               CacheStoreWarning, stacklevel=3)
-            elif lock_problem:
-                warnings.warn(f"could not take the build lock {lock}: {lock_problem}; built without waiting for "
-                              "other builders (at worst they solve the same slices twice)", CacheWarning, stacklevel=3)
-    return table
+            for lock, problem in problems.items():
+                if problem and not unstored:
+                    warnings.warn(f"could not take the build lock {lock}: {problem}; built without waiting for "
+                                  "other builders (at worst they solve the same slices twice)", CacheWarning,
+                                  stacklevel=3)
+    return [None if plan is None else plan.table for plan in out]
+
+
+class _Plan:
+    """One geometry's table in `geometry_tables`: the slices wanted, loaded from disk (or memory) where trusted,
+    the ones still missing, and where each built one is stored."""
+
+    def __init__(self, geometry: dict, nodes: np.ndarray, span, points: int, directory: Path):
+        self.geometry, self.nodes, self.span, self.points, self.directory = geometry, nodes, span, points, directory
+        self.table = DimensionlessTable(geometry=geometry, nodes=nodes, span=tuple(float(v) for v in span),
+                                        points=int(points))
+        self.keys: dict[int, str] = {}
+        self.missing: list[int] = []
+        self.unstored: list[str] = []  # why slices just built could not be written
+
+    def want(self, indices) -> None:
+        for i in indices:
+            if i not in self.keys:
+                self.keys[i] = slice_key(self.geometry, self.nodes[i], span=self.span, points=self.points)
+
+    def path(self, i: int) -> Path:
+        return self.directory / f"{self.keys[i]}.npz"
+
+    def load(self) -> list[int]:
+        """The trusted slices on disk (or kept in memory, unstored) into the table; the ones still missing."""
+        for i in self.keys:
+            if i in self.table.slices:
+                continue
+            s = _load_or_discard(self.path(i), self.keys[i], float(self.nodes[i]), self.span, self.points)
+            s = _UNSTORED.get(self.keys[i]) if s is None else s
+            if s is not None:
+                self.table.slices[i] = s
+        self.missing = [i for i in sorted(self.keys) if i not in self.table.slices]
+        return self.missing
+
+    def store(self, i: int, s: Slice) -> None:
+        """The slice serves this table whether or not it can be written."""
+        self.table.slices[i] = s
+        try:
+            _write(self.path(i), s, self.keys[i], slice_inputs(self.geometry, self.nodes[i], span=self.span,
+                                                                 points=self.points))
+        except OSError as exc:
+            self.unstored.append(_reason(exc))
+            _keep_unstored(self.keys[i], s)
 
 
 def _lock_path(directory: Path, geometry: dict, span, points: int) -> Path:
@@ -553,22 +606,25 @@ def _build_lock(path: Path, progress: ProgressFn, poll_s: float = 0.2):
         os.close(fd)
 
 
-def _build_missing(nodes, missing, geometry, span, points, progress, workers, store) -> None:
-    """Build the slices `missing` (indices into `nodes`), handing each to `store(i, slice)` as it is done."""
+def _build_missing(plans: list, span, points, progress, workers) -> None:
+    """Build every plan's missing slices, handing each to its plan's `store` as it is done."""
+    jobs = [(p, i) for p, plan in enumerate(plans) for i in plan.missing]
     # up to two jobs per slice (its parts r <= 1 and r > 1), so even one slice uses two processes
-    workers = min(2 * len(missing), os.cpu_count() or 1) if workers is None else int(workers)
+    workers = min(2 * len(jobs), os.cpu_count() or 1) if workers is None else int(workers)
     if workers < 1:
         raise InputError(f"workers = {workers}; expected at least 1")
     per = _dimensionless.ratio_grid(span, points).size  # a slice's equilibria
-    total = per * len(missing)
+    total = per * len(jobs)
 
     if workers == 1:
-        for j, i in enumerate(missing):
-            def offset(done, _total, label="", j=j, i=i):
+        for j, (p, i) in enumerate(jobs):
+            nodes = plans[p].nodes
+
+            def offset(done, _total, label="", j=j, i=i, nodes=nodes):
                 progress(j * per + done, total, f"S = {nodes[i]:.3g}: {label}")
-            store(i, _build_one(geometry, float(nodes[i]), span, points, offset))
+            plans[p].store(i, _build_one(plans[p].geometry, float(nodes[i]), span, points, offset))
         return
-    _build_parallel(geometry, nodes, missing, span, points, progress, workers, total, store)
+    _build_parallel(plans, jobs, span, points, progress, workers, total)
 
 
 def _view(table: DimensionlessTable, bearing: Bearing, load, omega: float, index: int, key: str,
@@ -677,7 +733,7 @@ def machine_tables(machine, omega: float | None = None, *, span=DEFAULT_SPAN, po
                    progress: ProgressFn = silent, directory=None, workers: int | None = None
                    ) -> tuple[CoefficientTable, ...]:
     """One table per bearing of `machine`, views of the cached slices; bearings of one geometry share
-    them, and the slices missing for all bearings are built together, in parallel."""
+    them, and the slices missing for all bearings (every geometry's) are built together, in one pool."""
     omega = _omega(machine, omega)
     loads = bearing_static_loads(machine)
     n = len(machine.bearings)
@@ -686,10 +742,11 @@ def machine_tables(machine, omega: float | None = None, *, span=DEFAULT_SPAN, po
     for k, (seen, _, _) in enumerate(frames):
         groups.setdefault(_digest(geometry_values(seen)), []).append(k)
     out: list[CoefficientTable | None] = [None] * n
-    for members in groups.values():
-        s = [sommerfeld_number(frames[k][0], frames[k][1], omega) for k in members]
-        table = geometry_table(frames[members[0]][0], s, span=span, points=points, progress=progress,
-                               directory=directory, workers=workers)
+    requests = [(frames[members[0]][0], [sommerfeld_number(frames[k][0], frames[k][1], omega) for k in members])
+                for members in groups.values()]
+    tables = geometry_tables(requests, span=span, points=points, progress=progress, directory=directory,
+                             workers=workers)  # every geometry's missing slices in one pool
+    for members, table in zip(groups.values(), tables):
         for k in members:
             key = _digest(_view_inputs(machine.bearings[k], loads[k], omega, span, points))
             out[k] = _view(table, *frames[k][:2], omega, k, key, frames[k][2])
@@ -698,9 +755,10 @@ def machine_tables(machine, omega: float | None = None, *, span=DEFAULT_SPAN, po
 
 # --- parallel build ------------------------------------------------------------------------------------
 
-def _build_worker(geometry: dict, sommerfeld: float, index: int, part: str, span, points: int,
+def _build_worker(geometry: dict, sommerfeld: float, index, part: str, span, points: int,
                   messages, cancel) -> dict:
-    """Worker process: one part of one slice from plain values; reports each ratio on `messages`."""
+    """Worker process: one part of one slice from plain values; reports each ratio on `messages` under
+    (`index`, `part`)."""
     def report(done, total, label=""):
         if cancel.is_set():
             raise Cancelled(f"slice {index}: cancelled")
@@ -727,47 +785,54 @@ def _process_context():
 WHOLE = "whole"  # a job that solves a whole slice (both parts in one process, Q_T once)
 
 
-def _build_parallel(geometry, nodes, missing, span, points, progress, workers, total, store) -> None:
+def _build_parallel(plans: list, jobs: list, span, points, progress, workers, total) -> None:
+    """`jobs` ((plan, slice index) pairs, `_build_missing`) on `workers` processes."""
     ctx = _process_context()
     # Whole slices when there are enough to keep every process busy (each part would solve the slice's
     # flooded equilibrium again); else each slice's two parts as two jobs, so even one slice uses two processes.
-    if len(missing) >= workers:
-        jobs = [(i, WHOLE) for i in missing]
+    if len(jobs) >= workers:
+        parted = [(job, WHOLE) for job in jobs]
     else:
-        jobs = [(i, part) for i in missing for part in _dimensionless.PARTS]
-    done = {job: 0 for job in jobs}
-    parts: dict[int, dict] = {i: {} for i in missing}
+        parted = [(job, part) for job in jobs for part in _dimensionless.PARTS]
+    done = {key: 0 for key in parted}
+    parts: dict[tuple, dict] = {job: {} for job in jobs}
+
+    def node(job) -> float:
+        p, i = job
+        return float(plans[p].nodes[i])
+
     with ctx.Manager() as manager:
         messages, cancel = manager.Queue(), manager.Event()
         pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
         futures = {}
         try:
-            for i, part in jobs:
-                futures[pool.submit(_build_worker, geometry, float(nodes[i]), i, part, tuple(span), points,
-                                    messages, cancel)] = (i, part)
-            progress(0, total, f"building {len(missing)} table slices on {workers} processes")
+            for job, part in parted:
+                futures[pool.submit(_build_worker, plans[job[0]].geometry, node(job), job, part, tuple(span),
+                                    points, messages, cancel)] = (job, part)
+            progress(0, total, f"building {len(jobs)} table slices on {workers} processes")
             pending = set(futures)
 
             def drain():
                 while True:
                     try:
-                        job, d, _t, label = messages.get_nowait()
+                        key, d, _t, label = messages.get_nowait()
                     except queue_module.Empty:
                         return
-                    done[job] = max(done[job], d)
-                    progress(sum(done.values()), total, f"S = {nodes[job[0]]:.3g}: {label}")
+                    done[key] = max(done[key], d)
+                    progress(sum(done.values()), total, f"S = {node(key[0]):.3g}: {label}")
 
             def harvest(finished):
                 for f in finished:
-                    i, part = futures[f]
-                    if part in parts[i]:
+                    job, part = futures[f]
+                    if part in parts[job]:
                         continue
-                    parts[i][part] = f.result()
+                    parts[job][part] = f.result()
+                    plan, i = plans[job[0]], job[1]
                     if part == WHOLE:
-                        store(i, parts[i][part])
-                    elif len(parts[i]) == len(_dimensionless.PARTS):
-                        store(i, _dimensionless.join_slice(float(nodes[i]), parts[i]["below"], parts[i]["above"],
-                                                           span=span, points=points))
+                        plan.store(i, parts[job][part])
+                    elif len(parts[job]) == len(_dimensionless.PARTS):
+                        plan.store(i, _dimensionless.join_slice(node(job), parts[job]["below"], parts[job]["above"],
+                                                                span=span, points=points))
 
             while pending:
                 finished, pending = wait(pending, timeout=0.1, return_when=FIRST_COMPLETED)
