@@ -191,6 +191,40 @@ def test_a_journal_held_off_its_film_moves_the_loads_as_the_bearing_moved_would(
                                   two.features(flows, two.dynamic_features))
 
 
+def test_on_two_supports_the_turn_s_size_is_measured_once_at_the_operating_speed(monkeypatch):
+    """On two supports the turn is only a budget size (a side load's lean, not corrected): it is measured once per
+    bearing, at the machine's operating speed and at that speed's Q_T, and carried at every record's speed (measured
+    at each, a diagnosis at a new speed took 5-6 s longer). The sizes it gives are the measurement's, above the
+    floors."""
+    from lubeviz.identify.forward.budget import turn_errors
+    from lubeviz.identify.forward.chain import ForwardChain
+    from lubeviz.model.machine import load_machine
+
+    n = len(turn.TURN_RATIOS)
+    fake = turn.TurnError(np.asarray(turn.TURN_RATIOS), np.zeros((n, len(turn.TURN_LEANS_DEG), 10)), np.full(n, 0.05),
+                          np.full(n, 0.9), np.full(n, 0.7))
+    calls = []
+    monkeypatch.setattr(turn, "_memo", {})
+    monkeypatch.setattr(turn, "_read", lambda key: None)
+    monkeypatch.setattr(turn, "_write", lambda key, t: None)
+    monkeypatch.setattr(turn, "_measure", lambda b, omega, load, q_t, progress=None: calls.append((omega, q_t)) or fake)
+    paper = load_machine()
+    at_speed = ForwardChain(paper, paper.operating_speed, (6, 20))
+    lean = 0.1
+    for hz in (60.0, 90.0, paper.operating_speed):
+        chain = ForwardChain(paper, hz, (6, 20))
+        theta = chain.start()
+        theta[:2] = 1.5 * chain.q_threshold  # flooded: the floor there is TURN_ERROR_PER_RAD (0.45), below 0.9
+        position, k, c = turn_errors(chain, 0, theta[0], chain.bearing_changes(0, theta, ()).as_floats(), lean)
+        assert (k, c) == pytest.approx((0.9 * lean, 0.7 * lean))
+        assert position == pytest.approx(0.05 * lean * paper.bearings[0].clearance)
+    omega = 2 * math.pi * paper.operating_speed
+    assert len(calls) == 2  # 60 Hz asked for the operating speed's (its Q_T the film's own, solved), 90 Hz found it;
+    # at the operating speed the chain's own measurement, with its table's Q_T, is the one asked for
+    assert calls[0][0] == pytest.approx(omega) and calls[1][0] == pytest.approx(omega)
+    assert calls[0][1] == pytest.approx(at_speed.q_threshold[0], rel=2e-3) and calls[1][1] == at_speed.q_threshold[0]
+
+
 def test_the_budget_carries_the_turn_on_three_supports_and_not_without_a_lean():
     """The model budget's columns of the films' positions through the loads are there on three supports and empty on
     two; on the paper's two supports without a side load no film leans and nothing of the turn is added."""

@@ -250,6 +250,19 @@ class BearingSource:
                                                 progress=self.progress)
         return self._views[_TURN_KEY]
 
+    def turn_error_at(self, omega: float):
+        """The turn's error measured as `turn_error` does but at rotational speed `omega` (rad/s; its Q_T the film's
+        own there, solved only when the measurement is not kept): the size a budget carries on two supports, measured
+        once at the machine's operating speed rather than at every record's (`budget.turn_errors`)."""
+        if math.isclose(float(omega), self.omega, rel_tol=1e-12):
+            return self.turn_error()
+        key = _TURN_KEY + (round(float(omega), 9),)
+        if self._views.get(key) is None:
+            from .turn import turn_error
+
+            self._views[key] = turn_error(self._seen, float(omega), self._seen_load, None, progress=self.progress)
+        return self._views[key]
+
     def flow_ratio(self, q, factor=1.0, clearance=None, load_factor=1.0) -> np.ndarray:
         """Each flow q (m^3/s) over the Q_T of this bearing with the given changes (`BearingChange`'s fields, each a
         number or an array of q's shape): from the slices in memory where they serve, else from the changed bearing's

@@ -174,13 +174,14 @@ def _one_flow(bearing, omega: float, load: np.ndarray, q: float) -> tuple[np.nda
                                 per_rad[:, 0:4].max() / np.abs(K0).max(), per_rad[:, 4:8].max() / np.abs(C0).max()])
 
 
-def _key(bearing, omega: float, load, q_threshold: float) -> str:
+def _key(bearing, omega: float, load, q_threshold: float | None) -> str:
     from ..tables.cache import _bearing_values, solver_version
 
     inputs = {"format": FORMAT, "bearing": _bearing_values(bearing), "omega": round(float(omega), 12),
               "load": [float(f"{v:.12g}") for v in np.asarray(load, dtype=float)],
-              "q_threshold": float(f"{q_threshold:.12g}"), "ratios": list(TURN_RATIOS), "leans": list(TURN_LEANS_DEG),
-              "mesh_share": MESH_SHARE, "solver": solver_version()}
+              "q_threshold": None if q_threshold is None else float(f"{q_threshold:.12g}"),
+              "ratios": list(TURN_RATIOS), "leans": list(TURN_LEANS_DEG), "mesh_share": MESH_SHARE,
+              "solver": solver_version()}
     return hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()
 
 
@@ -240,10 +241,10 @@ def _write(key: str, t: TurnError) -> None:
         warnings.warn(f"turn error cache {path.parent}: not written ({exc})", stacklevel=3)
 
 
-def turn_error(bearing, omega: float, load, q_threshold: float, progress: ProgressFn = silent) -> TurnError:
+def turn_error(bearing, omega: float, load, q_threshold: float | None, progress: ProgressFn = silent) -> TurnError:
     """The rigid-turn error of `bearing` (its own mesh and grooves) at rotational speed `omega` (rad/s) under its
-    static `load` [Wx, Wy] (N) with flooded threshold `q_threshold` (m^3/s): measured once (`progress` after each
-    flow: 3-8 s a bearing), then kept."""
+    static `load` [Wx, Wy] (N) with flooded threshold `q_threshold` (m^3/s; None: the film's own there, solved only
+    when the measurement is not kept): measured once (`progress` after each flow: 3-8 s a bearing), then kept."""
     key = _key(bearing, omega, load, q_threshold)
     with _lock:
         hit = _memo.get(key)
@@ -251,6 +252,10 @@ def turn_error(bearing, omega: float, load, q_threshold: float, progress: Progre
         return hit
     t = _read(key)
     if t is None:
+        if q_threshold is None:
+            from ...film.equilibrium import flooded_threshold
+
+            q_threshold, _ = flooded_threshold(bearing, omega, np.asarray(load, dtype=float))
         t = _measure(bearing, omega, load, q_threshold, progress)
         _write(key, t)
     with _lock:
