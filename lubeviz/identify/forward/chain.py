@@ -165,17 +165,6 @@ class BearingSource:
             held.slices.update(table.slices)
             return bool(added)
 
-    def load_slices(self, sommerfeld) -> bool:
-        """Load (or build, with progress) the slices queries of this bearing's film frame at Sommerfeld numbers
-        `sommerfeld` need, into the slices held; whether any was added (False: none needed, or S off the grid)."""
-        from ..tables import cache
-
-        try:
-            table = cache.geometry_table(self._seen, np.asarray(sommerfeld, dtype=float), progress=self.progress)
-        except InputError:
-            return False
-        return self._hold(table)
-
     @property
     def _table(self):
         """The geometry's dimensionless table with the slices loaded so far (for changed views), or None."""
@@ -1035,10 +1024,10 @@ class ForwardChain:
 
     def _compiled_states(self, theta, changes, shape, offsets=None, target=None):
         """`_states` through `forward.shifted` (one compiled loop over the points). The slices a point misses (a
-        load shifted beyond the four slices about the flooded one) are loaded, or built, for each bearing at once
-        (`BearingSource.load_slices`) and the loop run again; a point still not served (a Sommerfeld number off the
-        grid at the declared load, from an effect) goes through `_numpy_states`, whose views say why. None when a
-        bearing has no slices in memory."""
+        load shifted beyond the four slices about the flooded one) are loaded, or built, for every bearing at once
+        (`load_slices`: one pool for all their geometries) and the loop run again; a point still not served (a
+        Sommerfeld number off the grid at the declared load, from an effect) goes through `_numpy_states`, whose
+        views say why. None when a bearing has no slices in memory."""
         n = self.n_flows
         declared = self._declared_clearances
 

@@ -51,7 +51,7 @@ FORMAT = 2
 # 0.7 / 1.3 Q_T on 60 x 30 against 0.145 / 0.261 on its 100 x 50, at half the cost); never coarser than a groove needs
 MESH_SHARE = 0.6
 # The flows are measured side by side on this many threads (the film's LU and kernels release the GIL): on the fan's
-# bearing A, 2 threads took 1.4 x less time than 1 on a loaded 2-core host (session 69)
+# bearing A, 2 threads ran 1.4 x as fast as 1 on a loaded 2-core host (session 69)
 THREADS = min(2, os.cpu_count() or 1)
 
 _memo: dict = {}
